@@ -1,0 +1,66 @@
+#pragma once
+// Thin-lens optics of the paper's section 2. All lengths in metres; depths are distances along the
+// optical axis (camera-space z), which is what the thin-lens law is written in.
+#include <glm/vec2.hpp>
+
+namespace dofcache::lens {
+
+// Eq. (2.1): thin-lens law 1/F = 1/R1 + 1/R2, solved for F given the object distance R1 and the
+// image distance R2.
+double focal_length_from_distances(double object_distance, double image_distance);
+
+// Eqs. (2.2) and (2.3): the image distance V = F D / (D - F) of a point at depth D > F. With
+// D = P this is V_P, the distance of the image plane (film) behind the lens.
+double image_distance(double focal_length, double depth);
+
+// Eq. (2.4): circle-of-confusion diameter on the image plane, C = |V_D - V_P| F / (n V_D).
+double coc_diameter(double focal_length, double fstop, double focus_distance, double depth);
+
+// Eq. (2.5): radius at depth D of the cone of lens rays that converge to one image point,
+// r = (1/2)(F/n)|D - P|/P.
+double cone_radius(double focal_length, double fstop, double focus_distance, double depth);
+
+// Eq. (2.6): that radius projected onto the image plane, R = r V_P / D (equal to C/2).
+double projected_cone_radius(double focal_length, double fstop, double focus_distance,
+                             double depth);
+
+// The lens settings: the one source of truth, passed down to cameras, caches and previews.
+struct ThinLens {
+  double focal_length = 0.05;   // F, metres
+  double fstop = 4.0;           // n, so the aperture diameter is F / n
+  double focus_distance = 5.0;  // P, metres from the lens to the plane in focus
+
+  double aperture_diameter() const { return focal_length / fstop; }
+  double aperture_radius() const { return 0.5 * focal_length / fstop; }
+  double film_distance() const { return image_distance(focal_length, focus_distance); }  // V_P
+  double coc_diameter(double depth) const;
+  double cone_radius(double depth) const;
+
+  // Throws dofcache::Error naming the first absurd value (non-finite, non-positive, P <= F).
+  void validate() const;
+};
+
+// Film height i_height that gives the vertical field of view yfov with the film at distance V_P.
+double film_height(double film_distance, double yfov);
+
+// The lens and the image resolution together: what converts circles of confusion to pixels.
+struct LensImaging {
+  ThinLens lens;
+  double yfov = 0.8;  // radians
+  int y_resolution = 480;
+
+  double pixel_pitch() const;  // i_height / y_res: size of one pixel on the film
+  // Size of one pixel projected to depth D (the paper's factor1, eq. 4.1).
+  double pixel_footprint(double depth) const;
+  // CoC diameter (eq. 2.4) in pixels; signed: negative in front of the focal plane, positive behind.
+  double signed_coc_pixels(double depth) const;
+  double coc_radius_pixels(double depth) const;
+  // Inverse of signed_coc_pixels: the depth whose signed CoC is c pixels (infinite if none).
+  double depth_for_signed_coc(double coc_pixels) const;
+};
+
+// Shirley-Chiu concentric mapping of the unit square to the unit disk: area preserving and low
+// distortion, so stratified square samples stay stratified on the lens.
+glm::vec2 concentric_disk(glm::vec2 u);
+
+}  // namespace dofcache::lens

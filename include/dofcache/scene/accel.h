@@ -1,0 +1,44 @@
+#pragma once
+// Embree 3 BVH over Scene::mesh. Queries are thread-safe.
+#include <cstdint>
+#include <limits>
+#include <memory>
+
+#include <glm/vec3.hpp>
+
+#include "dofcache/scene/scene.h"
+
+namespace dofcache::scene {
+
+struct Ray {
+  glm::vec3 origin{0.0f};
+  glm::vec3 direction{0.0f, 0.0f, -1.0f};  // need not be unit; t is in units of |direction|
+  float tnear = 0.0f;
+  float tfar = std::numeric_limits<float>::infinity();
+};
+
+struct Hit {
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  float t = std::numeric_limits<float>::infinity();
+  std::uint32_t triangle = kNone;
+  float u = 0.0f, v = 0.0f;  // Embree barycentrics: p = (1-u-v) p0 + u p1 + v p2
+  bool valid() const { return triangle != kNone; }
+};
+
+class Accel {
+ public:
+  explicit Accel(const Scene& scene);  // builds the BVH; throws dofcache::Error on Embree errors
+  ~Accel();
+  Accel(const Accel&) = delete;
+  Accel& operator=(const Accel&) = delete;
+
+  Hit intersect(const Ray& ray) const;
+  // True if anything blocks the segment origin + t*direction, t in (tnear, tfar).
+  bool occluded(const Ray& ray) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dofcache::scene

@@ -1,0 +1,103 @@
+#include "dofcache/lens/thin_lens.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "dofcache/core/error.h"
+
+namespace dofcache::lens {
+
+double focal_length_from_distances(double object_distance, double image_distance) {
+  return 1.0 / (1.0 / object_distance + 1.0 / image_distance);  // eq. (2.1)
+}
+
+double image_distance(double focal_length, double depth) {
+  return focal_length * depth / (depth - focal_length);  // eqs. (2.2), (2.3)
+}
+
+double coc_diameter(double focal_length, double fstop, double focus_distance, double depth) {
+  double v_p = image_distance(focal_length, focus_distance);
+  double v_d = image_distance(focal_length, depth);
+  return std::abs(v_d - v_p) * focal_length / (fstop * v_d);  // eq. (2.4)
+}
+
+double cone_radius(double focal_length, double fstop, double focus_distance, double depth) {
+  return 0.5 * (focal_length / fstop) * std::abs(depth - focus_distance) / focus_distance;  // (2.5)
+}
+
+double projected_cone_radius(double focal_length, double fstop, double focus_distance,
+                             double depth) {
+  double v_p = image_distance(focal_length, focus_distance);
+  return cone_radius(focal_length, fstop, focus_distance, depth) * v_p / depth;  // eq. (2.6)
+}
+
+double ThinLens::coc_diameter(double depth) const {
+  return lens::coc_diameter(focal_length, fstop, focus_distance, depth);
+}
+
+double ThinLens::cone_radius(double depth) const {
+  return lens::cone_radius(focal_length, fstop, focus_distance, depth);
+}
+
+void ThinLens::validate() const {
+  auto check = [](double v, const char* name) {
+    if (!std::isfinite(v) || v <= 0.0)
+      throw Error(std::string("lens: ") + name + " must be a positive number, got " +
+                  std::to_string(v));
+  };
+  check(focal_length, "focal length");
+  check(fstop, "f-number");
+  check(focus_distance, "focus distance");
+  if (focal_length > 10.0) throw Error("lens: focal length is in metres; " +
+                                       std::to_string(focal_length) + " m is absurd");
+  if (focus_distance <= focal_length)
+    throw Error("lens: focus distance (" + std::to_string(focus_distance) +
+                " m) must exceed the focal length (" + std::to_string(focal_length) + " m)");
+}
+
+double film_height(double film_distance, double yfov) {
+  return 2.0 * film_distance * std::tan(0.5 * yfov);
+}
+
+double LensImaging::pixel_pitch() const {
+  return film_height(lens.film_distance(), yfov) / y_resolution;
+}
+
+double LensImaging::pixel_footprint(double depth) const {
+  return pixel_pitch() * depth / lens.film_distance();  // eq. (4.1)
+}
+
+double LensImaging::signed_coc_pixels(double depth) const {
+  double c = lens.coc_diameter(depth) / pixel_pitch();
+  return depth < lens.focus_distance ? -c : c;
+}
+
+double LensImaging::coc_radius_pixels(double depth) const {
+  return 0.5 * lens.coc_diameter(depth) / pixel_pitch();
+}
+
+double LensImaging::depth_for_signed_coc(double coc_pixels) const {
+  // C(D) = A V_P |D - P| / (D P) (eq. 2.4 rewritten, A the aperture diameter). Signed, in pixels:
+  // c = k (D - P) / D with k = A V_P / (P pitch), so D = k P / (k - c); c -> k is infinity.
+  double k = lens.aperture_diameter() * lens.film_distance() / (lens.focus_distance * pixel_pitch());
+  if (coc_pixels >= k) return std::numeric_limits<double>::infinity();
+  return k * lens.focus_distance / (k - coc_pixels);
+}
+
+glm::vec2 concentric_disk(glm::vec2 u) {
+  glm::vec2 o = 2.0f * u - 1.0f;
+  if (o.x == 0.0f && o.y == 0.0f) return {0.0f, 0.0f};
+  constexpr float kPiOver4 = 0.78539816339f;
+  float r, theta;
+  if (std::abs(o.x) > std::abs(o.y)) {
+    r = o.x;
+    theta = kPiOver4 * (o.y / o.x);
+  } else {
+    r = o.y;
+    theta = 2.0f * kPiOver4 - kPiOver4 * (o.x / o.y);
+  }
+  return r * glm::vec2(std::cos(theta), std::sin(theta));
+}
+
+}  // namespace dofcache::lens

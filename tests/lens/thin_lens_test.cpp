@@ -1,0 +1,94 @@
+// Every thin-lens formula (paper eqs. 2.1-2.6) against values computed by hand.
+#include "dofcache/lens/thin_lens.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+#include "dofcache/core/error.h"
+
+namespace dofcache::lens {
+namespace {
+
+// F = 50 mm, n = 2, P = 2 m, D = 4 m throughout (hand-computed below).
+constexpr double F = 0.05, N = 2.0, P = 2.0, D = 4.0;
+
+TEST(ThinLens, ThinLensLawEq2_1) {
+  // 1/F = 1/R1 + 1/R2 with R1 = 2 m, R2 = 2/39 m: 1/2 + 39/2 = 20 -> F = 0.05 m.
+  EXPECT_NEAR(focal_length_from_distances(2.0, 2.0 / 39.0), 0.05, 1e-12);
+}
+
+TEST(ThinLens, ImageDistanceEq2_2And2_3) {
+  // V_P = 0.05*2/1.95 = 0.0512820513; V_D = 0.05*4/3.95 = 0.0506329114.
+  EXPECT_NEAR(image_distance(F, P), 0.0512820513, 1e-10);
+  EXPECT_NEAR(image_distance(F, D), 0.0506329114, 1e-10);
+  // Consistent with eq. (2.1): a point at P images at V_P.
+  EXPECT_NEAR(focal_length_from_distances(P, image_distance(F, P)), F, 1e-12);
+}
+
+TEST(ThinLens, CocDiameterEq2_4) {
+  // C = |V_D - V_P| F / (n V_D) = 0.00064913992 * 0.05 / (2 * 0.0506329114) = 0.000320513 m.
+  EXPECT_NEAR(coc_diameter(F, N, P, D), 3.20513e-4, 1e-9);
+  EXPECT_DOUBLE_EQ(coc_diameter(F, N, P, P), 0.0);  // in focus
+}
+
+TEST(ThinLens, ConeRadiusEq2_5) {
+  // r = 0.5 * 0.025 * |4 - 2| / 2 = 0.0125 m.
+  EXPECT_NEAR(cone_radius(F, N, P, D), 0.0125, 1e-12);
+  // In front of the focal plane: D = 1 m -> 0.5 * 0.025 * 1 / 2 = 0.00625 m.
+  EXPECT_NEAR(cone_radius(F, N, P, 1.0), 0.00625, 1e-12);
+}
+
+TEST(ThinLens, ProjectedConeRadiusEq2_6) {
+  // R = r V_P / D = 0.0125 * 0.0512820513 / 4 = 0.000160256 m.
+  EXPECT_NEAR(projected_cone_radius(F, N, P, D), 1.60256e-4, 1e-9);
+}
+
+TEST(ThinLens, ProjectedRadiusIsHalfTheCocSection2_2) {
+  for (double depth : {0.3, 0.9, 1.5, 2.0, 2.5, 4.0, 10.0, 100.0})
+    for (double n : {1.4, 2.8, 16.0})
+      EXPECT_NEAR(projected_cone_radius(F, n, P, depth), 0.5 * coc_diameter(F, n, P, depth), 1e-12)
+          << "depth " << depth << " f/" << n;
+}
+
+TEST(ThinLens, ImagingInPixels) {
+  // yfov = 2 atan(0.5): film height = V_P; 100 pixels tall -> pitch = V_P / 100.
+  LensImaging im{ThinLens{F, N, P}, 2.0 * std::atan(0.5), 100};
+  double v_p = image_distance(F, P);
+  EXPECT_NEAR(im.pixel_pitch(), v_p / 100.0, 1e-15);
+  // Footprint at depth 4 m: pitch * D / V_P = 0.04 m (eq. 4.1).
+  EXPECT_NEAR(im.pixel_footprint(4.0), 0.04, 1e-12);
+  // CoC at 4 m: 3.20513e-4 / (5.12820513e-4) = 0.625 px, signed positive behind focus.
+  EXPECT_NEAR(im.signed_coc_pixels(4.0), 0.625, 1e-5);
+  EXPECT_NEAR(im.signed_coc_pixels(1.0), -im.coc_radius_pixels(1.0) * 2.0, 1e-12);
+  for (double depth : {0.5, 1.0, 3.0, 4.0, 50.0})
+    EXPECT_NEAR(im.depth_for_signed_coc(im.signed_coc_pixels(depth)), depth, 1e-9 * depth);
+}
+
+TEST(ThinLens, ValidateRejectsAbsurdValues) {
+  EXPECT_NO_THROW((ThinLens{F, N, P}.validate()));
+  EXPECT_THROW((ThinLens{-0.05, N, P}.validate()), Error);
+  EXPECT_THROW((ThinLens{F, 0.0, P}.validate()), Error);
+  EXPECT_THROW((ThinLens{F, N, NAN}.validate()), Error);
+  EXPECT_THROW((ThinLens{F, N, 0.04}.validate()), Error);  // focus inside the focal length
+  EXPECT_THROW((ThinLens{50.0, N, P}.validate()), Error);  // millimetres given as metres
+}
+
+TEST(ConcentricDisk, MapsSquareIntoDiskPreservingArea) {
+  EXPECT_FLOAT_EQ(glm::length(concentric_disk({1.0f, 0.5f})), 1.0f);  // edge -> rim
+  EXPECT_FLOAT_EQ(glm::length(concentric_disk({0.5f, 0.5f})), 0.0f);  // centre -> centre
+  // Area preservation: the fraction of a uniform grid landing within radius 0.5 is 1/4.
+  int inside = 0, n = 200;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      glm::vec2 d = concentric_disk({(i + 0.5f) / n, (j + 0.5f) / n});
+      EXPECT_LE(glm::length(d), 1.0f + 1e-6f);
+      inside += glm::length(d) < 0.5f;
+    }
+  EXPECT_NEAR(inside / double(n * n), 0.25, 0.01);
+}
+
+}  // namespace
+}  // namespace dofcache::lens
