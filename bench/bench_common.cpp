@@ -1,1 +1,321 @@
 #include "bench_common.h"
+
+#include <fmt/format.h>
+#include <sys/utsname.h>
+#include <tbb/info.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <set>
+#include <stdexcept>
+#include <thread>
+
+#include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
+
+#ifndef DOFCACHE_SOURCE_DIR
+#define DOFCACHE_SOURCE_DIR "."
+#endif
+
+namespace dofcache::bench {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string trim(std::string s) {
+  const char* space = " \t\r\n";
+  s.erase(0, s.find_first_not_of(space));
+  s.erase(s.find_last_not_of(space) + 1);
+  return s;
+}
+
+// The value of the first "key<sep>value" line of a text file, or "" if absent.
+std::string lookup(const std::string& file, const std::string& key, char sep) {
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line)) {
+    size_t at = line.find(sep);
+    if (at != std::string::npos && trim(line.substr(0, at)) == key)
+      return trim(line.substr(at + 1));
+  }
+  return {};
+}
+
+json or_null(const std::string& s) { return s.empty() ? json() : json(s); }
+
+// Standard output of a shell command (trimmed), or "" if it fails.
+std::string run(const std::string& command) {
+  std::string out;
+  if (FILE* pipe = ::popen(command.c_str(), "r")) {
+    char buffer[256];
+    while (std::fgets(buffer, sizeof buffer, pipe)) out += buffer;
+    if (::pclose(pipe) != 0) return {};
+  }
+  return trim(out);
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+json git_description() {
+  const std::string git = "git -C " + shell_quote(DOFCACHE_SOURCE_DIR);
+  std::string commit = run(git + " rev-parse HEAD 2>/dev/null");
+  if (commit.empty()) return json();
+  // Uncommitted changes to tracked files make the commit alone an incomplete description.
+  bool dirty = !run(git + " status --porcelain --untracked-files=no 2>/dev/null").empty();
+  return {{"commit", commit}, {"dirty", dirty}};
+}
+
+json build_description() {
+#ifdef NDEBUG
+  const bool ndebug = true;
+#else
+  const bool ndebug = false;
+#endif
+#ifdef __OPTIMIZE__
+  const bool optimized = true;
+#else
+  const bool optimized = false;
+#endif
+  // CMake does not pass the build type to the compiler; infer it from what it controls.
+  const char* type = optimized ? (ndebug ? "Release" : "optimized with assertions") : "Debug";
+  return {{"type", type}, {"optimized", optimized}, {"assertions", !ndebug}};
+}
+
+json compiler_description() {
+#if defined(__clang__)
+  const char* name = "clang";
+#elif defined(__GNUC__)
+  const char* name = "gcc";
+#else
+  const char* name = "unknown";
+#endif
+  return {{"name", name}, {"version", __VERSION__}, {"cplusplus", __cplusplus}};
+}
+
+std::string utc_now() {
+  std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return text;
+}
+
+bool is_flat_row(const json& row) {
+  if (!row.is_object()) return false;
+  return std::all_of(row.begin(), row.end(), [](const json& v) { return v.is_primitive(); });
+}
+
+bool is_flat_rows(const json& rows) {
+  return rows.is_array() && std::all_of(rows.begin(), rows.end(), is_flat_row);
+}
+
+std::string csv_field(const json& v) {
+  std::string text;
+  if (v.is_null())
+    return {};
+  else if (v.is_string())
+    text = v.get<std::string>();
+  else
+    text = v.dump();  // numbers (shortest exact form) and booleans
+  if (text.find_first_of(",\"\r\n") == std::string::npos && trim(text) == text) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  image::write_atomically(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.close();
+    if (!out) throw Error("cannot write '" + path + "'");
+  });
+}
+
+}  // namespace
+
+json machine_description() {
+  json m;
+  m["cpu"] = or_null(lookup("/proc/cpuinfo", "model name", ':'));
+  m["logical_cores"] = std::thread::hardware_concurrency();
+  // What TBB will use: fewer than the cores if the process is restricted (affinity, cgroups).
+  m["threads_available"] = tbb::info::default_concurrency();
+  std::string mem_kb = lookup("/proc/meminfo", "MemTotal", ':');  // "16318412 kB"
+  if (!mem_kb.empty()) {
+    double bytes = std::strtod(mem_kb.c_str(), nullptr) * 1024.0;
+    m["memory_bytes"] = static_cast<std::uint64_t>(bytes);
+    m["memory_gib"] = std::round(bytes / (1 << 30) * 10.0) / 10.0;
+  } else {
+    m["memory_bytes"] = nullptr;
+    m["memory_gib"] = nullptr;
+  }
+  std::string os = lookup("/etc/os-release", "PRETTY_NAME", '=');
+  os.erase(std::remove(os.begin(), os.end(), '"'), os.end());
+  m["os"] = or_null(os);
+  struct utsname u {};
+  if (::uname(&u) == 0)
+    m["kernel"] = std::string(u.sysname) + " " + u.release + " " + u.machine;
+  else
+    m["kernel"] = nullptr;
+  char host[256] = {};
+  m["hostname"] = ::gethostname(host, sizeof host - 1) == 0 ? json(host) : json();
+  m["compiler"] = compiler_description();
+  m["build"] = build_description();
+  m["date_utc"] = utc_now();
+  m["git"] = git_description();
+  return m;
+}
+
+std::string results_dir() {
+  const char* env = std::getenv("DOFCACHE_BENCH_RESULTS");
+  fs::path dir = env && *env ? fs::path(env) : fs::path(DOFCACHE_SOURCE_DIR) / "bench" / "results";
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir))
+    throw Error("cannot create the results directory '" + dir.string() + "': " + ec.message());
+  return dir.string();
+}
+
+std::string rows_to_csv(const json& rows, const std::vector<std::string>& column_order) {
+  if (!is_flat_rows(rows))
+    throw Error("CSV needs an array of flat objects (strings, numbers, booleans, null)");
+  std::vector<std::string> columns;
+  std::set<std::string> seen;
+  for (const std::string& key : column_order)
+    if (seen.insert(key).second) columns.push_back(key);
+  for (const json& row : rows)
+    for (auto it = row.begin(); it != row.end(); ++it)
+      if (seen.insert(it.key()).second) columns.push_back(it.key());
+  std::string csv;
+  for (size_t c = 0; c < columns.size(); ++c) csv += (c ? "," : "") + csv_field(columns[c]);
+  csv += "\n";
+  for (const json& row : rows) {
+    for (size_t c = 0; c < columns.size(); ++c) {
+      auto it = row.find(columns[c]);
+      csv += (c ? "," : "") + (it == row.end() ? std::string() : csv_field(*it));
+    }
+    csv += "\n";
+  }
+  return csv;
+}
+
+std::string write_results(const std::string& name, const json& results) {
+  if (name.empty() || name.find('/') != std::string::npos)
+    throw Error("invalid results name '" + name + "'");
+  const fs::path dir = results_dir();
+  const std::string json_path = (dir / (name + ".json")).string();
+  json doc = {{"machine", machine_description()}, {"results", results}};
+  write_text(json_path, doc.dump(2) + "\n");
+
+  if (results.is_object() && results.contains("rows")) {
+    const json& rows = results["rows"];
+    std::vector<std::string> order;
+    if (auto it = results.find("columns"); it != results.end() && it->is_array())
+      for (const json& key : *it)
+        if (key.is_string()) order.push_back(key.get<std::string>());
+    if (is_flat_rows(rows))
+      write_text((dir / (name + ".csv")).string(), rows_to_csv(rows, order));
+    else
+      std::cerr << name << ": results[\"rows\"] is not an array of flat objects; no CSV written\n";
+  }
+  return json_path;
+}
+
+Table::Table(std::vector<std::string> header, int default_precision)
+    : header_(std::move(header)), default_precision_(default_precision) {}
+
+void Table::add_row(std::vector<Cell> row) {
+  if (row.size() != header_.size())
+    throw std::invalid_argument(
+        fmt::format("table row has {} cells, the header {}", row.size(), header_.size()));
+  rows_.push_back(std::move(row));
+}
+
+std::string Table::format(const Cell& cell) const {
+  if (cell.kind != Cell::Kind::Real) return cell.text;
+  if (std::isnan(cell.value)) return "nan";
+  if (std::isinf(cell.value)) return cell.value > 0 ? "inf" : "-inf";
+  int precision = cell.precision >= 0 ? cell.precision : default_precision_;
+  return fmt::format("{:.{}f}", cell.value, precision);
+}
+
+std::string Table::str() const {
+  std::vector<size_t> width(header_.size());
+  for (size_t c = 0; c < header_.size(); ++c) width[c] = header_[c].size();
+  std::vector<std::vector<std::string>> text;
+  for (const auto& row : rows_) {
+    text.emplace_back();
+    for (size_t c = 0; c < row.size(); ++c) {
+      text.back().push_back(format(row[c]));
+      width[c] = std::max(width[c], text.back().back().size());
+    }
+  }
+  auto numeric = [](const Cell& cell) {
+    return cell.kind == Cell::Kind::Integer || cell.kind == Cell::Kind::Real;
+  };
+  std::string out;
+  auto line = [&](const std::vector<std::string>& cells, const std::vector<Cell>* kinds) {
+    std::string l;
+    for (size_t c = 0; c < cells.size(); ++c) {
+      if (c) l += "  ";
+      bool right = kinds && numeric((*kinds)[c]);
+      l += right ? fmt::format("{:>{}}", cells[c], width[c])
+                 : fmt::format("{:<{}}", cells[c], width[c]);
+    }
+    l.erase(l.find_last_not_of(' ') + 1);
+    out += l + "\n";
+  };
+  line(header_, nullptr);
+  std::vector<std::string> rule;
+  for (size_t w : width) rule.push_back(std::string(w, '-'));
+  line(rule, nullptr);
+  for (size_t r = 0; r < rows_.size(); ++r) line(text[r], &rows_[r]);
+  return out;
+}
+
+void Table::print(std::FILE* out) const {
+  std::string s = str();
+  std::fwrite(s.data(), 1, s.size(), out);
+  std::fflush(out);
+}
+
+json Table::to_json() const {
+  json rows = json::array();
+  for (const auto& row : rows_) {
+    json obj = json::object();
+    for (size_t c = 0; c < row.size(); ++c) {
+      const Cell& cell = row[c];
+      switch (cell.kind) {
+        case Cell::Kind::Text:
+          obj[header_[c]] = cell.text;
+          break;
+        case Cell::Kind::Integer:
+          obj[header_[c]] = json::parse(cell.text);
+          break;
+        case Cell::Kind::Boolean:
+          obj[header_[c]] = cell.text == "true";
+          break;
+        case Cell::Kind::Real:
+          obj[header_[c]] = std::isfinite(cell.value) ? json(cell.value) : json();
+          break;
+      }
+    }
+    rows.push_back(std::move(obj));
+  }
+  return rows;
+}
+
+}  // namespace dofcache::bench

@@ -1,0 +1,81 @@
+#pragma once
+// What every benchmark program in bench/ shares: a description of the machine it ran on, where
+// results go, writing them (JSON, plus CSV for tables of rows), and aligned tables on stdout.
+// See bench/README.md for the file format.
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace dofcache::bench {
+
+// CPU model, logical cores, memory, OS, kernel, compiler, build type, UTC date/time, git commit
+// (when DOFCACHE_SOURCE_DIR is a git checkout). Fields that cannot be determined are null.
+nlohmann::json machine_description();
+
+// <DOFCACHE_SOURCE_DIR>/bench/results, or $DOFCACHE_BENCH_RESULTS if set; created if needed.
+// Throws dofcache::Error if it cannot be created.
+std::string results_dir();
+
+// Writes <results_dir>/<name>.json as {"machine": machine_description(), "results": results}.
+// If results["rows"] is an array of flat objects (values are strings, numbers, booleans or null),
+// also writes <name>.csv with one column per key. nlohmann::json sorts object keys, so the column
+// order comes from results["columns"] (an array of key names, e.g. Table::header()) when present;
+// keys it does not list follow in sorted order. Both files are written atomically. Returns the
+// JSON file's path. Throws dofcache::Error on failure.
+std::string write_results(const std::string& name, const nlohmann::json& results);
+
+// Rows as CSV text (RFC 4180 quoting; the format write_results uses), columns in `column_order`
+// first. Throws dofcache::Error unless `rows` is an array of flat objects.
+std::string rows_to_csv(const nlohmann::json& rows,
+                        const std::vector<std::string>& column_order = {});
+
+// A table printed with aligned columns: text left-aligned, numbers right-aligned.
+//   Table t({"cache", "time [ms]", "relMSE"}, 3);
+//   t.add_row({"octree", Table::Cell(12.345, 1), 0.00123});
+//   t.print();
+//   write_results("cache_lookup", {{"columns", t.header()}, {"rows", t.to_json()}});
+class Table {
+ public:
+  // One entry: text, an integer, or a floating-point number with its own precision (digits
+  // after the point; -1 uses the table's default).
+  struct Cell {
+    enum class Kind { Text, Integer, Real, Boolean };
+
+    Cell(std::string s) : text(std::move(s)) {}
+    Cell(const char* s) : text(s) {}
+    template <class T, std::enable_if_t<std::is_integral_v<T> && !std::is_same_v<T, bool>, int> = 0>
+    Cell(T v) : kind(Kind::Integer), text(std::to_string(v)) {}
+    Cell(bool v) : kind(Kind::Boolean), text(v ? "true" : "false") {}
+    Cell(double v, int precision = -1) : kind(Kind::Real), value(v), precision(precision) {}
+
+    Kind kind = Kind::Text;
+    std::string text;  // text, integers and booleans; reals are formatted when printed
+    double value = 0;
+    int precision = -1;
+  };
+
+  explicit Table(std::vector<std::string> header, int default_precision = 3);
+
+  // Throws std::invalid_argument if the row's length differs from the header's.
+  void add_row(std::vector<Cell> row);
+
+  const std::vector<std::string>& header() const { return header_; }
+  size_t rows() const { return rows_.size(); }
+  std::string str() const;
+  void print(std::FILE* out = stdout) const;
+
+  // The rows as an array of objects keyed by the header, numbers as numbers (non-finite ones as
+  // null): ready to store under "rows" for write_results, with header() under "columns".
+  nlohmann::json to_json() const;
+
+ private:
+  std::string format(const Cell& cell) const;
+
+  std::vector<std::string> header_;
+  std::vector<std::vector<Cell>> rows_;
+  int default_precision_;
+};
+
+}  // namespace dofcache::bench

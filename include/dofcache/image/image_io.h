@@ -1,7 +1,9 @@
 #pragma once
-// Image files through OpenImageIO. The format follows the extension: .exr is linear half/float
-// with any extra channels, .png is 8-bit sRGB colour. Writes are atomic: a temporary file in the
-// same directory, renamed over the target only once complete.
+// Image files through OpenImageIO. The format follows the extension (case-insensitive): .exr is
+// linear 32-bit float, colour and extra channels alike (so every value round-trips exactly; ZIP
+// compression keeps the files reasonable), .png is 8-bit sRGB colour. Writes are atomic: a
+// temporary file in the same directory, renamed over the target only once complete.
+#include <map>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,10 @@ struct NamedChannels {
 void write_image(const std::string& path, const Image& color,
                  const std::vector<NamedChannels>& extra = {});
 
+// Throws the error write_image would give for an unsupported extension or a missing directory,
+// so callers can refuse a bad output path before spending time on a render.
+void check_output_path(const std::string& path);
+
 // Reads the colour channels (RGB; alpha dropped) as linear float. PNG/JPEG are decoded from sRGB.
 // Throws dofcache::Error if missing or unreadable.
 Image read_image(const std::string& path);
@@ -28,9 +34,36 @@ Image read_image(const std::string& path);
 // Reads the named channels of an EXR (e.g. {"Z"}); throws if any is absent.
 Image read_channels(const std::string& path, const std::vector<std::string>& names);
 
+// One part of a multi-part EXR: a named layer (e.g. "color", "depth", "ids") with its own channels
+// and string metadata. channel_names.size() must equal image.channels(); all parts of a file may
+// have different sizes. Every channel is stored as 32-bit float, so integer data such as object
+// ids survives exactly as long as it is below 2^24 (16777216).
+struct ExrPart {
+  std::string name;
+  std::vector<std::string> channel_names;
+  Image image;
+  std::map<std::string, std::string> attributes;
+};
+
+// Writes all parts into one multi-part EXR, atomically. Part names must be non-empty and unique,
+// channel names unique within a part. The attributes are stored in the part headers as strings
+// named "dofcache:<key>", which keeps them apart from the standard EXR attributes. Throws
+// dofcache::Error (one line) on invalid input or a failed write; the target is then untouched.
+void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& parts);
+
+// Reads every part of an EXR (a single-part file gives one part) with its channels in the order
+// they were written and the "dofcache:" attributes (prefix stripped). Throws dofcache::Error if
+// missing or unreadable.
+std::vector<ExrPart> read_multipart_exr(const std::string& path);
+
+// The sRGB transfer functions (IEC 61966-2-1): encode = linear -> display, decode the inverse.
+float linear_to_srgb(float linear);
+float srgb_to_linear(float encoded);
+
 // Writes `path` atomically: `write(tmp_path)` produces a complete file at tmp_path (same
-// directory, same extension), then it is renamed to `path`. On any exception the temporary file
-// is removed and the exception rethrown. Used by every writer in the project.
+// directory, same extension: "<dir>/.<stem>.tmp-<pid>-<counter><ext>"), then it is renamed to
+// `path`. commit_temporary throws dofcache::Error if the rename fails. On any exception the
+// temporary file is removed and the exception rethrown. Used by every writer in the project.
 template <class WriteFn>
 void write_atomically(const std::string& path, WriteFn&& write);
 std::string temporary_path_for(const std::string& path);

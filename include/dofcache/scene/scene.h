@@ -21,7 +21,11 @@ struct Texture {
   std::vector<glm::vec4> texels;  // as stored (not colour-managed); row 0 is the top (v = 0)
   Wrap wrap_s = Wrap::Repeat, wrap_t = Wrap::Repeat;
   bool nearest = false;           // magFilter NEAREST; otherwise bilinear
+  // Filtered texel value at uv (glTF convention: (0,0) is the top-left corner of the image).
   glm::vec4 sample(glm::vec2 uv) const;
+  // The same for sRGB-encoded colour: texels are decoded to linear before filtering (alpha is
+  // linear already). An empty texture samples as 1.
+  glm::vec4 sample_srgb(glm::vec2 uv) const;
 };
 
 struct TextureRef {
@@ -118,6 +122,7 @@ struct Scene {
   Bounds bounds;
   std::string source;              // path it was loaded from, or a name for built-in scenes
   std::uint64_t content_hash = 0;  // hash of geometry, materials and lights: a scene's identity
+  std::vector<std::string> warnings;  // non-fatal loading notes (skipped points/lines, ...)
 
   SurfacePoint surface_point(std::uint32_t triangle, float u, float v) const;  // Embree barycentrics
   MaterialPoint material_at(const SurfacePoint& sp) const;

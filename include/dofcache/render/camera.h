@@ -1,0 +1,49 @@
+#pragma once
+// The thin-lens camera (paper section 2): pixels on a film at distance V_P behind a lens of
+// aperture F/n focused at distance P. A camera ray starts at a point on the lens and passes through
+// the point where the pinhole ray of its film position meets the focal plane, so every ray of one
+// film point converges at depth P and points at depth D spread over the CoC of eq. (2.4).
+#include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "dofcache/lens/thin_lens.h"
+#include "dofcache/scene/accel.h"
+#include "dofcache/scene/scene.h"
+
+namespace dofcache::render {
+
+class ThinLensCamera {
+ public:
+  // `pose` supplies position, orientation and vertical field of view; `lens` the optics.
+  ThinLensCamera(const glm::mat4& camera_to_world, float yfov, const lens::ThinLens& lens,
+                 int width, int height);
+
+  // `film` in pixels (x right, y down, pixel (i,j) covers [i,i+1)x[j,j+1)); `lens_u` in [0,1)^2 is
+  // mapped to the aperture disk by the concentric mapping. Direction is unit length.
+  scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u) const;
+  scene::Ray pinhole_ray(glm::vec2 film) const;
+
+  // Camera-space depth (distance along the optical axis) of a world point.
+  float depth(glm::vec3 world) const { return glm::dot(world - position_, forward_); }
+  // Ray parameter at which `ray` crosses the plane at camera-space depth `z` (0 if it never does
+  // ahead of its origin). Used for near clipping planes.
+  float t_at_depth(const scene::Ray& ray, float z) const;
+
+  const lens::LensImaging& imaging() const { return imaging_; }
+  const lens::ThinLens& lens() const { return imaging_.lens; }
+  glm::vec3 position() const { return position_; }
+  glm::vec3 forward() const { return forward_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
+
+  lens::LensImaging imaging_;
+  glm::vec3 position_, right_, up_, forward_;
+  int width_, height_;
+  float tan_half_y_, tan_half_x_;
+};
+
+}  // namespace dofcache::render

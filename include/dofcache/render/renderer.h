@@ -1,0 +1,108 @@
+#pragma once
+// Image integrators over the thin-lens camera:
+//   pinhole       every sample through the lens centre (anti-aliased, all in focus);
+//   drt           distributed ray tracing (Cook et al. 1984): each sample its own lens point, the
+//                 reference method of the paper;
+//   accumulation  the accumulation buffer (Haeberli & Akeley 1990, the paper's reference [2]): one
+//                 lens point per pass shared by every pixel, passes averaged.
+// Rendering is parallel over 16x16 tiles with TBB. Every sample draws its random numbers from
+// (seed, pixel, sample index), so a fixed seed gives the same image for any thread count.
+#include <cstdint>
+#include <string>
+
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/cache/trace.h"
+#include "dofcache/core/progress.h"
+#include "dofcache/image/image.h"
+#include "dofcache/lens/thin_lens.h"
+#include "dofcache/render/camera.h"
+#include "dofcache/render/shading.h"
+#include "dofcache/scene/accel.h"
+#include "dofcache/scene/scene.h"
+
+namespace dofcache::render {
+
+enum class Mode { Pinhole, Drt, Accumulation };
+Mode parse_mode(const std::string& name);  // throws dofcache::Error listing the valid names
+const char* mode_name(Mode mode);
+
+// The radiance cache of the paper's Algorithm 1, used by `drt` and `accumulation` at primary hits:
+// look up E/pi near the hit; on a miss compute it in full and store a sample whose radius follows
+// the circle of confusion (eqs. 4.1, 4.2). Rendering then runs in passes of doubling sample counts
+// (1, 1, 2, 4, ...): during a pass the cache is read only and new samples go to per-tile buffers
+// (a tile reuses its own new samples at once); between passes the buffers are merged in tile order.
+// So the image is the same for any thread count.
+struct CacheSettings {
+  cache::RadianceCache* cache = nullptr;  // not owned; null: shade every hit
+  double min_factor = 0.5;                // minFactor of Algorithm 1
+  cache::LookupOptions lookup;
+  // A cache sample is reused by many lens rays, so it is computed with more light and gather
+  // samples than a per-ray shade: these multiply ShadingSettings::light_samples / gather_rays.
+  int sample_quality = 4;
+  std::uint32_t frame = 0;                // stamped on new samples (camera paths)
+  bool insert = true;                     // false: use the cache read only
+  cache::TraceWriter* trace = nullptr;    // if set, records lookups and inserts for replay
+};
+
+struct RenderSettings {
+  int width = 640, height = 480;
+  int spp = 16;  // samples per pixel (lens samples for drt, passes for accumulation)
+  Mode mode = Mode::Drt;
+  std::uint64_t seed = 1;
+  int threads = 0;  // 0: all hardware threads
+  ShadingSettings shading;
+  lens::ThinLens lens;
+  // Camera-space depth of a near clipping plane (0: none). Surfaces nearer are not seen.
+  float near_depth = 0.0f;
+  // If set (1 channel, width x height), only pixels with mask > 0.5 are rendered; others stay
+  // black with infinite depth and id -1.
+  const image::Image* mask = nullptr;
+  // Visibility only (depth, normal, ids through pixel centres): no shading, colour stays black.
+  bool visibility_only = false;
+  CacheSettings cache;
+  Progress::Display progress = Progress::Display::Auto;
+  std::string progress_label = "render";
+
+  void validate() const;  // throws dofcache::Error on absurd values
+};
+
+struct RenderStats {
+  double seconds = 0.0;
+  std::uint64_t camera_rays = 0;
+  std::uint64_t rays = 0;            // all rays, including camera rays
+  std::uint64_t shading_points = 0;  // full diffuse-illumination evaluations
+  int threads = 0;
+  // Radiance cache (zero without one). Lookup and insert times are summed over threads.
+  std::uint64_t cache_lookups = 0;      // primary hits that needed diffuse illumination
+  std::uint64_t cache_hits = 0;         // served by the cache as it was at the start of a pass
+  std::uint64_t cache_tile_hits = 0;    // served by samples the same tile made in this pass
+  std::uint64_t cache_inserted = 0;     // new samples
+  std::uint64_t cache_samples = 0;      // samples in the cache at the end
+  std::uint64_t cache_memory_bytes = 0;
+  double cache_lookup_seconds = 0.0;
+  double cache_insert_seconds = 0.0;
+  int passes = 0;
+  double cache_hit_rate() const {
+    return cache_lookups ? double(cache_hits + cache_tile_hits) / double(cache_lookups) : 0.0;
+  }
+  double rays_per_second() const { return seconds > 0 ? rays / seconds : 0.0; }
+};
+
+struct RenderOutput {
+  image::Image color;   // linear RGB
+  image::Image depth;   // camera-space depth through the pixel centre (+inf: nothing)
+  image::Image normal;  // world-space shading normal through the pixel centre
+  image::Image ids;     // object id through the pixel centre (-1: nothing)
+  // With a cache: per pixel, the fraction of lookups the cache served, and the number of samples
+  // created there (1 channel each; empty without a cache).
+  image::Image cache_hits;
+  image::Image cache_density;
+  RenderStats stats;
+};
+
+ThinLensCamera make_camera(const scene::Camera& camera, const RenderSettings& settings);
+
+RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
+                    const scene::Camera& camera, const RenderSettings& settings);
+
+}  // namespace dofcache::render

@@ -1,0 +1,61 @@
+#pragma once
+// Sample points for pixels, lens and hemispheres. Each 2-D pattern is an Owen-scrambled Sobol
+// (0,2)-sequence (Burley 2020): every power-of-two prefix is stratified, every pixel gets its own
+// scramble from a hash of (seed, pixel, purpose), so results are reproducible per pixel and do not
+// depend on thread count or on which other pixels are rendered.
+#include <cstdint>
+
+#include <glm/vec2.hpp>
+
+#include "dofcache/core/rng.h"
+
+namespace dofcache::render {
+
+constexpr std::uint32_t reverse_bits(std::uint32_t x) {
+  x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+  x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+  x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+  x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+  return (x >> 16) | (x << 16);
+}
+
+// First two Sobol dimensions as 32-bit fixed point: van der Corput and the x+1 polynomial one.
+constexpr std::uint32_t sobol_dim0(std::uint32_t i) { return reverse_bits(i); }
+constexpr std::uint32_t sobol_dim1(std::uint32_t i) {
+  std::uint32_t r = 0;
+  for (std::uint32_t v = 1u << 31; i; i >>= 1, v ^= v >> 1)
+    if (i & 1u) r ^= v;
+  return r;
+}
+
+// Laine-Karras style hash permutation, applied to bit-reversed values: a fast nested uniform
+// (Owen) scramble.
+constexpr std::uint32_t owen_scramble(std::uint32_t x, std::uint32_t seed) {
+  x = reverse_bits(x);
+  x += seed;
+  x ^= x * 0x6c50b47cu;
+  x ^= x * 0xb82f1e52u;
+  x ^= x * 0xc7afe638u;
+  x ^= x * 0x8d22f6e6u;
+  return reverse_bits(x);
+}
+
+// Point `index` of a scrambled, shuffled (0,2)-sequence identified by `key`.
+inline glm::vec2 sobol_2d(std::uint32_t index, std::uint64_t key) {
+  auto k0 = static_cast<std::uint32_t>(mix64(key));
+  auto k1 = static_cast<std::uint32_t>(mix64(key ^ 0x5851f42d4c957f2dULL));
+  auto k2 = static_cast<std::uint32_t>(mix64(key ^ 0x14057b7ef767814fULL));
+  std::uint32_t i = owen_scramble(index, k0);  // shuffle: decorrelates patterns of one pixel
+  return {static_cast<float>(owen_scramble(sobol_dim0(i), k1) >> 8) * 0x1p-24f,
+          static_cast<float>(owen_scramble(sobol_dim1(i), k2) >> 8) * 0x1p-24f};
+}
+
+// What a 2-D pattern is used for; part of its key so that the patterns are independent.
+enum class Dimension : std::uint64_t { Film = 1, Lens = 2, Gather = 3, Light = 4 };
+
+inline std::uint64_t pixel_key(std::uint64_t seed, int x, int y, Dimension d) {
+  return hash_combine(hash_combine(seed, (static_cast<std::uint64_t>(y) << 32) | std::uint32_t(x)),
+                      static_cast<std::uint64_t>(d));
+}
+
+}  // namespace dofcache::render

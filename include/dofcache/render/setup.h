@@ -1,0 +1,35 @@
+#pragma once
+// Turning user choices into render inputs: which scene, which camera, which lens. Shared by the
+// command-line tool, the benchmarks and the sequence renderer so the rules live in one place.
+#include <optional>
+#include <string>
+
+#include "dofcache/lens/thin_lens.h"
+#include "dofcache/scene/accel.h"
+#include "dofcache/scene/scene.h"
+
+namespace dofcache::render {
+
+// Loads `path` (.gltf/.glb), or the built-in default scene if `path` is empty.
+scene::Scene load_scene(const std::string& path, int scene_index = -1);
+
+// Lens values given on the command line; each overrides the camera's `extras.lens`.
+struct LensOverrides {
+  std::optional<double> focal_length, fstop, focus_distance;
+};
+
+// Where each lens value came from, for messages.
+struct ResolvedLens {
+  lens::ThinLens lens;
+  bool focus_from_scene = false;  // focus found by probing the scene (no value given anywhere)
+};
+
+// Precedence: override, then the camera's extras.lens, then a fallback: 50 mm at f/4 focused on
+// whatever the centre of the image sees (or the scene's bounding-box centre if nothing is hit).
+ResolvedLens resolve_lens(const scene::Scene& scene, const scene::Accel& accel,
+                          const scene::Camera& camera, const LensOverrides& overrides);
+
+// Image height for `width` from the camera's aspect ratio (4:3 if it has none).
+int height_for_width(const scene::Camera& camera, int width);
+
+}  // namespace dofcache::render

@@ -1,0 +1,200 @@
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include "commands.h"
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/cache/trace.h"
+#include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
+#include "dofcache/image/metrics.h"
+#include "dofcache/render/renderer.h"
+#include "dofcache/render/setup.h"
+#include "dofcache/scene/accel.h"
+
+namespace dofcache::cli {
+namespace {
+
+struct RenderOptions {
+  std::string scene_path, out = "dofcache.png", camera, mode = "drt", stats_json;
+  int scene_index = -1, width = 640, height = 0, spp = 16, threads = 0;
+  std::uint64_t seed = 1;
+  std::optional<double> fstop, focal_length, focus_distance;
+  render::ShadingSettings shading;
+  std::string cache = "none", cache_debug, cache_trace;
+  render::CacheSettings cache_settings;
+  bool quiet = false;
+};
+
+std::string describe_lens(const lens::ThinLens& l) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%.0f mm f/%.3g, focus %.3g m (aperture %.3g mm)",
+                l.focal_length * 1000.0, l.fstop, l.focus_distance, l.aperture_diameter() * 1000.0);
+  return buf;
+}
+
+int run_render(const RenderOptions& o) {
+  scene::Scene scene = render::load_scene(o.scene_path, o.scene_index);
+  std::size_t cam_index = o.camera.empty() ? 0 : scene.camera_index(o.camera);
+  const scene::Camera& camera = scene.cameras[cam_index];
+  scene::Accel accel(scene);
+
+  render::RenderSettings s;
+  s.width = o.width;
+  s.height = o.height > 0 ? o.height : render::height_for_width(camera, o.width);
+  s.spp = o.spp;
+  s.mode = render::parse_mode(o.mode);
+  s.seed = o.seed;
+  s.threads = o.threads;
+  s.shading = o.shading;
+  render::ResolvedLens lens = render::resolve_lens(scene, accel, camera,
+                                                   {o.focal_length, o.fstop, o.focus_distance});
+  s.lens = lens.lens;
+  s.progress = o.quiet ? Progress::Display::Never : Progress::Display::Auto;
+  std::unique_ptr<cache::RadianceCache> radiance_cache = cache::make_radiance_cache(o.cache);
+  std::unique_ptr<cache::TraceWriter> trace;
+  s.cache = o.cache_settings;
+  s.cache.cache = radiance_cache.get();
+
+  if (!o.quiet) {
+    std::printf("scene   %s: %zu triangles, %zu emissive, %zu punctual lights\n",
+                scene.source.c_str(), scene.mesh.triangles.size(), scene.emitters.size(),
+                scene.lights.size());
+    if (camera.synthesized)
+      std::printf("notice  the scene has no camera; using one that frames its bounds\n");
+    std::printf("camera  '%s', lens %s%s\n", camera.name.c_str(), describe_lens(s.lens).c_str(),
+                lens.focus_from_scene ? " (autofocus on the image centre)" : "");
+  }
+  // Validate everything (including the output format) before spending time on the render.
+  s.validate();
+  image::check_output_path(o.out);
+  if (!o.cache_debug.empty()) image::check_output_path(o.cache_debug + "-hits.png");
+  if (!o.cache_trace.empty()) {
+    if (!radiance_cache) throw dofcache::Error("--cache-trace needs a cache (--cache octree or vdb)");
+    trace = std::make_unique<cache::TraceWriter>(o.cache_trace, s.cache.lookup);
+    s.cache.trace = trace.get();
+  }
+  render::RenderOutput out = render::render(scene, accel, camera, s);
+
+  image::write_image(o.out, out.color,
+                     {{{"Z"}, out.depth}, {{"N.X", "N.Y", "N.Z"}, out.normal}, {{"id"}, out.ids}});
+  if (trace) trace->close();
+  if (!o.cache_debug.empty() && radiance_cache) {
+    double max_density = 1.0;
+    for (float v : out.cache_density.data()) max_density = std::max<double>(max_density, v);
+    image::write_image(o.cache_debug + "-hits.png", image::false_color(out.cache_hits, 1.0));
+    image::write_image(o.cache_debug + "-density.png",
+                       image::false_color(out.cache_density, max_density));
+  }
+  const render::RenderStats& st = out.stats;
+  if (!o.stats_json.empty()) {
+    nlohmann::json j = {
+        {"scene", scene.source}, {"camera", camera.name}, {"mode", render::mode_name(s.mode)},
+        {"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"seed", s.seed},
+        {"threads", st.threads}, {"seconds", st.seconds}, {"camera_rays", st.camera_rays},
+        {"rays", st.rays}, {"rays_per_second", st.rays_per_second()},
+        {"shading_points", st.shading_points},
+        {"lens", {{"focal_length", s.lens.focal_length}, {"fstop", s.lens.fstop},
+                  {"focus_distance", s.lens.focus_distance}}},
+        {"shading", {{"light_samples", s.shading.light_samples},
+                     {"gather_rays", s.shading.gather_rays}, {"bounces", s.shading.bounces},
+                     {"specular_depth", s.shading.specular_depth}}},
+        {"output", o.out},
+        {"cache", {{"backend", o.cache}, {"min_factor", s.cache.min_factor},
+                   {"sample_quality", s.cache.sample_quality},
+                   {"max_normal_angle_deg", s.cache.lookup.max_normal_angle_deg},
+                   {"min_samples", s.cache.lookup.min_samples}, {"lookups", st.cache_lookups},
+                   {"hits", st.cache_hits}, {"tile_hits", st.cache_tile_hits},
+                   {"hit_rate", st.cache_hit_rate()}, {"inserted", st.cache_inserted},
+                   {"samples", st.cache_samples}, {"memory_bytes", st.cache_memory_bytes},
+                   {"lookup_seconds", st.cache_lookup_seconds},
+                   {"insert_seconds", st.cache_insert_seconds}, {"passes", st.passes}}}};
+    write_json_file(o.stats_json, j);
+  }
+  if (!o.quiet)
+    std::printf("render  %dx%d %s, %d spp, %d threads: %.2f s, %.2f M rays/s (%.1f M rays)\n",
+                s.width, s.height, render::mode_name(s.mode), s.spp, st.threads, st.seconds,
+                st.rays_per_second() * 1e-6, st.rays * 1e-6);
+  if (!o.quiet && radiance_cache)
+    std::printf("cache   %s: %.1f%% of %llu lookups served (%.1f%% from earlier passes), "
+                "%llu samples, %.2f MB, lookup %.2f s, insert %.3f s (thread-seconds)\n",
+                o.cache.c_str(), 100.0 * st.cache_hit_rate(),
+                static_cast<unsigned long long>(st.cache_lookups),
+                st.cache_lookups ? 100.0 * st.cache_hits / st.cache_lookups : 0.0,
+                static_cast<unsigned long long>(st.cache_samples), st.cache_memory_bytes / 1e6,
+                st.cache_lookup_seconds, st.cache_insert_seconds);
+  std::printf("wrote   %s\n", std::filesystem::absolute(o.out).lexically_normal().c_str());
+  return 0;
+}
+
+}  // namespace
+
+Runner add_render_command(CLI::App& app) {
+  auto o = std::make_shared<RenderOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "render", "Render a glTF 2.0 scene (default: the built-in Cornell box) with depth of field.");
+  cmd->add_option("SCENE", o->scene_path, ".gltf or .glb file; omit for the built-in scene");
+  cmd->add_option("-o,--out", o->out,
+                  "Output image: .png (sRGB) or .exr (linear, with Z, N and id channels)")
+      ->capture_default_str();
+  cmd->add_option("--camera", o->camera, "Camera name (default: the scene's first camera)");
+  cmd->add_option("--scene-index", o->scene_index, "glTF scene to load (default: the file's default)");
+  cmd->add_option("--width", o->width, "Image width in pixels")->capture_default_str()
+      ->check(CLI::Range(1, 16384));
+  cmd->add_option("--height", o->height, "Image height (default: from the camera's aspect ratio)")
+      ->check(CLI::Range(1, 16384));
+  cmd->add_option("--spp", o->spp, "Samples (lens rays) per pixel")->capture_default_str()
+      ->check(CLI::Range(1, 1 << 20));
+  cmd->add_option("--mode", o->mode,
+                  "pinhole (all in focus), drt (distributed ray tracing, the reference) or "
+                  "accumulation (one lens point per pass)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"pinhole", "drt", "accumulation"}));
+  cmd->add_option("--fstop", o->fstop, "f-number n (aperture diameter = focal length / n)");
+  cmd->add_option("--focal-length", o->focal_length, "Focal length in metres (e.g. 0.05)");
+  cmd->add_option("--focus-distance", o->focus_distance, "Distance in focus, metres");
+  cmd->add_option("--seed", o->seed, "Random seed; a fixed seed gives the same image")
+      ->capture_default_str();
+  cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")->capture_default_str()
+      ->check(CLI::Range(0, 4096));
+  cmd->add_option("--light-samples", o->shading.light_samples,
+                  "Shadow rays to area lights per shading point")
+      ->capture_default_str()->check(CLI::Range(0, 4096));
+  cmd->add_option("--gather-rays", o->shading.gather_rays,
+                  "Final-gather rays for diffuse indirect light per shading point")
+      ->capture_default_str()->check(CLI::Range(0, 65536));
+  cmd->add_option("--bounces", o->shading.bounces, "Diffuse indirect bounces")
+      ->capture_default_str()->check(CLI::Range(0, 16));
+  cmd->add_option("--specular-depth", o->shading.specular_depth,
+                  "Maximum chain of glossy/mirror reflections")
+      ->capture_default_str()->check(CLI::Range(0, 16));
+  cmd->add_option("--cache", o->cache,
+                  "Radiance cache: none (shade every lens ray), octree (the paper's) or vdb "
+                  "(OpenVDB grids keyed by depth-dependent voxel size)")
+      ->capture_default_str()
+      ->check(CLI::IsMember(cache::radiance_cache_backends()));
+  cmd->add_option("--min-factor", o->cache_settings.min_factor,
+                  "Cache sample radius in focus, in pixel footprints (Algorithm 1's minFactor)")
+      ->capture_default_str()->check(CLI::Range(1e-3, 1e4));
+  cmd->add_option("--cache-normal-angle", o->cache_settings.lookup.max_normal_angle_deg,
+                  "Cache lookups reject samples whose normal differs by more (degrees)")
+      ->capture_default_str()->check(CLI::Range(0.1, 90.0));
+  cmd->add_option("--cache-min-samples", o->cache_settings.lookup.min_samples,
+                  "Samples a cache lookup must accept to succeed")
+      ->capture_default_str()->check(CLI::Range(1, 1024));
+  cmd->add_option("--cache-sample-quality", o->cache_settings.sample_quality,
+                  "A cache sample uses this many times the light and gather samples of a "
+                  "per-ray shade (it is reused by many lens rays)")
+      ->capture_default_str()->check(CLI::Range(1, 256));
+  cmd->add_option("--cache-debug", o->cache_debug,
+                  "Write PREFIX-hits.png (fraction of lookups served) and PREFIX-density.png "
+                  "(samples created per pixel)");
+  cmd->add_option("--cache-trace", o->cache_trace,
+                  "Record the cache's lookups and inserts to FILE for bench/cache_replay_bench");
+  cmd->add_option("--stats-json", o->stats_json, "Write render statistics as JSON to this file");
+  cmd->add_flag("-q,--quiet", o->quiet, "Print only the output path");
+  return [o] { return run_render(*o); };
+}
+
+}  // namespace dofcache::cli

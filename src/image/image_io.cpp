@@ -1,0 +1,428 @@
+// Image files through OpenImageIO: EXR (float, named channels, multi-part) and 8-bit sRGB PNG,
+// every write atomic (temporary file in the target's directory, then rename).
+#include "dofcache/image/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <set>
+
+#include "dofcache/core/error.h"
+
+namespace dofcache::image {
+namespace {
+
+namespace fs = std::filesystem;
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+// User metadata in EXR headers lives under this prefix; the channel order of a part (which
+// OpenEXR itself stores sorted by name) under the internal key.
+constexpr const char* kAttributePrefix = "dofcache:";
+constexpr const char* kChannelOrderKey = "dofcacheInternal:channelOrder";
+
+enum class Format { Exr, Png, Unsupported };
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
+Format format_of(const std::string& path) {
+  std::string ext = lower_extension(path);
+  if (ext == ".exr") return Format::Exr;
+  if (ext == ".png") return Format::Png;
+  return Format::Unsupported;
+}
+
+// OpenImageIO messages may span lines; our errors are one line.
+std::string one_line(std::string message) {
+  for (char& c : message)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!message.empty() && message.back() == ' ') message.pop_back();
+  return message.empty() ? std::string("unknown error") : message;
+}
+
+[[noreturn]] void fail_write(const std::string& path, const std::string& reason) {
+  throw Error("cannot write '" + path + "': " + one_line(reason));
+}
+[[noreturn]] void fail_read(const std::string& path, const std::string& reason) {
+  throw Error("cannot read '" + path + "': " + one_line(reason));
+}
+
+// The directory must exist before anything is attempted, so a typo gives a clear message.
+void check_directory(const std::string& path) {
+  fs::path dir = fs::path(path).parent_path();
+  if (dir.empty()) return;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    fail_write(path, "directory '" + dir.string() + "' does not exist");
+}
+
+std::string join(const std::vector<std::string>& names, const char* separator) {
+  std::string out;
+  for (size_t i = 0; i < names.size(); ++i) out += (i ? separator : "") + names[i];
+  return out;
+}
+
+std::vector<std::string> split_lines(const std::string& text) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start <= text.size()) {
+    size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    out.push_back(text.substr(start, end - start));
+    start = end + 1;
+  }
+  return out;
+}
+
+// A float EXR spec for `names` (all channels 32-bit float, ZIP: lossless and compact).
+ImageSpec exr_spec(int width, int height, const std::vector<std::string>& names) {
+  ImageSpec spec(width, height, static_cast<int>(names.size()), TypeDesc::FLOAT);
+  spec.channelnames = names;
+  // The constructor guessed RGBA roles from the channel count; set them from the names instead.
+  auto index_of = [&](const char* name) {
+    auto it = std::find(names.begin(), names.end(), name);
+    return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+  };
+  spec.alpha_channel = index_of("A");
+  spec.z_channel = index_of("Z");
+  spec.attribute("compression", "zip");
+  return spec;
+}
+
+// Interleaves several images of the same size into one buffer of all their channels.
+std::vector<float> interleave(const std::vector<const Image*>& layers) {
+  const Image& first = *layers.front();
+  int total = 0;
+  for (const Image* layer : layers) total += layer->channels();
+  std::vector<float> out(first.pixel_count() * total);
+  for (size_t p = 0; p < first.pixel_count(); ++p) {
+    float* dst = out.data() + p * total;
+    for (const Image* layer : layers) {
+      const float* src = layer->data().data() + p * layer->channels();
+      dst = std::copy(src, src + layer->channels(), dst);
+    }
+  }
+  return out;
+}
+
+void check_unique(const std::string& path, const std::vector<std::string>& names,
+                  const std::string& what) {
+  std::set<std::string> seen;
+  for (const std::string& n : names) {
+    if (n.empty()) fail_write(path, "empty " + what + " name");
+    if (!seen.insert(n).second) fail_write(path, "duplicate " + what + " '" + n + "'");
+  }
+}
+
+std::unique_ptr<ImageOutput> create_output(const std::string& tmp, const std::string& path) {
+  auto out = ImageOutput::create(tmp);
+  if (!out) fail_write(path, OIIO::geterror());
+  return out;
+}
+
+void write_exr(const std::string& path, const Image& color,
+               const std::vector<NamedChannels>& extra) {
+  std::vector<std::string> names = {"R", "G", "B"};
+  std::vector<const Image*> layers = {&color};
+  for (const NamedChannels& e : extra) {
+    if (e.image.width() != color.width() || e.image.height() != color.height())
+      fail_write(path, "extra channels " + join(e.names, ",") + " are " +
+                           std::to_string(e.image.width()) + "x" +
+                           std::to_string(e.image.height()) + ", colour is " +
+                           std::to_string(color.width()) + "x" + std::to_string(color.height()));
+    if (static_cast<int>(e.names.size()) != e.image.channels())
+      fail_write(path, std::to_string(e.names.size()) + " names for an image of " +
+                           std::to_string(e.image.channels()) + " channels");
+    names.insert(names.end(), e.names.begin(), e.names.end());
+    layers.push_back(&e.image);
+  }
+  check_unique(path, names, "channel");
+  ImageSpec spec = exr_spec(color.width(), color.height(), names);
+  std::vector<float> pixels = interleave(layers);
+
+  write_atomically(path, [&](const std::string& tmp) {
+    auto out = create_output(tmp, path);
+    if (!out->open(tmp, spec) || !out->write_image(TypeDesc::FLOAT, pixels.data()))
+      fail_write(path, out->geterror());
+    if (!out->close()) fail_write(path, out->geterror());
+  });
+}
+
+void write_png(const std::string& path, const Image& color) {
+  std::vector<unsigned char> pixels(color.pixel_count() * 3);
+  const std::vector<float>& src = color.data();
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    float v = linear_to_srgb(src[i]);  // clamps to [0,1]; NaN -> 0
+    pixels[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
+  }
+  ImageSpec spec(color.width(), color.height(), 3, TypeDesc::UINT8);
+  spec.attribute("oiio:ColorSpace", "sRGB");
+
+  write_atomically(path, [&](const std::string& tmp) {
+    auto out = create_output(tmp, path);
+    if (!out->open(tmp, spec) || !out->write_image(TypeDesc::UINT8, pixels.data()))
+      fail_write(path, out->geterror());
+    if (!out->close()) fail_write(path, out->geterror());
+  });
+}
+
+// An open image file, its first subimage's spec already read.
+struct OpenedInput {
+  std::unique_ptr<ImageInput> in;
+  ImageSpec spec;
+};
+
+OpenedInput open_input(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) fail_read(path, "no such file");
+  if (fs::is_directory(path, ec)) fail_read(path, "is a directory");
+  // Keep straight (unassociated) colour: alpha is dropped, so premultiplying would darken it.
+  ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = ImageInput::open(path, &config);
+  if (!in) fail_read(path, OIIO::geterror());
+  ImageSpec spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) fail_read(path, "empty image");
+  if (spec.depth > 1) fail_read(path, "volume images are not supported");
+  return {std::move(in), std::move(spec)};
+}
+
+// All channels of the current subimage as float, interleaved.
+std::vector<float> read_pixels(const std::string& path, ImageInput& in, const ImageSpec& spec,
+                               int subimage) {
+  std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+  if (!in.read_image(subimage, 0, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data()))
+    fail_read(path, in.geterror());
+  return pixels;
+}
+
+// Copies the channels `indices` (in that order) of an interleaved buffer into a new image.
+Image select_channels(const std::vector<float>& pixels, int width, int height, int stride,
+                      const std::vector<int>& indices) {
+  Image out(width, height, static_cast<int>(indices.size()));
+  float* dst = out.data().data();
+  for (size_t p = 0; p < out.pixel_count(); ++p) {
+    const float* src = pixels.data() + p * stride;
+    for (int c : indices) *dst++ = src[c];
+  }
+  return out;
+}
+
+int channel_index(const ImageSpec& spec, const std::string& name) {
+  for (int c = 0; c < spec.nchannels; ++c)
+    if (spec.channel_name(c) == name) return c;
+  return -1;
+}
+
+std::vector<std::string> channel_names(const ImageSpec& spec) {
+  std::vector<std::string> names;
+  for (int c = 0; c < spec.nchannels; ++c) names.emplace_back(spec.channel_name(c));
+  return names;
+}
+
+// 8/16-bit files hold display-encoded (sRGB) values unless they say otherwise; float is linear.
+bool is_srgb_encoded(const ImageSpec& spec) {
+  if (spec.format.is_floating_point()) return false;
+  std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+  std::transform(cs.begin(), cs.end(), cs.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return cs.rfind("lin", 0) != 0;
+}
+
+}  // namespace
+
+float linear_to_srgb(float linear) {
+  if (!(linear > 0.0f)) return 0.0f;  // also NaN
+  if (linear >= 1.0f) return 1.0f;
+  if (linear <= 0.0031308f) return 12.92f * linear;
+  return 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
+}
+
+float srgb_to_linear(float encoded) {
+  if (encoded <= 0.04045f) return encoded / 12.92f;
+  return std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
+
+std::string temporary_path_for(const std::string& path) {
+  static std::atomic<unsigned> counter{0};
+  fs::path p(path);
+  std::string name = "." + p.stem().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
+                     std::to_string(counter.fetch_add(1)) + p.extension().string();
+  return (p.parent_path() / name).string();
+}
+
+void commit_temporary(const std::string& tmp_path, const std::string& path) {
+  if (std::rename(tmp_path.c_str(), path.c_str()) != 0)
+    fail_write(path, std::string("cannot rename the temporary file: ") + std::strerror(errno));
+}
+
+void discard_temporary(const std::string& tmp_path) noexcept {
+  std::error_code ec;
+  fs::remove(tmp_path, ec);
+}
+
+void check_output_path(const std::string& path) {
+  if (format_of(path) == Format::Unsupported)
+    fail_write(path, "unsupported image format (use .exr or .png)");
+  check_directory(path);
+}
+
+void write_image(const std::string& path, const Image& color,
+                 const std::vector<NamedChannels>& extra) {
+  check_output_path(path);
+  Format format = format_of(path);
+  if (color.empty()) fail_write(path, "empty image");
+  if (color.channels() != 3)
+    fail_write(path, "colour must have 3 channels (RGB), not " + std::to_string(color.channels()));
+  check_directory(path);
+  if (format == Format::Exr)
+    write_exr(path, color, extra);
+  else
+    write_png(path, color);
+}
+
+Image read_image(const std::string& path) {
+  OpenedInput file = open_input(path);
+  const ImageSpec& spec = file.spec;
+  std::vector<float> pixels = read_pixels(path, *file.in, spec, 0);
+
+  // Prefer channels named R,G,B; otherwise a luminance "Y" or the first channel is grey, and a
+  // file of three or more unnamed channels is taken as RGB in order. Alpha is never colour.
+  std::vector<int> rgb = {channel_index(spec, "R"), channel_index(spec, "G"),
+                          channel_index(spec, "B")};
+  if (std::find(rgb.begin(), rgb.end(), -1) != rgb.end()) {
+    int y = channel_index(spec, "Y");
+    int colour_channels = spec.nchannels - (spec.alpha_channel >= 0 ? 1 : 0);
+    if (y >= 0)
+      rgb = {y, y, y};
+    else if (colour_channels >= 3)
+      rgb = {0, 1, 2};
+    else
+      rgb = {0, 0, 0};
+  }
+  Image out = select_channels(pixels, spec.width, spec.height, spec.nchannels, rgb);
+  if (is_srgb_encoded(spec))
+    for (float& v : out.data()) v = srgb_to_linear(v);
+  return out;
+}
+
+Image read_channels(const std::string& path, const std::vector<std::string>& names) {
+  OpenedInput file = open_input(path);
+  const ImageSpec& spec = file.spec;
+  std::vector<int> indices;
+  for (const std::string& name : names) {
+    int c = channel_index(spec, name);
+    if (c < 0)
+      fail_read(path, "no channel '" + name + "' (it has " + join(channel_names(spec), ", ") + ")");
+    indices.push_back(c);
+  }
+  std::vector<float> pixels = read_pixels(path, *file.in, spec, 0);
+  return select_channels(pixels, spec.width, spec.height, spec.nchannels, indices);
+}
+
+void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& parts) {
+  if (format_of(path) != Format::Exr) fail_write(path, "multi-part images must be .exr");
+  if (parts.empty()) fail_write(path, "no parts to write");
+  std::vector<std::string> part_names;
+  for (const ExrPart& part : parts) part_names.push_back(part.name);
+  check_unique(path, part_names, "part");
+
+  // OpenEXR requires one display window for all parts; each part's data window is its own size.
+  int display_width = 0, display_height = 0;
+  for (const ExrPart& part : parts) {
+    display_width = std::max(display_width, part.image.width());
+    display_height = std::max(display_height, part.image.height());
+  }
+  std::vector<ImageSpec> specs;
+  for (const ExrPart& part : parts) {
+    if (part.image.empty()) fail_write(path, "part '" + part.name + "' is empty");
+    if (static_cast<int>(part.channel_names.size()) != part.image.channels())
+      fail_write(path, "part '" + part.name + "' has " + std::to_string(part.channel_names.size()) +
+                           " channel names for " + std::to_string(part.image.channels()) +
+                           " channels");
+    check_unique(path, part.channel_names, "channel in part '" + part.name + "'");
+    ImageSpec spec = exr_spec(part.image.width(), part.image.height(), part.channel_names);
+    spec.full_width = display_width;
+    spec.full_height = display_height;
+    spec.attribute("name", part.name);
+    spec.attribute(kChannelOrderKey, join(part.channel_names, "\n"));
+    for (const auto& [key, value] : part.attributes) {
+      if (key.empty()) fail_write(path, "empty attribute name in part '" + part.name + "'");
+      spec.attribute(kAttributePrefix + key, value);
+    }
+    specs.push_back(std::move(spec));
+  }
+  check_directory(path);
+
+  write_atomically(path, [&](const std::string& tmp) {
+    auto out = create_output(tmp, path);
+    if (!out->supports("multiimage"))
+      fail_write(path, "the EXR writer cannot write multi-part files");
+    if (!out->open(tmp, static_cast<int>(specs.size()), specs.data()))
+      fail_write(path, out->geterror());
+    for (size_t i = 0; i < parts.size(); ++i) {
+      if (i > 0 && !out->open(tmp, specs[i], ImageOutput::AppendSubimage))
+        fail_write(path, out->geterror());
+      if (!out->write_image(TypeDesc::FLOAT, parts[i].image.data().data()))
+        fail_write(path, out->geterror());
+    }
+    if (!out->close()) fail_write(path, out->geterror());
+  });
+}
+
+std::vector<ExrPart> read_multipart_exr(const std::string& path) {
+  OpenedInput file = open_input(path);
+  std::vector<ExrPart> parts;
+  const std::string prefix = kAttributePrefix;
+  for (int subimage = 0; file.in->seek_subimage(subimage, 0); ++subimage) {
+    ImageSpec spec = file.in->spec();
+    ExrPart part;
+    part.name = spec.get_string_attribute("name");
+    if (part.name.empty()) part.name = spec.get_string_attribute("oiio:subimagename");
+
+    // Restore the written channel order if it is recorded and still matches the file.
+    std::vector<std::string> file_names = channel_names(spec);
+    std::vector<std::string> order = file_names;
+    std::string recorded = spec.get_string_attribute(kChannelOrderKey);
+    if (!recorded.empty()) {
+      std::vector<std::string> wanted = split_lines(recorded);
+      std::vector<std::string> a = wanted, b = file_names;
+      std::sort(a.begin(), a.end());
+      std::sort(b.begin(), b.end());
+      if (a == b) order = wanted;
+    }
+    std::vector<int> indices;
+    for (const std::string& name : order) indices.push_back(channel_index(spec, name));
+
+    std::vector<float> pixels = read_pixels(path, *file.in, spec, subimage);
+    part.image = select_channels(pixels, spec.width, spec.height, spec.nchannels, indices);
+    part.channel_names = order;
+    for (const OIIO::ParamValue& p : spec.extra_attribs) {
+      std::string key = p.name().string();
+      if (key.size() > prefix.size() && key.compare(0, prefix.size(), prefix) == 0 &&
+          p.type() == OIIO::TypeString)
+        part.attributes[key.substr(prefix.size())] = p.get_string();
+    }
+    parts.push_back(std::move(part));
+  }
+  if (parts.empty()) fail_read(path, "no image parts");
+  return parts;
+}
+
+}  // namespace dofcache::image

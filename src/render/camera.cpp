@@ -1,0 +1,51 @@
+#include "dofcache/render/camera.h"
+
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+namespace dofcache::render {
+
+ThinLensCamera::ThinLensCamera(const glm::mat4& camera_to_world, float yfov,
+                               const lens::ThinLens& lens, int width, int height)
+    : imaging_{lens, yfov, height}, width_(width), height_(height) {
+  position_ = glm::vec3(camera_to_world[3]);
+  right_ = glm::normalize(glm::vec3(camera_to_world[0]));
+  up_ = glm::normalize(glm::vec3(camera_to_world[1]));
+  forward_ = -glm::normalize(glm::vec3(camera_to_world[2]));  // glTF cameras look down -Z
+  tan_half_y_ = std::tan(0.5f * yfov);
+  tan_half_x_ = tan_half_y_ * static_cast<float>(width) / static_cast<float>(height);
+}
+
+glm::vec3 ThinLensCamera::direction_to_film(glm::vec2 film) const {
+  float sx = (2.0f * film.x / static_cast<float>(width_) - 1.0f) * tan_half_x_;
+  float sy = (1.0f - 2.0f * film.y / static_cast<float>(height_)) * tan_half_y_;
+  return forward_ + sx * right_ + sy * up_;
+}
+
+scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
+  scene::Ray ray;
+  ray.origin = position_;
+  ray.direction = glm::normalize(direction_to_film(film));
+  return ray;
+}
+
+scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u) const {
+  // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
+  glm::vec3 focus_point =
+      position_ + direction_to_film(film) * static_cast<float>(imaging_.lens.focus_distance);
+  glm::vec2 disk = lens::concentric_disk(lens_u) * static_cast<float>(imaging_.lens.aperture_radius());
+  scene::Ray ray;
+  ray.origin = position_ + disk.x * right_ + disk.y * up_;
+  ray.direction = glm::normalize(focus_point - ray.origin);
+  return ray;
+}
+
+float ThinLensCamera::t_at_depth(const scene::Ray& ray, float z) const {
+  float along = glm::dot(ray.direction, forward_);
+  if (along <= 0.0f) return 0.0f;
+  float t = (z - glm::dot(ray.origin - position_, forward_)) / along;
+  return t > 0.0f ? t : 0.0f;
+}
+
+}  // namespace dofcache::render

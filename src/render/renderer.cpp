@@ -1,0 +1,368 @@
+#include "dofcache/render/renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <thread>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "dofcache/cache/sample_radius.h"
+#include "dofcache/cache/tile_buffer.h"
+#include "dofcache/core/error.h"
+#include "dofcache/render/sampler.h"
+
+namespace dofcache::render {
+namespace {
+
+constexpr int kTileSize = 16;
+
+struct Tile {
+  int x0, y0, x1, y1;
+};
+
+std::vector<Tile> make_tiles(int width, int height) {
+  std::vector<Tile> tiles;
+  for (int y = 0; y < height; y += kTileSize)
+    for (int x = 0; x < width; x += kTileSize)
+      tiles.push_back({x, y, std::min(x + kTileSize, width), std::min(y + kTileSize, height)});
+  return tiles;
+}
+
+bool masked_out(const RenderSettings& s, int x, int y) {
+  return s.mask && s.mask->at(x, y, 0) <= 0.5f;
+}
+
+// Everything a render needs that is fixed for its duration.
+struct Context {
+  const scene::Scene& scene;
+  const scene::Accel& accel;
+  const RenderSettings& settings;
+  ThinLensCamera camera;
+  Shader shader;
+  Shader sample_shader;  // for cache samples: more light and gather samples
+};
+
+ShadingSettings cache_sample_shading(const RenderSettings& s) {
+  ShadingSettings q = s.shading;
+  q.light_samples *= s.cache.sample_quality;
+  q.gather_rays *= s.cache.sample_quality;
+  return q;
+}
+
+// Per-pixel cache statistics (debug images); each pixel is written by its own tile only.
+struct PixelCacheStats {
+  image::Image lookups, hits, created;
+  bool enabled() const { return !lookups.empty(); }
+};
+
+// What one tile accumulates during one pass.
+struct TileWork {
+  RayCounters rays;
+  cache::TileSampleBuffer buffer;  // samples created by this tile in this pass
+  std::vector<cache::TraceLookup> traced;
+  std::uint64_t lookups = 0, hits = 0, tile_hits = 0;
+  double lookup_seconds = 0.0;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+scene::Ray clipped(const Context& c, scene::Ray ray) {
+  if (c.settings.near_depth > 0.0f) ray.tnear = c.camera.t_at_depth(ray, c.settings.near_depth);
+  return ray;
+}
+
+// Algorithm 1 of the paper: E/pi at a primary hit from the cache, or computed and stored.
+glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t key, Rng& rng,
+                         TileWork& work, float* density) {
+  const CacheSettings& cs = c.settings.cache;
+  const glm::vec3 x = p.surface.position;
+  ++work.lookups;
+  if (cs.trace) work.traced.push_back({x, p.n});
+  cache::LookupResult r;
+  auto t0 = std::chrono::steady_clock::now();
+  bool hit = cs.cache->lookup(x, p.n, cs.lookup, &r);
+  if (!hit && cs.insert) {
+    hit = work.buffer.lookup(x, p.n, cs.lookup, &r);
+    work.tile_hits += hit;
+  } else {
+    work.hits += hit;
+  }
+  work.lookup_seconds += seconds_since(t0);
+  if (hit) return r.value;
+  glm::vec3 e = c.sample_shader.diffuse_illumination(p, key, rng, work.rays);
+  if (cs.insert) {
+    cache::CacheSample sample;
+    sample.position = x;
+    sample.normal = p.n;
+    sample.value = e;
+    sample.radius = static_cast<float>(
+        cache::sample_radius(c.camera.imaging(), c.camera.depth(x), cs.min_factor));
+    sample.frame = cs.frame;
+    work.buffer.add(sample);
+    if (density) *density += 1.0f;
+  }
+  return e;
+}
+
+// Radiance along one camera ray.
+glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_t key, Rng& rng,
+                           TileWork& work, float* density) {
+  ++work.rays.rays;
+  scene::Hit hit = c.accel.intersect(ray);
+  if (!hit.valid()) return glm::vec3(0.0f);
+  ShadingPoint p = c.shader.prepare(ray, hit);
+  glm::vec3 e(0.0f);
+  if (Shader::has_diffuse(p)) {
+    e = c.settings.cache.cache ? cached_diffuse(c, p, key, rng, work, density)
+                               : c.shader.diffuse_illumination(p, key, rng, work.rays);
+  }
+  return c.shader.shade(p, e, rng, work.rays);
+}
+
+// The film position and lens point of sample `s` of pixel (x, y).
+void sample_point(const Context& c, int x, int y, std::uint32_t s, glm::vec2* film,
+                  glm::vec2* lens_u) {
+  const RenderSettings& st = c.settings;
+  *film = glm::vec2(x, y) + sobol_2d(s, pixel_key(st.seed, x, y, Dimension::Film));
+  switch (st.mode) {
+    case Mode::Pinhole: *lens_u = glm::vec2(0.5f); break;
+    case Mode::Drt: *lens_u = sobol_2d(s, pixel_key(st.seed, x, y, Dimension::Lens)); break;
+    case Mode::Accumulation:  // one lens point per pass, shared by all pixels
+      *lens_u = sobol_2d(s, hash_combine(st.seed, static_cast<std::uint64_t>(Dimension::Lens)));
+      break;
+  }
+}
+
+void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters& counters) {
+  for (int y = t.y0; y < t.y1; ++y)
+    for (int x = t.x0; x < t.x1; ++x) {
+      if (masked_out(c.settings, x, y)) continue;
+      scene::Ray ray = clipped(c, c.camera.pinhole_ray(glm::vec2(x + 0.5f, y + 0.5f)));
+      ++counters.rays;
+      scene::Hit hit = c.accel.intersect(ray);
+      if (!hit.valid()) continue;
+      scene::SurfacePoint sp = c.scene.surface_point(hit.triangle, hit.u, hit.v);
+      out.depth.at(x, y, 0) = c.camera.depth(sp.position);
+      float* n = out.normal.pixel(x, y);
+      n[0] = sp.shading_normal.x, n[1] = sp.shading_normal.y, n[2] = sp.shading_normal.z;
+      out.ids.at(x, y, 0) = static_cast<float>(c.scene.mesh.triangle_object[hit.triangle]);
+    }
+}
+
+// Samples [s0, s1) of every pixel of a tile, added into `sum`.
+void render_samples(const Context& c, const Tile& t, std::uint32_t s0, std::uint32_t s1,
+                    std::vector<double>& sum, TileWork& work, PixelCacheStats& pixel_stats) {
+  const RenderSettings& st = c.settings;
+  for (int y = t.y0; y < t.y1; ++y)
+    for (int x = t.x0; x < t.x1; ++x) {
+      if (masked_out(st, x, y)) continue;
+      std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
+      glm::dvec3 acc(0.0);
+      std::uint64_t lookups_before = work.lookups, hits_before = work.hits + work.tile_hits;
+      float* density = pixel_stats.enabled() ? pixel_stats.created.pixel(x, y) : nullptr;
+      for (std::uint32_t s = s0; s < s1; ++s) {
+        glm::vec2 film, lens_u;
+        sample_point(c, x, y, s, &film, &lens_u);
+        scene::Ray ray = clipped(c, c.camera.generate_ray(film, lens_u));
+        std::uint64_t key = hash_combine(pixel, s);
+        Rng rng(key, s);
+        glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
+        if (std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z)) acc += glm::dvec3(l);
+      }
+      if (pixel_stats.enabled()) {
+        pixel_stats.hits.at(x, y, 0) += static_cast<float>(work.hits + work.tile_hits - hits_before);
+        pixel_stats.lookups.at(x, y, 0) += static_cast<float>(work.lookups - lookups_before);
+      }
+      double* px = &sum[(static_cast<size_t>(y) * st.width + x) * 3];
+      px[0] += acc.x, px[1] += acc.y, px[2] += acc.z;
+    }
+}
+
+}  // namespace
+
+Mode parse_mode(const std::string& name) {
+  if (name == "pinhole") return Mode::Pinhole;
+  if (name == "drt") return Mode::Drt;
+  if (name == "accumulation") return Mode::Accumulation;
+  throw Error("unknown render mode '" + name + "' (valid: pinhole, drt, accumulation)");
+}
+
+const char* mode_name(Mode mode) {
+  switch (mode) {
+    case Mode::Pinhole: return "pinhole";
+    case Mode::Drt: return "drt";
+    case Mode::Accumulation: return "accumulation";
+  }
+  return "?";
+}
+
+void RenderSettings::validate() const {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384)
+    throw Error("image size " + std::to_string(width) + "x" + std::to_string(height) +
+                " is out of range (1 to 16384 per side)");
+  if (spp < 1 || spp > (1 << 20))
+    throw Error("samples per pixel must be in [1, 1048576], got " + std::to_string(spp));
+  if (threads < 0 || threads > 4096) throw Error("thread count must be >= 0 (0: all cores)");
+  if (!std::isfinite(near_depth) || near_depth < 0.0f)
+    throw Error("near clipping depth must be a finite number >= 0");
+  if (mask && (mask->width() != width || mask->height() != height || mask->channels() != 1))
+    throw Error("render mask must be a 1-channel image of the render size");
+  lens.validate();
+  shading.validate();
+  if (cache.cache) {
+    if (!std::isfinite(cache.min_factor) || cache.min_factor <= 0.0 || cache.min_factor > 1e4)
+      throw Error("cache min factor must be a positive number, got " +
+                  std::to_string(cache.min_factor));
+    if (cache.sample_quality < 1 || cache.sample_quality > 256)
+      throw Error("cache sample quality must be in [1, 256]");
+    if (cache.lookup.min_samples < 1 || cache.lookup.min_samples > 1024)
+      throw Error("cache: samples needed per lookup must be in [1, 1024]");
+    if (!(cache.lookup.max_normal_angle_deg > 0.0f && cache.lookup.max_normal_angle_deg <= 90.0f))
+      throw Error("cache: normal angle threshold must be in (0, 90] degrees");
+    if (visibility_only || mode == Mode::Pinhole) {
+      // Harmless, but nothing would be cached: say so rather than silently ignoring it.
+      throw Error(std::string("the radiance cache applies to drt and accumulation renders, not ") +
+                  (visibility_only ? "visibility-only" : "pinhole") + " renders");
+    }
+  }
+}
+
+ThinLensCamera make_camera(const scene::Camera& camera, const RenderSettings& settings) {
+  return ThinLensCamera(camera.camera_to_world, camera.yfov, settings.lens, settings.width,
+                        settings.height);
+}
+
+RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
+                    const scene::Camera& camera, const RenderSettings& settings) {
+  settings.validate();
+  auto start = std::chrono::steady_clock::now();
+  Context c{scene, accel, settings, make_camera(camera, settings),
+            Shader(scene, accel, settings.shading),
+            Shader(scene, accel, cache_sample_shading(settings))};
+  const int w = settings.width, h = settings.height;
+  cache::RadianceCache* cache = settings.cache.cache;
+  RenderOutput out;
+  out.color = image::Image(w, h, 3, 0.0f);
+  out.depth = image::Image(w, h, 1, std::numeric_limits<float>::infinity());
+  out.normal = image::Image(w, h, 3, 0.0f);
+  out.ids = image::Image(w, h, 1, -1.0f);
+  PixelCacheStats pixel_stats;
+  if (cache) {
+    pixel_stats.lookups = image::Image(w, h, 1, 0.0f);
+    pixel_stats.hits = image::Image(w, h, 1, 0.0f);
+    pixel_stats.created = image::Image(w, h, 1, 0.0f);
+  }
+
+  const std::vector<Tile> tiles = make_tiles(w, h);
+  const int threads = settings.threads > 0
+                          ? settings.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  // Passes of sample ranges. Accumulation: one lens position per pass. With a cache: doubling
+  // passes, so early passes fill the cache that later (larger) passes read. Otherwise: one pass.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> passes;
+  const auto spp = static_cast<std::uint32_t>(settings.spp);
+  if (settings.visibility_only) {
+  } else if (settings.mode == Mode::Accumulation) {
+    for (std::uint32_t s = 0; s < spp; ++s) passes.emplace_back(s, s + 1);
+  } else if (cache) {
+    for (std::uint32_t s0 = 0, n = 1; s0 < spp; s0 += n, n = s0)
+      passes.emplace_back(s0, std::min(spp, s0 + n));
+  } else {
+    passes.emplace_back(0, spp);
+  }
+
+  std::vector<double> sum(static_cast<size_t>(w) * h * 3, 0.0);
+  std::vector<TileWork> work(tiles.size());
+  RenderStats& st = out.stats;
+  std::uint64_t rays = 0, shading_points = 0;
+  auto collect = [&](TileWork& tw) {  // after each parallel loop, in tile order
+    rays += tw.rays.rays;
+    shading_points += tw.rays.shading_points;
+    st.cache_lookups += tw.lookups;
+    st.cache_hits += tw.hits;
+    st.cache_tile_hits += tw.tile_hits;
+    st.cache_lookup_seconds += tw.lookup_seconds;
+    tw.rays = RayCounters{};
+    tw.lookups = tw.hits = tw.tile_hits = 0;
+    tw.lookup_seconds = 0.0;
+  };
+  std::uint64_t total_work = static_cast<std::uint64_t>(w) * h * (passes.empty() ? 1 : spp);
+  Progress progress(settings.progress_label, total_work, settings.progress);
+
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1), [&](const auto& r) {
+      for (size_t i = r.begin(); i != r.end(); ++i) render_aovs(c, tiles[i], out, work[i].rays);
+    });
+  });
+  for (TileWork& tw : work) collect(tw);
+  if (passes.empty()) progress.advance(total_work);
+
+  for (auto [s0, s1] : passes) {
+    arena.execute([&, s0 = s0, s1 = s1] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1), [&](const auto& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const Tile& t = tiles[i];
+          render_samples(c, t, s0, s1, sum, work[i], pixel_stats);
+          progress.advance(static_cast<std::uint64_t>(t.x1 - t.x0) * (t.y1 - t.y0) * (s1 - s0));
+        }
+      });
+    });
+    ++st.passes;
+    for (TileWork& tw : work) collect(tw);
+    if (!cache) continue;
+    // Merge the tiles' new samples in tile order; insert() sorts them canonically anyway.
+    std::vector<cache::CacheSample> batch;
+    std::vector<cache::TraceLookup> traced;
+    for (TileWork& tw : work) {
+      tw.buffer.append_to(&batch);
+      tw.buffer.clear();
+      if (settings.cache.trace) {
+        traced.insert(traced.end(), tw.traced.begin(), tw.traced.end());
+        tw.traced.clear();
+      }
+    }
+    auto t0 = std::chrono::steady_clock::now();
+    if (settings.cache.insert && !batch.empty()) cache->insert(batch);
+    st.cache_insert_seconds += seconds_since(t0);
+    st.cache_inserted += batch.size();
+    if (settings.cache.trace) {
+      settings.cache.trace->add_lookups(traced);
+      settings.cache.trace->add_inserts(batch);
+    }
+  }
+  progress.finish();
+
+  if (!passes.empty()) {
+    std::vector<float>& color = out.color.data();
+    for (size_t i = 0; i < color.size(); ++i) color[i] = static_cast<float>(sum[i] / spp);
+  }
+  if (cache) {
+    out.cache_hits = image::Image(w, h, 1, 0.0f);
+    for (size_t i = 0; i < out.cache_hits.pixel_count(); ++i) {
+      float n = pixel_stats.lookups.data()[i];
+      out.cache_hits.data()[i] = n > 0.0f ? pixel_stats.hits.data()[i] / n : 0.0f;
+    }
+    out.cache_density = std::move(pixel_stats.created);
+    st.cache_samples = cache->size();
+    st.cache_memory_bytes = cache->memory_bytes();
+  }
+  st.seconds = seconds_since(start);
+  std::uint64_t rendered = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) rendered += !masked_out(settings, x, y);
+  st.camera_rays = passes.empty() ? 0 : rendered * spp;
+  st.rays = rays;
+  st.shading_points = shading_points;
+  st.threads = threads;
+  return out;
+}
+
+}  // namespace dofcache::render

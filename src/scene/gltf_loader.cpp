@@ -1,0 +1,963 @@
+// glTF 2.0 -> Scene. tinygltf parses the JSON/GLB, decodes buffers and images; everything the
+// renderer relies on (indices, accessor ranges, finite positions, non-degenerate triangles) is
+// validated here, because tinygltf leaves most of it unchecked (and indices at -1 when absent).
+#include "dofcache/scene/gltf_loader.h"
+
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <optional>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_inverse.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat3x3.hpp>
+
+#include "dofcache/core/error.h"
+#include "dofcache/core/rng.h"
+
+namespace dofcache::scene {
+namespace {
+
+constexpr const char* kLightsExt = "KHR_lights_punctual";
+constexpr const char* kEmissiveStrengthExt = "KHR_materials_emissive_strength";
+
+// Extensions the loader implements; a file that requires any other one is rejected rather than
+// rendered wrongly.
+bool understood_extension(const std::string& name) {
+  return name == kLightsExt || name == kEmissiveStrengthExt || name == "KHR_mesh_quantization";
+}
+
+// tinygltf's messages span several lines ending in '\n'; ours are one line.
+std::string one_line(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '\n' || c == '\r') {
+      if (!out.empty() && out.back() != ' ') out += "; ";
+    } else {
+      out += c;
+    }
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
+  return out;
+}
+
+std::string quoted(const std::string& name) { return name.empty() ? "" : " '" + name + "'"; }
+
+const char* type_name(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR:
+      return "SCALAR";
+    case TINYGLTF_TYPE_VEC2:
+      return "VEC2";
+    case TINYGLTF_TYPE_VEC3:
+      return "VEC3";
+    default:
+      return "VEC4";
+  }
+}
+
+float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
+
+bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// ----------------------------------------------------------------------------------------------
+// Content hash: a stable 64-bit identity of what the renderer sees.
+
+class Hasher {
+ public:
+  void add(std::uint64_t v) { h_ = hash_combine(h_, v); }
+  void add(float f) {
+    if (f == 0.0f) f = 0.0f;  // -0 and +0 hash alike
+    std::uint32_t bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    add(static_cast<std::uint64_t>(bits));
+  }
+  void add(glm::vec2 v) { add(v.x), add(v.y); }
+  void add(glm::vec3 v) { add(v.x), add(v.y), add(v.z); }
+  void add(glm::vec4 v) { add(v.x), add(v.y), add(v.z), add(v.w); }
+  void add(const std::string& s) {
+    add(static_cast<std::uint64_t>(s.size()));
+    for (unsigned char c : s) add(static_cast<std::uint64_t>(c));
+  }
+  std::uint64_t value() const { return h_; }
+
+ private:
+  std::uint64_t h_ = 0x646f6663616368ULL;  // "dofcach"
+};
+
+std::uint64_t content_hash(const Scene& s) {
+  Hasher h;
+  h.add(static_cast<std::uint64_t>(s.mesh.positions.size()));
+  for (glm::vec3 p : s.mesh.positions) h.add(p);
+  for (glm::vec3 n : s.mesh.normals) h.add(n);
+  h.add(static_cast<std::uint64_t>(s.mesh.uv0.size()));
+  for (glm::vec2 t : s.mesh.uv0) h.add(t);
+  h.add(static_cast<std::uint64_t>(s.mesh.uv1.size()));
+  for (glm::vec2 t : s.mesh.uv1) h.add(t);
+  h.add(static_cast<std::uint64_t>(s.mesh.triangles.size()));
+  for (std::size_t i = 0; i < s.mesh.triangles.size(); ++i) {
+    const glm::uvec3& t = s.mesh.triangles[i];
+    h.add((static_cast<std::uint64_t>(t.x) << 32) | t.y);
+    h.add((static_cast<std::uint64_t>(t.z) << 32) | s.mesh.triangle_material[i]);
+  }
+  h.add(static_cast<std::uint64_t>(s.materials.size()));
+  for (const Material& m : s.materials) {
+    h.add(m.name);
+    h.add(m.base_color);
+    h.add(m.metallic), h.add(m.roughness);
+    h.add(m.emissive);
+    for (const TextureRef* r :
+         {&m.base_color_texture, &m.metallic_roughness_texture, &m.emissive_texture})
+      h.add((static_cast<std::uint64_t>(static_cast<std::uint32_t>(r->index)) << 8) |
+            static_cast<std::uint64_t>(r->texcoord));
+    h.add(static_cast<std::uint64_t>(m.double_sided));
+  }
+  h.add(static_cast<std::uint64_t>(s.textures.size()));
+  for (const Texture& t : s.textures) {
+    h.add((static_cast<std::uint64_t>(t.width) << 32) | static_cast<std::uint32_t>(t.height));
+    h.add((static_cast<std::uint64_t>(t.wrap_s) << 16) |
+          (static_cast<std::uint64_t>(t.wrap_t) << 8) | static_cast<std::uint64_t>(t.nearest));
+    for (glm::vec4 v : t.texels) h.add(v);
+  }
+  h.add(static_cast<std::uint64_t>(s.lights.size()));
+  for (const PunctualLight& l : s.lights) {
+    h.add(static_cast<std::uint64_t>(l.type));
+    h.add(l.position), h.add(l.direction), h.add(l.intensity);
+    h.add(l.range), h.add(l.inner_cone), h.add(l.outer_cone);
+  }
+  return h.value();
+}
+
+// ----------------------------------------------------------------------------------------------
+
+struct AccessorView {
+  const unsigned char* data = nullptr;  // nullptr: no bufferView, all elements are zero
+  std::size_t count = 0, stride = 0;
+  int components = 0, component_type = 0;
+  bool normalized = false;
+
+  float component(std::size_t element, int c) const {
+    if (!data) return 0.0f;
+    const unsigned char* p = data + element * stride;
+    switch (component_type) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float f;
+        std::memcpy(&f, p + 4 * c, 4);
+        return f;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+        float v = p[c];
+        return normalized ? v / 255.0f : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        float v = static_cast<signed char>(p[c]);
+        return normalized ? std::max(v / 127.0f, -1.0f) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        std::uint16_t u;
+        std::memcpy(&u, p + 2 * c, 2);
+        return normalized ? u / 65535.0f : static_cast<float>(u);
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        std::int16_t s;
+        std::memcpy(&s, p + 2 * c, 2);
+        return normalized ? std::max(s / 32767.0f, -1.0f) : static_cast<float>(s);
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        std::uint32_t u;
+        std::memcpy(&u, p + 4 * c, 4);
+        return static_cast<float>(u);
+      }
+      default:
+        return 0.0f;
+    }
+  }
+
+  std::uint32_t index(std::size_t element) const {
+    if (!data) return 0;
+    const unsigned char* p = data + element * stride;
+    switch (component_type) {
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return p[0];
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        std::uint16_t u;
+        std::memcpy(&u, p, 2);
+        return u;
+      }
+      default: {
+        std::uint32_t u;
+        std::memcpy(&u, p, 4);
+        return u;
+      }
+    }
+  }
+};
+
+class Loader {
+ public:
+  Loader(const tinygltf::Model& model, std::string name, const LoadOptions& options)
+      : model_(model), name_(std::move(name)), options_(options) {}
+
+  Scene load() {
+    check_extensions();
+    std::vector<int> roots = root_nodes();
+    scene_.source = name_;
+    // Every glTF material is converted (Scene::materials keeps the glTF indices); the default
+    // material, if a primitive needs it, is appended after them.
+    for (std::size_t i = 0; i < model_.materials.size(); ++i)
+      scene_.materials.push_back(convert_material(static_cast<int>(i)));
+    std::vector<int> path;
+    for (int root : roots) visit(root, glm::dmat4(1.0), path);
+    if (scene_.mesh.triangles.empty())
+      throw Error(name_ + ": no triangle geometry in " + scene_label_ +
+                  " (no node with a mesh of triangles)");
+    finish_mesh();
+    build_emitters();
+    if (scene_.cameras.empty()) synthesize_camera();
+    scene_.content_hash = content_hash(scene_);
+    return std::move(scene_);
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& element, const std::string& problem) const {
+    throw Error(name_ + ": " + element + ": " + problem);
+  }
+  void warn(const std::string& element, const std::string& note) {
+    scene_.warnings.push_back(name_ + ": " + element + ": " + note);
+  }
+
+  template <class T>
+  const T& at(const std::vector<T>& items, int index, const char* kind,
+              const std::string& user) const {
+    if (index < 0 || static_cast<std::size_t>(index) >= items.size())
+      fail(user, std::string(kind) + " index " + std::to_string(index) +
+                     " is out of range (the file has " + std::to_string(items.size()) + ")");
+    return items[static_cast<std::size_t>(index)];
+  }
+
+  std::string mesh_label(int mesh) const {
+    return "mesh" + quoted(model_.meshes[static_cast<std::size_t>(mesh)].name) + " (" +
+           std::to_string(mesh) + ")";
+  }
+  std::string node_label(int node) const {
+    return "node" + quoted(model_.nodes[static_cast<std::size_t>(node)].name) + " (" +
+           std::to_string(node) + ")";
+  }
+
+  void check_extensions() {
+    for (const std::string& ext : model_.extensionsRequired)
+      if (!understood_extension(ext)) fail("extensionsRequired", "unsupported extension " + ext);
+    for (const std::string& ext : model_.extensionsUsed)
+      if (ext == "KHR_texture_transform")
+        warn("extensionsUsed", "KHR_texture_transform is ignored (texture coordinates used as is)");
+  }
+
+  // Root nodes of the chosen scene: LoadOptions::scene_index, else the file's default scene,
+  // else scene 0; a file without scenes shows every node that is nobody's child.
+  std::vector<int> root_nodes() {
+    int count = static_cast<int>(model_.scenes.size());
+    int index = options_.scene_index;
+    if (index < -1 || index >= count)
+      fail("scene " + std::to_string(index), "scene index out of range (the file has " +
+                                                 std::to_string(count) + " scene" +
+                                                 (count == 1 ? ")" : "s)"));
+    if (index < 0)
+      index = model_.defaultScene >= 0 && model_.defaultScene < count ? model_.defaultScene : 0;
+    if (count == 0) {
+      scene_label_ = "the file";
+      std::vector<bool> is_child(model_.nodes.size(), false);
+      for (std::size_t n = 0; n < model_.nodes.size(); ++n)
+        for (int c : model_.nodes[n].children)
+          if (c >= 0 && static_cast<std::size_t>(c) < is_child.size())
+            is_child[static_cast<std::size_t>(c)] = true;
+      std::vector<int> roots;
+      for (std::size_t n = 0; n < model_.nodes.size(); ++n)
+        if (!is_child[n]) roots.push_back(static_cast<int>(n));
+      return roots;
+    }
+    const tinygltf::Scene& s = model_.scenes[static_cast<std::size_t>(index)];
+    scene_label_ = "scene" + quoted(s.name) + " (" + std::to_string(index) + ")";
+    for (int n : s.nodes) at(model_.nodes, n, "node", scene_label_);
+    return s.nodes;
+  }
+
+  glm::dmat4 local_matrix(int n) const {
+    const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(n)];
+    if (!node.matrix.empty()) {
+      if (node.matrix.size() != 16) fail(node_label(n), "matrix must have 16 numbers");
+      glm::dmat4 m = glm::make_mat4(node.matrix.data());  // column-major, as glTF stores it
+      for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+          if (!std::isfinite(m[c][r])) fail(node_label(n), "matrix is not finite");
+      return m;
+    }
+    glm::dmat4 t(1.0), r(1.0), s(1.0);
+    if (!node.translation.empty()) {
+      if (node.translation.size() != 3) fail(node_label(n), "translation must have 3 numbers");
+      t = glm::translate(glm::dmat4(1.0),
+                         glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
+    }
+    if (!node.rotation.empty()) {
+      if (node.rotation.size() != 4) fail(node_label(n), "rotation must have 4 numbers");
+      // glTF stores (x, y, z, w); glm's constructor takes w first.
+      glm::dquat q(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
+      double len = glm::length(q);
+      if (!(len > 0.0) || !std::isfinite(len))
+        fail(node_label(n), "rotation is not a unit quaternion");
+      r = glm::mat4_cast(q / len);
+    }
+    if (!node.scale.empty()) {
+      if (node.scale.size() != 3) fail(node_label(n), "scale must have 3 numbers");
+      s = glm::scale(glm::dmat4(1.0), glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
+    }
+    glm::dmat4 m = t * r * s;
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 4; ++k)
+        if (!std::isfinite(m[c][k])) fail(node_label(n), "transform is not finite");
+    return m;
+  }
+
+  void visit(int n, const glm::dmat4& parent, std::vector<int>& path) {
+    if (std::find(path.begin(), path.end(), n) != path.end())
+      fail(node_label(n), "the node hierarchy has a cycle");
+    path.push_back(n);
+    const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(n)];
+    glm::dmat4 world = parent * local_matrix(n);
+    if (node.mesh != -1) {
+      at(model_.meshes, node.mesh, "mesh", node_label(n));
+      add_mesh(n, node.mesh, world);
+    }
+    if (node.camera != -1) {
+      at(model_.cameras, node.camera, "camera", node_label(n));
+      add_camera(n, world);
+    }
+    auto light = node.extensions.find(kLightsExt);
+    if (light != node.extensions.end()) add_light(n, light->second, world);
+    for (int child : node.children) {
+      at(model_.nodes, child, "node", node_label(n));
+      visit(child, world, path);
+    }
+    path.pop_back();
+  }
+
+  // -- accessors
+
+  AccessorView accessor(int index, int expected_type, const std::string& user) const {
+    const tinygltf::Accessor& acc = at(model_.accessors, index, "accessor", user);
+    std::string label = "accessor " + std::to_string(index) + quoted(acc.name) + " (" + user + ")";
+    if (acc.sparse.isSparse) fail(label, "sparse accessors are not supported");
+    int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(acc.componentType));
+    int components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(acc.type));
+    if (size <= 0 || acc.componentType == TINYGLTF_COMPONENT_TYPE_DOUBLE)
+      fail(label, "invalid componentType " + std::to_string(acc.componentType));
+    if (components <= 0 || acc.type != expected_type)
+      fail(label, std::string("must be of type ") + type_name(expected_type));
+    AccessorView view;
+    view.count = acc.count;
+    view.components = components;
+    view.component_type = acc.componentType;
+    view.normalized = acc.normalized;
+    auto element = static_cast<std::size_t>(size) * static_cast<std::size_t>(components);
+    if (acc.bufferView == -1) {  // no data: all zeros (glTF 3.6.2.2)
+      // Nothing bounds the count by real bytes here; refuse absurd ones before allocating.
+      if (acc.count > (std::size_t{1} << 24))
+        fail(label, "has no bufferView and an implausible count " + std::to_string(acc.count));
+      return view;
+    }
+
+    const tinygltf::BufferView& bv = at(model_.bufferViews, acc.bufferView, "bufferView", label);
+    std::string bv_label = "bufferView " + std::to_string(acc.bufferView);
+    const tinygltf::Buffer& buffer = at(model_.buffers, bv.buffer, "buffer", bv_label);
+    if (bv.byteOffset > buffer.data.size() || bv.byteLength > buffer.data.size() - bv.byteOffset)
+      fail(bv_label, "byte range " + std::to_string(bv.byteOffset) + "+" +
+                         std::to_string(bv.byteLength) + " exceeds buffer " +
+                         std::to_string(bv.buffer) + " (" + std::to_string(buffer.data.size()) +
+                         " bytes)");
+    view.stride = bv.byteStride != 0 ? bv.byteStride : element;
+    if (view.stride < element)
+      fail(bv_label, "byteStride " + std::to_string(bv.byteStride) +
+                         " is smaller than one element (" + std::to_string(element) + " bytes)");
+    if (acc.count > 0) {
+      // offset + (count - 1) * stride + element <= byteLength, without overflow.
+      std::size_t available = bv.byteLength;
+      bool fits = acc.byteOffset <= available && element <= available - acc.byteOffset &&
+                  acc.count - 1 <= (available - acc.byteOffset - element) / view.stride;
+      if (!fits)
+        fail(label, "byteOffset " + std::to_string(acc.byteOffset) + " + " +
+                        std::to_string(acc.count) + " elements of stride " +
+                        std::to_string(view.stride) + " exceed " + bv_label + " (" +
+                        std::to_string(bv.byteLength) + " bytes)");
+    }
+    view.data = buffer.data.data() + bv.byteOffset + acc.byteOffset;
+    return view;
+  }
+
+  // -- meshes
+
+  void add_mesh(int node, int mesh_index, const glm::dmat4& world) {
+    const tinygltf::Mesh& mesh = model_.meshes[static_cast<std::size_t>(mesh_index)];
+    glm::dmat3 linear(world);
+    glm::dmat3 normal_matrix = glm::inverseTranspose(linear);
+    // A mirroring transform flips the winding; glTF says the determinant decides the front face.
+    bool mirrored = glm::determinant(linear) < 0.0;
+    for (std::size_t p = 0; p < mesh.primitives.size(); ++p)
+      add_primitive(node, mesh_index, p, world, normal_matrix, mirrored);
+  }
+
+  void add_primitive(int node, int mesh_index, std::size_t p, const glm::dmat4& world,
+                     const glm::dmat3& normal_matrix, bool mirrored) {
+    const tinygltf::Primitive& prim =
+        model_.meshes[static_cast<std::size_t>(mesh_index)].primitives[p];
+    std::string label = mesh_label(mesh_index) + " primitive " + std::to_string(p);
+    int mode = prim.mode == -1 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE ||
+        mode == TINYGLTF_MODE_LINE_LOOP || mode == TINYGLTF_MODE_LINE_STRIP) {
+      warn(label, "points and lines are not rendered; primitive skipped");
+      return;
+    }
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+        mode != TINYGLTF_MODE_TRIANGLE_FAN)
+      fail(label, "unknown primitive mode " + std::to_string(mode));
+
+    auto attribute = [&](const char* name) {
+      auto it = prim.attributes.find(name);
+      return it == prim.attributes.end() ? -1 : it->second;
+    };
+    int pos_acc = attribute("POSITION");
+    if (pos_acc < 0) fail(label, "has no POSITION attribute");
+    AccessorView pos = accessor(pos_acc, TINYGLTF_TYPE_VEC3, label + " POSITION");
+    std::size_t vertex_count = pos.count;
+    std::optional<AccessorView> nrm, uv[2];
+    if (int a = attribute("NORMAL"); a >= 0)
+      nrm = accessor(a, TINYGLTF_TYPE_VEC3, label + " NORMAL");
+    if (int a = attribute("TEXCOORD_0"); a >= 0)
+      uv[0] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_0");
+    if (int a = attribute("TEXCOORD_1"); a >= 0)
+      uv[1] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_1");
+    for (const auto* v : {&nrm, &uv[0], &uv[1]})
+      if (*v && (*v)->count != vertex_count)
+        fail(label, "attribute counts differ (" + std::to_string((*v)->count) + " vs " +
+                        std::to_string(vertex_count) + " positions)");
+
+    // Vertex indices of the primitive, as triangles in the primitive's own numbering.
+    std::vector<std::uint32_t> order;
+    if (prim.indices != -1) {
+      AccessorView idx = accessor(prim.indices, TINYGLTF_TYPE_SCALAR, label + " indices");
+      if (idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+          idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+          idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        fail(label + " indices", "index componentType must be an unsigned integer type");
+      order.resize(idx.count);
+      for (std::size_t i = 0; i < idx.count; ++i) {
+        order[i] = idx.index(i);
+        if (order[i] >= vertex_count)
+          fail(label + " indices", "index " + std::to_string(order[i]) + " at position " +
+                                       std::to_string(i) + " is out of range (" +
+                                       std::to_string(vertex_count) + " vertices)");
+      }
+    } else {
+      order.resize(vertex_count);
+      for (std::size_t i = 0; i < vertex_count; ++i) order[i] = static_cast<std::uint32_t>(i);
+    }
+    std::vector<glm::uvec3> tris;
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+      if (order.size() % 3 != 0)
+        warn(label, std::to_string(order.size() % 3) + " trailing index(es) ignored");
+      for (std::size_t i = 0; i + 2 < order.size(); i += 3)
+        tris.emplace_back(order[i], order[i + 1], order[i + 2]);
+    } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+      for (std::size_t i = 0; i + 2 < order.size(); ++i)  // keep every triangle's orientation
+        tris.emplace_back(order[i], order[i + 1 + i % 2], order[i + 2 - i % 2]);
+    } else {
+      for (std::size_t i = 1; i + 1 < order.size(); ++i)
+        tris.emplace_back(order[i], order[i + 1], order[0]);
+    }
+    if (tris.empty()) {
+      warn(label, "has no triangles");
+      return;
+    }
+
+    // World-space vertices.
+    std::vector<glm::vec3> positions(vertex_count), normals;
+    for (std::size_t i = 0; i < vertex_count; ++i) {
+      glm::dvec3 local(pos.component(i, 0), pos.component(i, 1), pos.component(i, 2));
+      if (!std::isfinite(local.x) || !std::isfinite(local.y) || !std::isfinite(local.z))
+        fail(label + " POSITION", "vertex " + std::to_string(i) + " is not finite (NaN or Inf)");
+      positions[i] = glm::vec3(world * glm::dvec4(local, 1.0));
+      if (!finite(positions[i]))
+        fail(label + " POSITION", "vertex " + std::to_string(i) + " is not finite after the " +
+                                      node_label(node) + " transform");
+    }
+    if (nrm) {
+      normals.resize(vertex_count);
+      for (std::size_t i = 0; i < vertex_count; ++i) {
+        glm::dvec3 n = normal_matrix *
+                       glm::dvec3(nrm->component(i, 0), nrm->component(i, 1), nrm->component(i, 2));
+        double len = glm::length(n);
+        // Zero or broken normals are repaired from the faces below (marked by a zero vector).
+        normals[i] = len > 0.0 && std::isfinite(len) ? glm::vec3(n / len) : glm::vec3(0.0f);
+      }
+    }
+
+    // Validate triangles (world space) and append.
+    std::uint32_t material = material_index(prim.material, label);
+    bool strip_or_fan = mode != TINYGLTF_MODE_TRIANGLES;
+    Mesh& out = scene_.mesh;
+    auto base = static_cast<std::uint32_t>(out.positions.size());
+    std::vector<glm::uvec3> kept;
+    kept.reserve(tris.size());
+    for (std::size_t t = 0; t < tris.size(); ++t) {
+      glm::uvec3 tri = tris[t];
+      if (mirrored) std::swap(tri.y, tri.z);
+      glm::dvec3 p0(positions[tri.x]), p1(positions[tri.y]), p2(positions[tri.z]);
+      glm::dvec3 e0 = p1 - p0, e1 = p2 - p0, e2 = p2 - p1;
+      double cross = glm::length(glm::cross(e0, e1));
+      double longest = std::max({glm::dot(e0, e0), glm::dot(e1, e1), glm::dot(e2, e2)});
+      if (!(cross > 1e-10 * longest) || longest == 0.0) {
+        if (strip_or_fan) continue;  // degenerate stitching triangles are normal in strips
+        fail(label, "triangle " + std::to_string(t) + " has zero area (vertices " +
+                        std::to_string(tris[t].x) + ", " + std::to_string(tris[t].y) + ", " +
+                        std::to_string(tris[t].z) + ")");
+      }
+      kept.push_back(tri);
+    }
+    if (nrm) {
+      // Shared vertices, the primitive's own normals.
+      for (glm::uvec3 tri : kept) {
+        glm::vec3 face = glm::cross(positions[tri.y] - positions[tri.x],  // area-weighted
+                                    positions[tri.z] - positions[tri.x]);
+        for (std::uint32_t v : {tri.x, tri.y, tri.z})
+          if (normals[v] == glm::vec3(0.0f)) repaired_.emplace_back(base + v, face);
+      }
+      for (std::size_t i = 0; i < vertex_count; ++i) {
+        out.positions.push_back(positions[i]);
+        out.normals.push_back(normals[i]);
+        push_uvs(uv, i);
+      }
+      for (glm::uvec3 tri : kept) push_triangle(tri + glm::uvec3(base), material, node);
+    } else {
+      // No NORMAL: flat shading, so every triangle gets its own three vertices.
+      for (glm::uvec3 tri : kept) {
+        glm::dvec3 p0(positions[tri.x]), p1(positions[tri.y]), p2(positions[tri.z]);
+        glm::vec3 face(glm::normalize(glm::cross(p1 - p0, p2 - p0)));  // double: tiny triangles
+        auto first = static_cast<std::uint32_t>(out.positions.size());
+        for (std::uint32_t v : {tri.x, tri.y, tri.z}) {
+          out.positions.push_back(positions[v]);
+          out.normals.push_back(face);
+          push_uvs(uv, v);
+        }
+        push_triangle(glm::uvec3(first, first + 1, first + 2), material, node);
+      }
+    }
+  }
+
+  void push_uvs(const std::optional<AccessorView> (&uv)[2], std::size_t v) {
+    for (int set = 0; set < 2; ++set) {
+      std::vector<glm::vec2>& dst = set == 0 ? scene_.mesh.uv0 : scene_.mesh.uv1;
+      if (uv[set]) {
+        has_uv_[set] = true;
+        dst.emplace_back(uv[set]->component(v, 0), uv[set]->component(v, 1));
+      } else {
+        dst.emplace_back(0.0f);
+      }
+    }
+  }
+
+  void push_triangle(glm::uvec3 tri, std::uint32_t material, int node) {
+    scene_.mesh.triangles.push_back(tri);
+    scene_.mesh.triangle_material.push_back(material);
+    scene_.mesh.triangle_object.push_back(static_cast<std::uint32_t>(node));
+  }
+
+  void finish_mesh() {
+    Mesh& m = scene_.mesh;
+    // Vertices whose NORMAL was zero or broken get the (area-weighted) mean of their faces.
+    std::map<std::uint32_t, glm::vec3> sums;
+    for (auto& [v, face] : repaired_) sums[v] += face;
+    for (auto& [v, sum] : sums)
+      m.normals[v] = glm::length(sum) > 0.0f ? glm::normalize(sum) : glm::vec3(0, 0, 1);
+    if (!has_uv_[0]) m.uv0.clear();
+    if (!has_uv_[1]) m.uv1.clear();
+    for (glm::vec3 p : m.positions) scene_.bounds.extend(p);
+    // Embree reads vertex buffers with 16-byte loads: keep (initialised) room for one more float
+    // after the last vertex so the accelerator can share this buffer (see accel.cpp).
+    m.positions.emplace_back(0.0f);
+    m.positions.pop_back();
+  }
+
+  // -- materials and textures
+
+  std::uint32_t material_index(int index, const std::string& user) {
+    if (index == -1) {
+      if (default_material_ < 0) {
+        // glTF's default material: every property at its default (white, metallic 1, rough 1).
+        Material m;
+        m.name = "default";
+        default_material_ = static_cast<int>(scene_.materials.size());
+        scene_.materials.push_back(m);
+      }
+      return static_cast<std::uint32_t>(default_material_);
+    }
+    at(model_.materials, index, "material", user);
+    return static_cast<std::uint32_t>(index);
+  }
+
+  Material convert_material(int index) {
+    const tinygltf::Material& gm = model_.materials[static_cast<std::size_t>(index)];
+    std::string label = "material" + quoted(gm.name) + " (" + std::to_string(index) + ")";
+    Material m;
+    m.name = gm.name.empty() ? "material" + std::to_string(index) : gm.name;
+    const auto& pbr = gm.pbrMetallicRoughness;
+    if (pbr.baseColorFactor.size() == 4)
+      m.base_color = glm::vec4(pbr.baseColorFactor[0], pbr.baseColorFactor[1],
+                               pbr.baseColorFactor[2], pbr.baseColorFactor[3]);
+    else if (!pbr.baseColorFactor.empty())
+      fail(label, "baseColorFactor must have 4 numbers");
+    m.metallic = static_cast<float>(pbr.metallicFactor);
+    m.roughness = static_cast<float>(pbr.roughnessFactor);
+    if (gm.emissiveFactor.size() == 3)
+      m.emissive = glm::vec3(gm.emissiveFactor[0], gm.emissiveFactor[1], gm.emissiveFactor[2]);
+    else if (!gm.emissiveFactor.empty())
+      fail(label, "emissiveFactor must have 3 numbers");
+    auto strength = gm.extensions.find(kEmissiveStrengthExt);
+    if (strength != gm.extensions.end()) {
+      const tinygltf::Value& s = strength->second.Get("emissiveStrength");
+      if (s.IsNumber()) {
+        double v = s.GetNumberAsDouble();
+        if (!(v >= 0.0) || !std::isfinite(v))
+          fail(label, std::string(kEmissiveStrengthExt) + ".emissiveStrength must be >= 0");
+        m.emissive *= static_cast<float>(v);
+      }
+    }
+    if (!finite(glm::vec3(m.base_color)) || !std::isfinite(m.metallic) ||
+        !std::isfinite(m.roughness) || !finite(m.emissive))
+      fail(label, "has a non-finite factor");
+    m.base_color_texture = texture_ref(pbr.baseColorTexture, label + " baseColorTexture");
+    m.metallic_roughness_texture =
+        texture_ref(pbr.metallicRoughnessTexture, label + " metallicRoughnessTexture");
+    m.emissive_texture = texture_ref(gm.emissiveTexture, label + " emissiveTexture");
+    m.double_sided = gm.doubleSided;
+    if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
+      warn(label, "alphaMode " + gm.alphaMode + " is rendered as OPAQUE");
+    return m;
+  }
+
+  TextureRef texture_ref(const tinygltf::TextureInfo& info, const std::string& user) {
+    TextureRef ref;
+    if (info.index == -1) return ref;
+    at(model_.textures, info.index, "texture", user);
+    ref.texcoord = info.texCoord;
+    if (info.texCoord != 0 && info.texCoord != 1) {
+      warn(user,
+           "texCoord " + std::to_string(info.texCoord) + " is not supported; TEXCOORD_0 used");
+      ref.texcoord = 0;
+    }
+    auto it = texture_map_.find(info.index);
+    if (it == texture_map_.end()) {
+      it = texture_map_.emplace(info.index, static_cast<int>(scene_.textures.size())).first;
+      scene_.textures.push_back(convert_texture(info.index));
+    }
+    ref.index = it->second;
+    return ref;
+  }
+
+  Texture convert_texture(int index) {
+    const tinygltf::Texture& gt = model_.textures[static_cast<std::size_t>(index)];
+    std::string label = "texture" + quoted(gt.name) + " (" + std::to_string(index) + ")";
+    if (gt.source == -1)
+      fail(label, "has no image source (only PNG and JPEG images are supported)");
+    const tinygltf::Image& image = at(model_.images, gt.source, "image", label);
+    std::string image_label = "image" + quoted(image.name) + " (" + std::to_string(gt.source) + ")";
+    int channels = image.component, bytes = image.bits / 8;
+    std::size_t needed = static_cast<std::size_t>(std::max(image.width, 0)) *
+                         static_cast<std::size_t>(std::max(image.height, 0)) *
+                         static_cast<std::size_t>(std::max(channels, 0)) *
+                         static_cast<std::size_t>(std::max(bytes, 0));
+    if (image.width <= 0 || image.height <= 0 || channels < 1 || channels > 4 ||
+        (bytes != 1 && bytes != 2) || image.image.size() < needed)
+      fail(image_label, "has no decoded pixels (unsupported or broken image)");
+
+    Texture tex;
+    tex.width = image.width;
+    tex.height = image.height;
+    tex.texels.resize(static_cast<std::size_t>(tex.width) * static_cast<std::size_t>(tex.height));
+    const unsigned char* src = image.image.data();
+    auto channel = [&](std::size_t i) -> float {
+      if (bytes == 1) return src[i] / 255.0f;
+      std::uint16_t v;
+      std::memcpy(&v, src + 2 * i, 2);
+      return v / 65535.0f;
+    };
+    for (std::size_t p = 0; p < tex.texels.size(); ++p) {
+      std::size_t i = p * static_cast<std::size_t>(channels);
+      glm::vec4& t = tex.texels[p];
+      switch (channels) {
+        case 1:
+          t = glm::vec4(glm::vec3(channel(i)), 1.0f);
+          break;
+        case 2:
+          t = glm::vec4(glm::vec3(channel(i)), channel(i + 1));
+          break;
+        case 3:
+          t = glm::vec4(channel(i), channel(i + 1), channel(i + 2), 1.0f);
+          break;
+        default:
+          t = glm::vec4(channel(i), channel(i + 1), channel(i + 2), channel(i + 3));
+          break;
+      }
+    }
+    if (gt.sampler != -1) {
+      const tinygltf::Sampler& s = at(model_.samplers, gt.sampler, "sampler", label);
+      tex.wrap_s = wrap_mode(s.wrapS);
+      tex.wrap_t = wrap_mode(s.wrapT);
+      tex.nearest = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+    }
+    return tex;
+  }
+
+  static Wrap wrap_mode(int gl) {
+    switch (gl) {
+      case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
+        return Wrap::ClampToEdge;
+      case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
+        return Wrap::MirroredRepeat;
+      default:
+        return Wrap::Repeat;
+    }
+  }
+
+  // -- lights and cameras
+
+  void add_light(int n, const tinygltf::Value& ext, const glm::dmat4& world) {
+    std::string label = node_label(n) + " " + kLightsExt;
+    const tinygltf::Value& index_value = ext.Get("light");
+    if (!index_value.IsNumber()) fail(label, "has no light index");
+    const tinygltf::Light& gl = at(model_.lights, index_value.GetNumberAsInt(), "light", label);
+    PunctualLight l;
+    if (gl.type == "point")
+      l.type = PunctualLight::Type::Point;
+    else if (gl.type == "spot")
+      l.type = PunctualLight::Type::Spot;
+    else if (gl.type == "directional")
+      l.type = PunctualLight::Type::Directional;
+    else
+      fail(label, "unknown light type '" + gl.type + "'");
+    glm::vec3 color(1.0f);
+    if (gl.color.size() == 3) color = glm::vec3(gl.color[0], gl.color[1], gl.color[2]);
+    l.intensity = color * static_cast<float>(gl.intensity);
+    l.range = static_cast<float>(gl.range);
+    l.position = glm::vec3(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+    glm::dvec3 dir = glm::dmat3(world) * glm::dvec3(0.0, 0.0, -1.0);  // lights shine down -Z
+    double len = glm::length(dir);
+    if (!(len > 0.0)) fail(label, "the node transform collapses the light direction");
+    l.direction = glm::vec3(dir / len);
+    if (l.type == PunctualLight::Type::Spot) {
+      l.inner_cone = static_cast<float>(gl.spot.innerConeAngle);
+      l.outer_cone = static_cast<float>(gl.spot.outerConeAngle);
+      if (!(l.inner_cone >= 0.0f && l.inner_cone < l.outer_cone && l.outer_cone <= 1.5707964f))
+        fail(label, "spot cone angles must satisfy 0 <= inner < outer <= pi/2");
+    }
+    if (!finite(l.intensity) || !(l.range >= 0.0f) || !std::isfinite(l.range))
+      fail(label, "intensity and range must be finite, range >= 0");
+    scene_.lights.push_back(l);
+  }
+
+  void add_camera(int n, const glm::dmat4& world) {
+    const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(n)];
+    const tinygltf::Camera& gc = model_.cameras[static_cast<std::size_t>(node.camera)];
+    std::string label = node_label(n) + " camera " + std::to_string(node.camera);
+    if (gc.type != "perspective") {
+      warn(label, "only perspective cameras are used; '" + gc.type + "' camera skipped");
+      return;
+    }
+    Camera cam;
+    cam.name = !node.name.empty() ? node.name
+               : !gc.name.empty() ? gc.name
+                                  : "camera" + std::to_string(scene_.cameras.size());
+    cam.node = n;
+    const auto& p = gc.perspective;
+    if (!(p.yfov > 0.0 && p.yfov < 3.14159)) fail(label, "yfov must be in (0, pi)");
+    cam.yfov = static_cast<float>(p.yfov);
+    if (p.aspectRatio > 0.0 && std::isfinite(p.aspectRatio))
+      cam.aspect_ratio = static_cast<float>(p.aspectRatio);
+    if (p.znear > 0.0 && std::isfinite(p.znear)) cam.znear = static_cast<float>(p.znear);
+
+    // Rigid part of the world matrix: glTF cameras ignore scale. Keep the view axis (-Z) and the
+    // up direction (Y) as they are and rebuild an orthonormal right-handed frame from them.
+    glm::dvec3 z = glm::dvec3(world[2]), y = glm::dvec3(world[1]);
+    double zl = glm::length(z);
+    if (!(zl > 0.0)) fail(label, "the node transform collapses the view direction");
+    z /= zl;
+    y -= glm::dot(y, z) * z;
+    double yl = glm::length(y);
+    if (!(yl > 1e-12)) fail(label, "the node transform collapses the up direction");
+    y /= yl;
+    glm::dvec3 x = glm::cross(y, z);
+    glm::dmat4 m(1.0);
+    m[0] = glm::dvec4(x, 0.0);
+    m[1] = glm::dvec4(y, 0.0);
+    m[2] = glm::dvec4(z, 0.0);
+    m[3] = glm::dvec4(glm::dvec3(world[3]), 1.0);
+    cam.camera_to_world = glm::mat4(m);
+
+    // Lens settings: the node's extras.lens wins key by key over the camera object's.
+    read_lens(gc.extras, label + " extras.lens", cam.lens);
+    read_lens(node.extras, node_label(n) + " extras.lens", cam.lens);
+    scene_.cameras.push_back(cam);
+  }
+
+  void read_lens(const tinygltf::Value& extras, const std::string& label, LensExtras& lens) const {
+    if (!extras.IsObject() || !extras.Has("lens")) return;
+    const tinygltf::Value& obj = extras.Get("lens");
+    if (!obj.IsObject()) fail(label, "must be an object");
+    auto read = [&](const char* key, std::optional<double>& out) {
+      if (!obj.Has(key)) return;
+      const tinygltf::Value& v = obj.Get(key);
+      double d = v.IsNumber() ? v.GetNumberAsDouble() : std::nan("");
+      if (!(d > 0.0) || !std::isfinite(d))
+        fail(label, std::string(key) + " must be a positive number of " +
+                        (std::strcmp(key, "fstop") == 0 ? "f-stops" : "metres"));
+      out = d;
+    };
+    read("focal_length", lens.focal_length);
+    read("fstop", lens.fstop);
+    read("focus_distance", lens.focus_distance);
+  }
+
+  // What glTF viewers do without a camera: look down -Z at the bounds centre from far enough for
+  // the bounding sphere to fit the vertical field of view.
+  void synthesize_camera() {
+    Camera cam;
+    cam.name = "auto";
+    cam.synthesized = true;
+    cam.yfov = 0.8f;
+    glm::vec3 center = scene_.bounds.center();
+    float radius = std::max(0.5f * scene_.bounds.diagonal(), 1e-3f);
+    float distance = radius / std::sin(0.5f * cam.yfov);
+    cam.camera_to_world = glm::mat4(1.0f);
+    cam.camera_to_world[3] = glm::vec4(center + glm::vec3(0.0f, 0.0f, distance), 1.0f);
+    cam.znear = std::max(1e-4f, 0.01f * radius);
+    cam.lens.focus_distance = distance;  // focus on the centre
+    scene_.cameras.push_back(cam);
+  }
+
+  // -- emitters
+
+  void build_emitters() {
+    const Mesh& m = scene_.mesh;
+    double total = 0.0;
+    std::vector<double> power;
+    for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+      const Material& mat = scene_.materials[m.triangle_material[t]];
+      if (mat.emissive == glm::vec3(0.0f)) continue;
+      glm::vec3 radiance = mat.emissive;
+      if (mat.emissive_texture.index >= 0) {
+        // Mean over the triangle: 10 points of a symmetric barycentric pattern.
+        static constexpr float kPattern[10][2] = {
+            {1 / 3.f, 1 / 3.f}, {1 / 6.f, 1 / 6.f}, {2 / 3.f, 1 / 6.f}, {1 / 6.f, 2 / 3.f},
+            {0.05f, 0.05f},     {0.9f, 0.05f},      {0.05f, 0.9f},      {0.45f, 0.45f},
+            {0.05f, 0.45f},     {0.45f, 0.05f}};
+        glm::vec3 sum(0.0f);
+        for (const auto& b : kPattern)
+          sum += material_emission(static_cast<std::uint32_t>(t), b[0], b[1]);
+        radiance = sum / 10.0f;
+      }
+      const glm::uvec3& tri = m.triangles[t];
+      float area = 0.5f * glm::length(glm::cross(m.positions[tri.y] - m.positions[tri.x],
+                                                 m.positions[tri.z] - m.positions[tri.x]));
+      float lum = luminance(radiance);
+      if (!(lum > 0.0f) || !(area > 0.0f)) continue;
+      scene_.emitters.push_back({static_cast<std::uint32_t>(t), area, radiance});
+      power.push_back(static_cast<double>(area) * lum);
+      total += power.back();
+    }
+    double running = 0.0;
+    for (double p : power) {
+      running += p;
+      scene_.emitter_cdf.push_back(static_cast<float>(running / total));
+    }
+    if (!scene_.emitter_cdf.empty()) scene_.emitter_cdf.back() = 1.0f;
+  }
+
+  glm::vec3 material_emission(std::uint32_t triangle, float u, float v) const {
+    return scene_.material_at(scene_.surface_point(triangle, u, v)).emission;
+  }
+
+  const tinygltf::Model& model_;
+  std::string name_;
+  LoadOptions options_;
+  Scene scene_;
+  std::string scene_label_ = "scene";
+  int default_material_ = -1;
+  bool has_uv_[2] = {false, false};
+  std::map<int, int> texture_map_;  // glTF texture -> Scene::textures
+  std::vector<std::pair<std::uint32_t, glm::vec3>> repaired_;
+};
+
+// tinygltf's failure messages, made to say what is wrong in our words where they are terse.
+std::string parser_error(const std::string& message, const std::string& base_dir) {
+  if (message.empty()) return "not a valid glTF file";
+  const std::string json_tag = "[json.exception.";
+  if (message.compare(0, json_tag.size(), json_tag) == 0) {
+    std::size_t end = message.find("] ");
+    return "invalid JSON: " + (end == std::string::npos ? message : message.substr(end + 2));
+  }
+  const std::string not_found = "File not found : ";
+  if (std::size_t at = message.find(not_found); at != std::string::npos)
+    return "referenced file not found: " + message.substr(at + not_found.size()) +
+           (base_dir.empty() ? "" : " (looked in " + base_dir + ")");
+  return message;
+}
+
+bool is_glb(const std::string& data) { return data.size() >= 4 && data.compare(0, 4, "glTF") == 0; }
+
+Scene load_model(const std::string& data, const std::string& name, const std::string& base_dir,
+                 const LoadOptions& options) {
+  if (data.size() > 0xffffffffu) throw Error(name + ": file is too large (over 4 GiB)");
+  tinygltf::TinyGLTF parser;
+  tinygltf::Model model;
+  std::string err, warn;
+  bool ok;
+  if (is_glb(data)) {
+    ok = parser.LoadBinaryFromMemory(&model, &err, &warn,
+                                     reinterpret_cast<const unsigned char*>(data.data()),
+                                     static_cast<unsigned int>(data.size()), base_dir);
+  } else {
+    ok = parser.LoadASCIIFromString(&model, &err, &warn, data.data(),
+                                    static_cast<unsigned int>(data.size()), base_dir);
+  }
+  if (!ok) throw Error(name + ": " + parser_error(one_line(err), base_dir));
+  Scene scene = Loader(model, name, options).load();
+  for (const std::string* note : {&err, &warn})  // tinygltf's non-fatal complaints
+    if (!note->empty())
+      scene.warnings.insert(scene.warnings.begin(), name + ": " + one_line(*note));
+  return scene;
+}
+
+}  // namespace
+
+Scene load_gltf(const std::string& path, const LoadOptions& options) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open file (" + std::strerror(errno) + ")");
+  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw Error(path + ": read error");
+  std::filesystem::path base = std::filesystem::path(path).parent_path();
+  return load_model(data, path, base.empty() ? std::string(".") : base.string(), options);
+}
+
+Scene load_gltf_from_memory(const std::string& data, const std::string& name,
+                            const LoadOptions& options) {
+  return load_model(data, name, "", options);
+}
+
+}  // namespace dofcache::scene

@@ -1,0 +1,191 @@
+// The `dofcache` executable end to end: good runs produce files, bad input gives one line on
+// stderr, a non-zero exit and no output file.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int exit_code;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("dofcache_cli_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  Result run(const std::string& args) {
+    std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " >" + (dir_ / "stdout").string() +
+                      " 2>" + (dir_ / "stderr").string();
+    int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "stdout"),
+            slurp(dir_ / "stderr")};
+  }
+
+  // A bad run: non-zero exit, exactly one line on stderr starting with "dofcache: error:", and no
+  // file left in the output directory other than the captured streams.
+  void expect_clean_failure(const std::string& args, const std::string& needle) {
+    Result r = run(args);
+    EXPECT_NE(r.exit_code, 0) << args;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("dofcache: error:", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
+    for (const auto& e : fs::directory_iterator(dir_)) {
+      std::string name = e.path().filename().string();
+      bool allowed = name == "stdout" || name == "stderr" || e.path().extension() == ".gltf" ||
+                     e.path().extension() == ".bin";
+      EXPECT_TRUE(allowed) << "left behind: " << name;
+    }
+  }
+
+  fs::path write(const std::string& name, const std::string& text) {
+    std::ofstream(dir_ / name) << text;
+    return dir_ / name;
+  }
+
+  fs::path dir_;
+};
+
+std::string base64(const std::vector<unsigned char>& bytes) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < bytes.size(); i += 3) {
+    unsigned v = bytes[i] << 16 | (i + 1 < bytes.size() ? bytes[i + 1] << 8 : 0) |
+                 (i + 2 < bytes.size() ? bytes[i + 2] : 0);
+    out += t[(v >> 18) & 63];
+    out += t[(v >> 12) & 63];
+    out += i + 1 < bytes.size() ? t[(v >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? t[v & 63] : '=';
+  }
+  return out;
+}
+
+// One triangle with the given vertex positions; `count` overrides the accessor count.
+std::string triangle_gltf(const std::array<float, 9>& p, int count = 3,
+                          const std::string& buffer_uri = "") {
+  std::vector<unsigned char> bytes(sizeof(float) * 9);
+  std::memcpy(bytes.data(), p.data(), bytes.size());
+  std::string uri = buffer_uri.empty()
+                        ? "data:application/octet-stream;base64," + base64(bytes)
+                        : buffer_uri;
+  return R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+    "nodes":[{"mesh":0}],
+    "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+    "accessors":[{"bufferView":0,"componentType":5126,"count":)" +
+         std::to_string(count) + R"(,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+    "bufferViews":[{"buffer":0,"byteLength":36}],
+    "buffers":[{"byteLength":36,"uri":")" + uri + R"("}]})";
+}
+
+const std::array<float, 9> kGood = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+const std::string kTiny = " --width 24 --height 18 --spp 1 --gather-rays 2 --light-samples 1 -q";
+
+TEST_F(Cli, DefaultSceneRendersToPngAndExr) {
+  Result r = run("render --out " + (dir_ / "a.png").string() + kTiny);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir_ / "a.png"));
+  EXPECT_NE(r.out.find("a.png"), std::string::npos);  // says where the image went
+  r = run("render --out " + (dir_ / "a.exr").string() + kTiny + " --stats-json " +
+          (dir_ / "s.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir_ / "a.exr"));
+  EXPECT_NE(slurp(dir_ / "s.json").find("rays_per_second"), std::string::npos);
+}
+
+TEST_F(Cli, CompareIdenticalImagesIsExact) {
+  ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
+  Result r = run("compare --json " + (dir_ / "a.exr").string() + " " + (dir_ / "a.exr").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("\"rel_mse\": 0.0"), std::string::npos) << r.out;
+}
+
+TEST_F(Cli, HelpExplainsOptions) {
+  Result r = run("render --help");
+  EXPECT_EQ(r.exit_code, 0);
+  for (const char* opt : {"--fstop", "--focus-distance", "--focal-length", "--spp", "--mode",
+                          "--seed", "--threads", "--stats-json"})
+    EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
+}
+
+TEST_F(Cli, MissingFile) {
+  expect_clean_failure("render " + (dir_ / "nope.gltf").string() + " --out " +
+                           (dir_ / "o.png").string(), "nope.gltf");
+}
+
+TEST_F(Cli, InvalidJson) {
+  fs::path p = write("bad.gltf", "{ \"asset\": { \"version\": \"2.0\" ");
+  expect_clean_failure("render " + p.string() + " --out " + (dir_ / "o.png").string(), "bad.gltf");
+}
+
+TEST_F(Cli, MissingBuffer) {
+  fs::path p = write("mb.gltf", triangle_gltf(kGood, 3, "missing.bin"));
+  expect_clean_failure("render " + p.string() + " --out " + (dir_ / "o.png").string(), "mb.gltf");
+}
+
+TEST_F(Cli, OutOfRangeAccessor) {
+  fs::path p = write("oor.gltf", triangle_gltf(kGood, 300));
+  expect_clean_failure("render " + p.string() + " --out " + (dir_ / "o.png").string(), "oor.gltf");
+}
+
+TEST_F(Cli, NanPositions) {
+  std::array<float, 9> pos = kGood;
+  pos[4] = std::nanf("");
+  fs::path p = write("nan.gltf", triangle_gltf(pos));
+  expect_clean_failure("render " + p.string() + " --out " + (dir_ / "o.png").string(), "nan.gltf");
+}
+
+TEST_F(Cli, ZeroAreaTriangle) {
+  fs::path p = write("flat.gltf", triangle_gltf({0, 0, 0, 1, 0, 0, 2, 0, 0}));
+  expect_clean_failure("render " + p.string() + " --out " + (dir_ / "o.png").string(), "flat.gltf");
+}
+
+TEST_F(Cli, UnknownCamera) {
+  expect_clean_failure("render --camera nosuchcam --out " + (dir_ / "o.png").string() + kTiny,
+                       "nosuchcam");
+}
+
+TEST_F(Cli, AbsurdParameters) {
+  expect_clean_failure("render --spp 0 --out " + (dir_ / "o.png").string(), "spp");
+  expect_clean_failure("render --fstop -2 --out " + (dir_ / "o.png").string() + kTiny, "f-number");
+  expect_clean_failure("render --focus-distance 0.01 --focal-length 0.05 --out " +
+                           (dir_ / "o.png").string() + kTiny, "focus distance");
+  expect_clean_failure("render --out " + (dir_ / "o.tiff2").string() + kTiny, "o.tiff2");
+  expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
+}
+
+TEST_F(Cli, CompareMismatchedSizes) {
+  ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
+  ASSERT_EQ(run("render --out " + (dir_ / "b.exr").string() + kTiny + " --width 30").exit_code, 0);
+  Result r = run("compare " + (dir_ / "a.exr").string() + " " + (dir_ / "b.exr").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+}  // namespace

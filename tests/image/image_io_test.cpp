@@ -1,0 +1,308 @@
+// Image files: exact EXR round trips (single- and multi-part), PNG through sRGB, atomic writes
+// that leave nothing behind on failure, and one-line errors for bad input.
+#include "dofcache/image/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "dofcache/core/error.h"
+
+namespace dofcache::image {
+namespace {
+
+namespace fs = std::filesystem;
+
+Image random_image(int w, int h, int c, unsigned seed, float lo, float hi) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(lo, hi);
+  Image im(w, h, c);
+  for (float& v : im.data()) v = u(rng);
+  return im;
+}
+
+void expect_identical(const Image& a, const Image& b) {
+  ASSERT_TRUE(a.same_shape(b)) << a.width() << "x" << a.height() << "x" << a.channels() << " vs "
+                               << b.width() << "x" << b.height() << "x" << b.channels();
+  for (size_t i = 0; i < a.data().size(); ++i)
+    ASSERT_EQ(a.data()[i], b.data()[i]) << "at sample " << i;
+}
+
+// Runs `fn`, expecting a one-line dofcache::Error; returns its message.
+template <class Fn>
+std::string error_of(Fn&& fn) {
+  try {
+    fn();
+  } catch (const Error& e) {
+    std::string msg = e.what();
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+    return msg;
+  }
+  ADD_FAILURE() << "expected dofcache::Error";
+  return {};
+}
+
+class ImageIo : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("dofcache_image_io_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  std::vector<std::string> listing() const {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir_))
+      names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+
+  fs::path dir_;
+};
+
+TEST(Srgb, TransferFunctions) {
+  EXPECT_EQ(linear_to_srgb(0.0f), 0.0f);
+  EXPECT_EQ(linear_to_srgb(1.0f), 1.0f);
+  EXPECT_NEAR(linear_to_srgb(0.5f), 0.735357f, 1e-5);
+  EXPECT_NEAR(linear_to_srgb(0.002f), 0.02584f, 1e-6);  // linear segment, 12.92 x
+  EXPECT_EQ(linear_to_srgb(-1.0f), 0.0f);
+  EXPECT_EQ(linear_to_srgb(7.0f), 1.0f);
+  EXPECT_EQ(linear_to_srgb(std::nanf("")), 0.0f);
+  for (float v = 0.0f; v <= 1.0f; v += 0.01f)
+    EXPECT_NEAR(srgb_to_linear(linear_to_srgb(v)), v, 1e-5);
+}
+
+TEST_F(ImageIo, ExrRoundTripIsExactWithExtraChannels) {
+  Image color = random_image(13, 7, 3, 1, -2.0f, 1000.0f);  // HDR and negative values
+  color.at(0, 0, 0) = 1e-30f;
+  color.at(1, 0, 1) = 3.0e38f;
+  NamedChannels depth{{"Z"}, random_image(13, 7, 1, 2, 0.1f, 1e4f)};
+  NamedChannels normal{{"N.X", "N.Y", "N.Z"}, random_image(13, 7, 3, 3, -1.0f, 1.0f)};
+  const std::string file = path("frame.exr");
+  write_image(file, color, {depth, normal});
+  EXPECT_EQ(listing(), std::vector<std::string>{"frame.exr"});  // no temporary left over
+
+  expect_identical(read_image(file), color);
+  expect_identical(read_channels(file, {"Z"}), depth.image);
+  expect_identical(read_channels(file, {"N.X", "N.Y", "N.Z"}), normal.image);
+  Image zx = read_channels(file, {"N.Z", "N.X"});  // any order asked for
+  EXPECT_EQ(zx.at(4, 5, 0), normal.image.at(4, 5, 2));
+  EXPECT_EQ(zx.at(4, 5, 1), normal.image.at(4, 5, 0));
+
+  std::string msg = error_of([&] { read_channels(file, {"Q"}); });
+  EXPECT_NE(msg.find("'Q'"), std::string::npos) << msg;
+}
+
+TEST_F(ImageIo, ExtensionIsCaseInsensitive) {
+  Image color = random_image(4, 3, 3, 4, 0.0f, 1.0f);
+  write_image(path("upper.EXR"), color);
+  expect_identical(read_image(path("upper.EXR")), color);
+  write_image(path("upper.Png"), color);
+  EXPECT_EQ(read_image(path("upper.Png")).width(), 4);
+}
+
+TEST_F(ImageIo, PngRoundTripWithinOneStep) {
+  Image color = random_image(16, 9, 3, 5, 0.0f, 1.0f);
+  color.at(0, 0, 0) = -0.5f;  // clamped to 0
+  color.at(1, 0, 1) = 3.0f;   // clamped to 1
+  const std::string file = path("frame.png");
+  write_image(file, color, {{{"Z"}, Image(16, 9, 1, 2.0f)}});  // extras are ignored by PNG
+  Image back = read_image(file);
+  ASSERT_TRUE(back.same_shape(color));
+  for (size_t i = 0; i < color.data().size(); ++i) {
+    // Compared as displayed: rounding to 8 bits moves a value by at most half a step.
+    float want = linear_to_srgb(color.data()[i]);
+    EXPECT_NEAR(linear_to_srgb(back.data()[i]), want, 0.5f / 255 + 1e-6f) << "sample " << i;
+  }
+  EXPECT_EQ(back.at(0, 0, 0), 0.0f);
+  EXPECT_EQ(back.at(1, 0, 1), 1.0f);
+}
+
+TEST_F(ImageIo, PngStoresSrgbCodes) {
+  // Linear 0.5 is sRGB 0.7354 -> code 188 (not 128, which a plain gamma-free write would give).
+  const std::string file = path("half.png");
+  write_image(file, Image(2, 2, 3, 0.5f));
+  Image raw = read_channels(file, {"R"});  // read_channels does not decode
+  EXPECT_NEAR(raw.at(0, 0, 0), 188.0f / 255.0f, 1e-6);
+  EXPECT_NEAR(read_image(file).at(1, 1, 2), srgb_to_linear(188.0f / 255.0f), 1e-6);
+}
+
+TEST_F(ImageIo, GreyAndAlphaPngsReadAsRgb) {
+  auto write_raw = [](const std::string& file, int channels, const std::vector<unsigned char>& px) {
+    auto out = OIIO::ImageOutput::create(file);
+    ASSERT_TRUE(out);
+    OIIO::ImageSpec spec(2, 1, channels, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:UnassociatedAlpha", 1);  // store the bytes as given
+    ASSERT_TRUE(out->open(file, spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, px.data()));
+    ASSERT_TRUE(out->close());
+  };
+  write_raw(path("grey.png"), 1, {0, 188});
+  Image grey = read_image(path("grey.png"));
+  ASSERT_EQ(grey.channels(), 3);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(grey.at(0, 0, c), 0.0f);
+    EXPECT_NEAR(grey.at(1, 0, c), srgb_to_linear(188.0f / 255.0f), 1e-6);
+  }
+  // RGBA with a half-transparent pixel: the colour is kept as stored, alpha dropped.
+  write_raw(path("rgba.png"), 4, {255, 188, 0, 128, 10, 20, 30, 0});
+  Image rgba = read_image(path("rgba.png"));
+  ASSERT_EQ(rgba.channels(), 3);
+  EXPECT_NEAR(rgba.at(0, 0, 0), 1.0f, 1e-6);
+  EXPECT_NEAR(rgba.at(0, 0, 1), srgb_to_linear(188.0f / 255.0f), 1e-6);
+  EXPECT_NEAR(rgba.at(1, 0, 2), srgb_to_linear(30.0f / 255.0f), 1e-6);
+}
+
+TEST_F(ImageIo, MultipartRoundTrip) {
+  std::vector<ExrPart> parts(4);
+  parts[0] = {"color",
+              {"R", "G", "B"},
+              random_image(8, 6, 3, 6, 0.0f, 50.0f),
+              {{"camera", "thin lens"}, {"focus_distance", "2.5"}}};
+  parts[1] = {"depth", {"Z"}, random_image(8, 6, 1, 7, 0.1f, 100.0f), {}};
+  Image ids(8, 6, 1);
+  for (size_t i = 0; i < ids.data().size(); ++i)
+    ids.data()[i] = static_cast<float>((i * 2654435761u) % 16777216u);  // up to 2^24 - 1
+  ids.at(0, 0, 0) = 16777215.0f;
+  parts[2] = {"ids", {"id"}, ids, {{"note", "object ids, exact below 2^24"}}};
+  // A different size, and channel names not in sorted order (OpenEXR sorts them on disk).
+  parts[3] = {"normals.half_res",
+              {"N.Z", "N.X", "N.Y"},
+              random_image(4, 3, 3, 8, -1.0f, 1.0f),
+              {{"multi line", "a\nb"}, {"utf8", "f\xc3\xbc\x72 sch\xc3\xa4rfe"}}};
+
+  const std::string file = path("inputs.exr");
+  write_multipart_exr(file, parts);
+  EXPECT_EQ(listing(), std::vector<std::string>{"inputs.exr"});
+
+  std::vector<ExrPart> back = read_multipart_exr(file);
+  ASSERT_EQ(back.size(), parts.size());
+  for (size_t i = 0; i < parts.size(); ++i) {
+    SCOPED_TRACE(parts[i].name);
+    EXPECT_EQ(back[i].name, parts[i].name);
+    EXPECT_EQ(back[i].channel_names, parts[i].channel_names);
+    EXPECT_EQ(back[i].attributes, parts[i].attributes);
+    expect_identical(back[i].image, parts[i].image);
+  }
+  EXPECT_EQ(back[2].image.at(0, 0, 0), 16777215.0f);
+
+  // A single-part file reads as one part.
+  write_image(path("single.exr"), parts[0].image, {{{"Z"}, parts[1].image}});
+  std::vector<ExrPart> single = read_multipart_exr(path("single.exr"));
+  ASSERT_EQ(single.size(), 1u);
+  EXPECT_EQ(single[0].image.channels(), 4);
+}
+
+TEST_F(ImageIo, MultipartRejectsBadParts) {
+  Image im(2, 2, 1);
+  EXPECT_THROW(write_multipart_exr(path("dup.exr"), {{"a", {"Y"}, im, {}}, {"a", {"Y"}, im, {}}}),
+               Error);
+  EXPECT_THROW(write_multipart_exr(path("count.exr"), {{"a", {"Y", "Z"}, im, {}}}), Error);
+  EXPECT_THROW(write_multipart_exr(path("none.exr"), {}), Error);
+  EXPECT_THROW(write_multipart_exr(path("parts.png"), {{"a", {"Y"}, im, {}}}), Error);
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(ImageIo, UnsupportedExtensionWritesNothing) {
+  const std::string file = path("x.jpg2");
+  std::string msg = error_of([&] { write_image(file, Image(2, 2, 3)); });
+  EXPECT_EQ(msg, "cannot write '" + file + "': unsupported image format (use .exr or .png)");
+  EXPECT_THROW(write_image(path("noext"), Image(2, 2, 3)), Error);
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(ImageIo, MissingDirectoryWritesNothing) {
+  const std::string file = path("missing/sub/out.exr");
+  std::string msg = error_of([&] { write_image(file, Image(2, 2, 3)); });
+  EXPECT_NE(msg.find("does not exist"), std::string::npos) << msg;
+  EXPECT_THROW(write_image(path("missing/out.png"), Image(2, 2, 3)), Error);
+  EXPECT_THROW(write_multipart_exr(path("missing/m.exr"), {{"a", {"Y"}, Image(2, 2, 1), {}}}),
+               Error);
+  EXPECT_TRUE(listing().empty());
+}
+
+TEST_F(ImageIo, UnwritableDirectoryWritesNothing) {
+  if (::geteuid() == 0) GTEST_SKIP() << "root ignores directory permissions";
+  fs::create_directories(dir_ / "ro");
+  fs::permissions(dir_ / "ro", fs::perms::owner_read | fs::perms::owner_exec);
+  std::string msg = error_of([&] { write_image(path("ro/out.exr"), Image(2, 2, 3)); });
+  EXPECT_NE(msg.find("ro/out.exr"), std::string::npos) << msg;
+  fs::permissions(dir_ / "ro", fs::perms::owner_all);
+  EXPECT_TRUE(fs::is_empty(dir_ / "ro"));
+}
+
+TEST_F(ImageIo, FailedRenameLeavesNoTemporary) {
+  // The target is a directory: the file is written, but renaming it over the target fails.
+  fs::create_directories(dir_ / "taken.exr" / "inside");
+  std::string msg = error_of([&] { write_image(path("taken.exr"), Image(2, 2, 3)); });
+  EXPECT_NE(msg.find("taken.exr"), std::string::npos) << msg;
+  EXPECT_EQ(listing(), std::vector<std::string>{"taken.exr"});
+  // A parent that is a file, not a directory.
+  std::ofstream(path("plain.txt")) << "x";
+  EXPECT_THROW(write_image(path("plain.txt/out.png"), Image(2, 2, 3)), Error);
+  EXPECT_EQ(listing(), (std::vector<std::string>{"plain.txt", "taken.exr"}));
+}
+
+TEST_F(ImageIo, FailedWriteLeavesExistingFileUntouched) {
+  const std::string file = path("keep.exr");
+  Image original = random_image(5, 4, 3, 9, 0.0f, 1.0f);
+  write_image(file, original);
+  // Extra channels of the wrong size: rejected before anything is written.
+  EXPECT_THROW(write_image(file, Image(5, 4, 3), {{{"Z"}, Image(4, 4, 1)}}), Error);
+  EXPECT_THROW(write_image(file, Image(5, 4, 3), {{{"R"}, Image(5, 4, 1)}}), Error);  // duplicate
+  // A writer that fails half-way: the temporary is removed, the target kept.
+  EXPECT_THROW(write_atomically(file,
+                                [](const std::string& tmp) {
+                                  std::ofstream(tmp) << "partial";
+                                  throw Error("disk full");
+                                }),
+               Error);
+  EXPECT_EQ(listing(), std::vector<std::string>{"keep.exr"});
+  expect_identical(read_image(file), original);
+}
+
+TEST_F(ImageIo, TemporaryPathsShareDirectoryAndExtension) {
+  const std::string file = path("render.exr");
+  std::string a = temporary_path_for(file), b = temporary_path_for(file);
+  EXPECT_NE(a, b);
+  EXPECT_EQ(fs::path(a).parent_path(), dir_);
+  EXPECT_EQ(fs::path(a).extension(), ".exr");
+  EXPECT_EQ(fs::path(a).filename().string().rfind(".render.tmp-", 0), 0u) << a;
+  EXPECT_EQ(fs::path(temporary_path_for("plain.png")).parent_path(), fs::path());
+}
+
+TEST_F(ImageIo, ReadingMissingOrCorruptFilesIsAnError) {
+  std::string msg = error_of([&] { read_image(path("nope.exr")); });
+  EXPECT_NE(msg.find("nope.exr"), std::string::npos) << msg;
+  EXPECT_THROW(read_channels(path("nope.exr"), {"Z"}), Error);
+  EXPECT_THROW(read_multipart_exr(path("nope.exr")), Error);
+  EXPECT_THROW(read_image(dir_.string()), Error);
+
+  std::ofstream(path("garbage.exr"), std::ios::binary) << "this is not an image";
+  std::ofstream(path("garbage.png"), std::ios::binary) << "\x89PNG but not really";
+  error_of([&] { read_image(path("garbage.exr")); });
+  error_of([&] { read_image(path("garbage.png")); });
+  error_of([&] { read_multipart_exr(path("garbage.exr")); });
+
+  // A valid file cut in half fails when its pixels are read.
+  write_image(path("cut.exr"), random_image(64, 64, 3, 10, 0.0f, 1.0f));
+  fs::resize_file(path("cut.exr"), fs::file_size(path("cut.exr")) / 2);
+  error_of([&] { read_image(path("cut.exr")); });
+}
+
+}  // namespace
+}  // namespace dofcache::image

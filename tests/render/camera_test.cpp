@@ -1,0 +1,66 @@
+// The thin-lens camera against the paper's geometry (eqs. 2.4-2.6).
+#include "dofcache/render/camera.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+namespace dofcache::render {
+namespace {
+
+constexpr float kYfov = 0.6f;
+
+ThinLensCamera make(double focal, double fstop, double focus) {
+  return ThinLensCamera(glm::mat4(1.0f), kYfov, lens::ThinLens{focal, fstop, focus}, 200, 100);
+}
+
+glm::vec3 at_depth(const ThinLensCamera& cam, const scene::Ray& r, float depth) {
+  return r.origin + r.direction * cam.t_at_depth(r, depth);
+}
+
+TEST(ThinLensCamera, PinholeThroughCentreLooksDownMinusZ) {
+  ThinLensCamera cam = make(0.05, 2.0, 2.0);
+  scene::Ray r = cam.pinhole_ray({100.0f, 50.0f});
+  EXPECT_NEAR(r.direction.z, -1.0f, 1e-6f);
+  // Top edge of the film sees yfov/2 above the axis.
+  scene::Ray top = cam.pinhole_ray({100.0f, 0.0f});
+  EXPECT_NEAR(std::atan2(top.direction.y, -top.direction.z), kYfov / 2, 1e-5f);
+}
+
+TEST(ThinLensCamera, AllLensRaysOfAFilmPointMeetOnTheFocalPlane) {
+  ThinLensCamera cam = make(0.1, 1.4, 3.0);
+  glm::vec2 film(37.3f, 81.9f);
+  glm::vec3 expected = at_depth(cam, cam.pinhole_ray(film), 3.0f);
+  for (glm::vec2 u : {glm::vec2(0.1f, 0.2f), glm::vec2(0.9f, 0.5f), glm::vec2(0.5f, 0.99f)}) {
+    glm::vec3 p = at_depth(cam, cam.generate_ray(film, u), 3.0f);
+    EXPECT_NEAR(glm::distance(p, expected), 0.0f, 1e-5f);
+  }
+}
+
+TEST(ThinLensCamera, RayConeRadiusAtDepthIsEq2_5) {
+  // Rays from the lens rim and the lens centre, for one film point, are r(D) apart at depth D.
+  const double F = 0.1, n = 2.0, P = 2.0;
+  ThinLensCamera cam = make(F, n, P);
+  glm::vec2 film(100.0f, 50.0f);
+  for (float depth : {1.0f, 1.5f, 3.0f, 6.0f}) {
+    glm::vec3 centre = at_depth(cam, cam.generate_ray(film, {0.5f, 0.5f}), depth);
+    glm::vec3 rim = at_depth(cam, cam.generate_ray(film, {1.0f, 0.5f}), depth);  // disk (1, 0)
+    // Hand value for D = 3: 0.5 * (0.1/2) * |3 - 2| / 2 = 0.0125 m.
+    if (depth == 3.0f) {
+      EXPECT_NEAR(glm::distance(centre, rim), 0.0125f, 1e-6f);
+    }
+    EXPECT_NEAR(glm::distance(centre, rim), lens::cone_radius(F, n, P, depth), 1e-6f);
+  }
+}
+
+TEST(ThinLensCamera, NearPlaneParameter) {
+  ThinLensCamera cam = make(0.05, 2.0, 2.0);
+  scene::Ray r = cam.pinhole_ray({0.0f, 0.0f});  // oblique corner ray
+  float t = cam.t_at_depth(r, 1.5f);
+  EXPECT_NEAR(cam.depth(r.origin + t * r.direction), 1.5f, 1e-5f);
+}
+
+}  // namespace
+}  // namespace dofcache::render

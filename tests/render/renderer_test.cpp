@@ -1,0 +1,185 @@
+// End-to-end properties of the integrators on scenes built in code.
+#include "dofcache/render/renderer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dofcache/core/error.h"
+#include "dofcache/scene/accel.h"
+#include "test_scenes.h"
+
+namespace dofcache::render {
+namespace {
+
+using testing::add_quad_z;
+
+// A thin vertical emissive strip at depth D, nothing else: the image is the strip blurred by the
+// lens. Measured along x, a line blurred by a disk of radius R has the chord profile
+// sqrt(R^2 - x^2), whose variance is R^2/4; the pixel box filter adds 1/12 px^2 and the strip's own
+// width w adds w^2/12. So the CoC diameter measured from the image is 4 sqrt(var - 1/12 - w^2/12).
+struct StripSetup {
+  static constexpr double kF = 0.1, kN = 1.0, kP = 1.0, kD = 2.0;
+  static constexpr float kYfov = 0.2f;
+  static constexpr int kW = 128, kH = 64;
+  static constexpr float kStripWidth = 0.001f;  // metres
+  scene::Scene scene;
+  StripSetup() {
+    scene.materials.push_back(testing::emissive_material(glm::vec3(1.0f)));
+    add_quad_z(scene, -0.5f * kStripWidth, 0.5f * kStripWidth, -1.0f, 1.0f, -float(kD), 0, 0);
+    testing::build_emitters(scene);
+    scene.cameras.push_back(testing::origin_camera(kYfov));
+  }
+  RenderSettings settings(Mode mode, int spp) const {
+    RenderSettings s;
+    s.width = kW, s.height = kH, s.spp = spp, s.mode = mode;
+    s.lens = lens::ThinLens{kF, kN, kP};
+    s.progress = Progress::Display::Never;
+    return s;
+  }
+};
+
+double measured_coc_pixels(const image::Image& img, double strip_px) {
+  double sum = 0, mean = 0, m2 = 0;
+  for (int x = 0; x < img.width(); ++x) {
+    double col = 0;
+    for (int y = 0; y < img.height(); ++y) col += img.at(x, y, 0);
+    double cx = x + 0.5;
+    sum += col, mean += col * cx, m2 += col * cx * cx;
+  }
+  mean /= sum;
+  double var = m2 / sum - mean * mean;
+  return 4.0 * std::sqrt(std::max(0.0, var - 1.0 / 12.0 - strip_px * strip_px / 12.0));
+}
+
+class DefocusTest : public ::testing::TestWithParam<Mode> {};
+
+TEST_P(DefocusTest, MeasuredBlurDiameterMatchesEq2_4) {
+  StripSetup setup;
+  scene::Accel accel(setup.scene);
+  RenderSettings s = setup.settings(GetParam(), 256);
+  RenderOutput out = render(setup.scene, accel, setup.scene.cameras[0], s);
+  ThinLensCamera cam = make_camera(setup.scene.cameras[0], s);
+  double expected = cam.imaging().signed_coc_pixels(StripSetup::kD);  // eq. (2.4) in pixels
+  // Hand check of that value: V_P = 0.1/0.9, C = A V_P |D-P|/(D P) = 0.1*0.1111*1/2 = 5.556e-3 m,
+  // pitch = 2 V_P tan(0.1) / 64 = 3.4844e-4 m, so C = 15.94 px.
+  EXPECT_NEAR(expected, 15.94, 0.01);
+  double strip_px = StripSetup::kStripWidth / cam.imaging().pixel_footprint(StripSetup::kD);
+  double measured = measured_coc_pixels(out.color, strip_px);
+  // Tolerance 3%: sampling noise of 256 lens samples and the discrete pixel grid.
+  EXPECT_NEAR(measured, expected, 0.03 * expected) << "mode " << mode_name(GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(LensModes, DefocusTest, ::testing::Values(Mode::Drt, Mode::Accumulation));
+
+TEST(Renderer, PinholeIsSharp) {
+  StripSetup setup;
+  scene::Accel accel(setup.scene);
+  RenderOutput out =
+      render(setup.scene, accel, setup.scene.cameras[0], setup.settings(Mode::Pinhole, 16));
+  // A line on a pixel boundary covers two pixels (discrete variance 1/4 px^2, not the 1/12 of the
+  // smooth-profile correction), so "sharp" is under 2 px against the 16 px CoC of the DRT case.
+  EXPECT_LT(measured_coc_pixels(out.color, 0.0), 2.0);
+}
+
+// A small closed-ish scene with an area light, walls and an occluder: exercises all shading paths.
+scene::Scene shaded_scene() {
+  scene::Scene s;
+  s.materials.push_back(testing::diffuse_material({0.8f, 0.8f, 0.8f}));
+  s.materials.push_back(testing::diffuse_material({0.8f, 0.1f, 0.1f}));
+  s.materials.push_back(testing::emissive_material({8.0f, 8.0f, 8.0f}));
+  scene::Material glossy = testing::diffuse_material({0.9f, 0.9f, 0.9f});
+  glossy.metallic = 1.0f;
+  glossy.roughness = 0.2f;
+  s.materials.push_back(glossy);
+  add_quad_z(s, -2, 2, -2, 2, -4.0f, 0, 0);      // back wall
+  add_quad_z(s, -0.5f, 0.5f, -0.5f, 0.5f, -2.0f, 1, 1);  // red occluder
+  add_quad_z(s, 0.6f, 1.0f, -1.0f, 0.0f, -2.5f, 3, 2);   // glossy metal panel
+  add_quad_z(s, -0.3f, 0.3f, 0.8f, 1.2f, -1.0f, 2, 3);   // light, facing the back wall? (faces +Z)
+  // A second light facing the scene: a quad wound the other way (faces -Z) near the camera.
+  auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
+  for (glm::vec3 p : {glm::vec3(-1, 1.5f, -0.5f), glm::vec3(-1, 2.0f, -0.5f),
+                      glm::vec3(1, 2.0f, -0.5f), glm::vec3(1, 1.5f, -0.5f)}) {
+    s.mesh.positions.push_back(p);
+    s.mesh.normals.push_back({0, 0, -1});
+    s.bounds.extend(p);
+  }
+  s.mesh.triangles.push_back({base, base + 1, base + 2});
+  s.mesh.triangles.push_back({base, base + 2, base + 3});
+  for (int i = 0; i < 2; ++i) s.mesh.triangle_material.push_back(2), s.mesh.triangle_object.push_back(4);
+  testing::build_emitters(s);
+  s.cameras.push_back(testing::origin_camera(0.9f));
+  return s;
+}
+
+RenderSettings small_settings(int threads, std::uint64_t seed) {
+  RenderSettings s;
+  s.width = 40, s.height = 30, s.spp = 4, s.threads = threads, s.seed = seed;
+  s.shading.light_samples = 2, s.shading.gather_rays = 4;
+  s.lens = lens::ThinLens{0.05, 1.0, 2.0};
+  s.progress = Progress::Display::Never;
+  return s;
+}
+
+TEST(Renderer, SameSeedSameImageForAnyThreadCount) {
+  scene::Scene s = shaded_scene();
+  scene::Accel accel(s);
+  RenderOutput a = render(s, accel, s.cameras[0], small_settings(1, 7));
+  RenderOutput b = render(s, accel, s.cameras[0], small_settings(2, 7));
+  RenderOutput c = render(s, accel, s.cameras[0], small_settings(2, 8));
+  ASSERT_TRUE(a.color.same_shape(b.color));
+  EXPECT_EQ(a.color.data(), b.color.data());
+  EXPECT_NE(a.color.data(), c.color.data());
+  double energy = 0;
+  for (float v : a.color.data()) energy += v;
+  EXPECT_GT(energy, 0.0);  // something is lit
+  EXPECT_GT(a.stats.shading_points, 0u);
+}
+
+TEST(Renderer, NearPlaneHidesNearerSurfaces) {
+  scene::Scene s = shaded_scene();
+  scene::Accel accel(s);
+  RenderSettings st = small_settings(2, 1);
+  st.visibility_only = true;
+  RenderOutput full = render(s, accel, s.cameras[0], st);
+  EXPECT_EQ(full.ids.at(20, 15, 0), 1.0f);  // the red occluder in the centre
+  EXPECT_NEAR(full.depth.at(20, 15, 0), 2.0f, 1e-4f);
+  st.near_depth = 3.0f;
+  RenderOutput clipped = render(s, accel, s.cameras[0], st);
+  EXPECT_EQ(clipped.ids.at(20, 15, 0), 0.0f);  // the back wall behind it
+  EXPECT_NEAR(clipped.depth.at(20, 15, 0), 4.0f, 1e-4f);
+}
+
+TEST(Renderer, MaskRestrictsRenderedPixels) {
+  scene::Scene s = shaded_scene();
+  scene::Accel accel(s);
+  RenderSettings st = small_settings(2, 1);
+  image::Image mask(st.width, st.height, 1, 0.0f);
+  for (int y = 0; y < st.height; ++y)
+    for (int x = 0; x < st.width / 2; ++x) mask.at(x, y, 0) = 1.0f;
+  st.mask = &mask;
+  RenderOutput out = render(s, accel, s.cameras[0], st);
+  double left = 0, right = 0;
+  for (int y = 0; y < st.height; ++y)
+    for (int x = 0; x < st.width; ++x) (x < st.width / 2 ? left : right) += out.color.at(x, y, 0);
+  EXPECT_GT(left, 0.0);
+  EXPECT_EQ(right, 0.0);
+  EXPECT_EQ(out.ids.at(st.width - 1, 0, 0), -1.0f);
+}
+
+TEST(Renderer, RejectsAbsurdSettings) {
+  scene::Scene s = shaded_scene();
+  scene::Accel accel(s);
+  RenderSettings st = small_settings(1, 1);
+  st.width = 0;
+  EXPECT_THROW(render(s, accel, s.cameras[0], st), Error);
+  st = small_settings(1, 1);
+  st.lens.fstop = -2.0;
+  EXPECT_THROW(render(s, accel, s.cameras[0], st), Error);
+  st = small_settings(1, 1);
+  st.shading.gather_rays = -1;
+  EXPECT_THROW(render(s, accel, s.cameras[0], st), Error);
+}
+
+}  // namespace
+}  // namespace dofcache::render

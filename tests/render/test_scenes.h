@@ -1,0 +1,72 @@
+#pragma once
+// Small scenes built in code for render tests (independent of the glTF loader).
+#include <cmath>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "dofcache/scene/scene.h"
+
+namespace dofcache::testing {
+
+// Adds an axis-aligned quad in the plane z = `z` (world), facing +Z (towards a camera at +Z).
+inline void add_quad_z(scene::Scene& s, float x0, float x1, float y0, float y1, float z,
+                       std::uint32_t material, std::uint32_t object) {
+  auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
+  for (glm::vec3 p : {glm::vec3(x0, y0, z), glm::vec3(x1, y0, z), glm::vec3(x1, y1, z),
+                      glm::vec3(x0, y1, z)}) {
+    s.mesh.positions.push_back(p);
+    s.mesh.normals.push_back({0.0f, 0.0f, 1.0f});
+    s.bounds.extend(p);
+  }
+  s.mesh.triangles.push_back({base, base + 1, base + 2});
+  s.mesh.triangles.push_back({base, base + 2, base + 3});
+  for (int i = 0; i < 2; ++i) {
+    s.mesh.triangle_material.push_back(material);
+    s.mesh.triangle_object.push_back(object);
+  }
+}
+
+inline scene::Material emissive_material(glm::vec3 radiance) {
+  scene::Material m;
+  m.base_color = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);
+  m.metallic = 0.0f;
+  m.emissive = radiance;
+  return m;
+}
+
+inline scene::Material diffuse_material(glm::vec3 albedo) {
+  scene::Material m;
+  m.base_color = glm::vec4(albedo, 1.0f);
+  m.metallic = 0.0f;
+  m.roughness = 1.0f;
+  return m;
+}
+
+// A camera at the origin looking down -Z (glTF convention) with vertical field of view `yfov`.
+inline scene::Camera origin_camera(float yfov) {
+  scene::Camera c;
+  c.name = "test";
+  c.yfov = yfov;
+  return c;
+}
+
+// Registers every emissive triangle as an emitter (what the loader does).
+inline void build_emitters(scene::Scene& s) {
+  s.emitters.clear();
+  s.emitter_cdf.clear();
+  float total = 0.0f;
+  for (std::uint32_t t = 0; t < s.mesh.triangles.size(); ++t) {
+    glm::vec3 e = s.materials[s.mesh.triangle_material[t]].emissive;
+    if (e.x + e.y + e.z <= 0.0f) continue;
+    const glm::uvec3 tri = s.mesh.triangles[t];
+    float area = 0.5f * glm::length(glm::cross(s.mesh.positions[tri.y] - s.mesh.positions[tri.x],
+                                               s.mesh.positions[tri.z] - s.mesh.positions[tri.x]));
+    s.emitters.push_back({t, area, e});
+    total += area * (0.2126f * e.x + 0.7152f * e.y + 0.0722f * e.z);
+    s.emitter_cdf.push_back(total);
+  }
+  for (float& c : s.emitter_cdf) c /= total;
+}
+
+}  // namespace dofcache::testing

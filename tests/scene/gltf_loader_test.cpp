@@ -1,0 +1,705 @@
+// The glTF loader against small hand-built files (written by the test into a temporary folder),
+// with expected values computed by hand in the comments; then every kind of bad input.
+#include "dofcache/scene/gltf_loader.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+#include <glm/geometric.hpp>
+
+#include "dofcache/core/error.h"
+
+namespace dofcache::scene {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string base64(const std::vector<unsigned char>& bytes) {
+  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (std::size_t i = 0; i < bytes.size(); i += 3) {
+    std::uint32_t n = bytes[i] << 16;
+    if (i + 1 < bytes.size()) n |= bytes[i + 1] << 8;
+    if (i + 2 < bytes.size()) n |= bytes[i + 2];
+    out += kAlphabet[(n >> 18) & 63];
+    out += kAlphabet[(n >> 12) & 63];
+    out += i + 1 < bytes.size() ? kAlphabet[(n >> 6) & 63] : '=';
+    out += i + 2 < bytes.size() ? kAlphabet[n & 63] : '=';
+  }
+  return out;
+}
+
+// Builds the binary part of a glTF: each add_* appends one bufferView and one accessor and
+// returns the accessor index; json() wraps the caller's nodes/meshes/... around them.
+class Gltf {
+ public:
+  int add_floats(const std::vector<float>& values, const std::string& type) {
+    int components = type == "VEC2" ? 2 : type == "VEC3" ? 3 : type == "VEC4" ? 4 : 1;
+    return add(values.data(), values.size() * sizeof(float), 5126, values.size() / components,
+               type);
+  }
+  int add_u8(const std::vector<std::uint8_t>& v, const std::string& type = "SCALAR",
+             bool normalized = false) {
+    int components = type == "VEC2" ? 2 : 1;
+    return add(v.data(), v.size(), 5121, v.size() / components, type, normalized);
+  }
+  int add_u16(const std::vector<std::uint16_t>& v, const std::string& type = "SCALAR",
+              bool normalized = false) {
+    int components = type == "VEC2" ? 2 : 1;
+    return add(v.data(), v.size() * 2, 5123, v.size() / components, type, normalized);
+  }
+  int add_u32(const std::vector<std::uint32_t>& v) {
+    return add(v.data(), v.size() * 4, 5125, v.size(), "SCALAR");
+  }
+  // A raw accessor (for bad input): the caller writes the JSON object.
+  int add_accessor_json(const std::string& json) {
+    accessors_ += (accessors_.empty() ? "" : ",") + json;
+    return count_++;
+  }
+  int add_view(const void* data, std::size_t bytes, std::size_t stride = 0) {
+    while (bin_.size() % 4) bin_.push_back(0);
+    views_ += std::string(views_.empty() ? "" : ",") +
+              "{\"buffer\":0,\"byteOffset\":" + std::to_string(bin_.size()) +
+              ",\"byteLength\":" + std::to_string(bytes) +
+              (stride ? ",\"byteStride\":" + std::to_string(stride) : std::string()) + "}";
+    auto p = static_cast<const unsigned char*>(data);
+    bin_.insert(bin_.end(), p, p + bytes);
+    return views_count_++;
+  }
+  std::size_t bin_size() const { return bin_.size(); }
+
+  // `rest` holds the remaining top-level members, e.g. "\"nodes\":[...],\"meshes\":[...]".
+  // `buffer_uri` replaces the data URI (for missing-file tests).
+  std::string json(const std::string& rest, const std::string& buffer_uri = "") const {
+    std::string uri =
+        buffer_uri.empty() ? "data:application/octet-stream;base64," + base64(bin_) : buffer_uri;
+    return "{\"asset\":{\"version\":\"2.0\"},\"bufferViews\":[" + views_ + "],\"accessors\":[" +
+           accessors_ + "],\"buffers\":[{\"byteLength\":" + std::to_string(bin_.size()) +
+           ",\"uri\":\"" + uri + "\"}]," + rest + "}";
+  }
+
+ private:
+  int add(const void* data, std::size_t bytes, int component, std::size_t count,
+          const std::string& type, bool normalized = false) {
+    int view = add_view(data, bytes);
+    return add_accessor_json("{\"bufferView\":" + std::to_string(view) +
+                             ",\"componentType\":" + std::to_string(component) +
+                             ",\"count\":" + std::to_string(count) + ",\"type\":\"" + type + "\"" +
+                             (normalized ? ",\"normalized\":true" : "") + "}");
+  }
+
+  std::vector<unsigned char> bin_;
+  std::string views_, accessors_;
+  int count_ = 0, views_count_ = 0;
+};
+
+class GltfLoaderTest : public ::testing::Test {
+ protected:
+  static fs::path dir() {
+    static fs::path d = [] {
+      fs::path p =
+          fs::temp_directory_path() / ("dofcache_gltf_loader_test_" + std::to_string(::getpid()));
+      fs::create_directories(p);
+      return p;
+    }();
+    return d;
+  }
+  static std::string write(const std::string& name, const std::string& text) {
+    fs::path p = dir() / name;
+    std::ofstream(p, std::ios::binary) << text;
+    return p.string();
+  }
+  static Scene load(const std::string& name, const std::string& text, LoadOptions options = {}) {
+    return load_gltf(write(name, text), options);
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir()); }
+};
+
+// One primitive with POSITION (and optional extras), material 0 if `material`.
+std::string triangle_mesh(int position, const std::string& more_attributes = "", int indices = -1,
+                          int material = -1, const std::string& mode = "") {
+  return "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(position) +
+         more_attributes + "}" + (indices >= 0 ? ",\"indices\":" + std::to_string(indices) : "") +
+         (material >= 0 ? ",\"material\":" + std::to_string(material) : "") + mode + "}]}";
+}
+
+const std::vector<float> kTriangle = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+
+void expect_vec3(glm::vec3 actual, glm::vec3 expected, float tol = 1e-5f) {
+  EXPECT_NEAR(actual.x, expected.x, tol);
+  EXPECT_NEAR(actual.y, expected.y, tol);
+  EXPECT_NEAR(actual.z, expected.z, tol);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Transforms
+
+TEST_F(GltfLoaderTest, NodeTrsGivesHandComputedWorldPositions) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  // T = (1,2,3), R = 90 degrees about +Z (x, y, z, w) = (0, 0, sin 45, cos 45), S = 2.
+  // p1 = (1,0,0): scale (2,0,0), rotate (0,2,0), translate (1,4,3).
+  // p2 = (0,1,0): scale (0,2,0), rotate (-2,0,0), translate (-1,2,3).
+  const double h = std::sqrt(0.5);
+  Scene s =
+      load("trs.gltf", g.json("\"nodes\":[{\"mesh\":0,\"translation\":[1,2,3],\"rotation\":[0,0," +
+                              std::to_string(h) + "," + std::to_string(h) +
+                              "],\"scale\":[2,2,2]}],\"meshes\":[" + triangle_mesh(pos) + "]"));
+  ASSERT_EQ(s.mesh.triangles.size(), 1u);
+  const glm::uvec3 t = s.mesh.triangles[0];
+  expect_vec3(s.mesh.positions[t.x], {1, 2, 3});
+  expect_vec3(s.mesh.positions[t.y], {1, 4, 3});
+  expect_vec3(s.mesh.positions[t.z], {-1, 2, 3});
+  EXPECT_EQ(s.mesh.triangle_object[0], 0u);
+}
+
+TEST_F(GltfLoaderTest, MatrixParentAndTrsChildCompose) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  // Parent: column-major matrix = rotation 90 degrees about +Y (x -> -z, z -> x), then
+  // translation (0,0,-5). Child: scale (3,1,1).
+  // p1 = (1,0,0): child (3,0,0), rotate (0,0,-3), translate (0,0,-8).
+  // p2 = (0,1,0): child (0,1,0), rotate (0,1,0), translate (0,1,-5).
+  Scene s = load("matrix.gltf",
+                 g.json("\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":["
+                        "{\"matrix\":[0,0,-1,0, 0,1,0,0, 1,0,0,0, 0,0,-5,1],\"children\":[1]},"
+                        "{\"mesh\":0,\"scale\":[3,1,1]}],\"meshes\":[" +
+                        triangle_mesh(pos) + "]"));
+  ASSERT_EQ(s.mesh.triangles.size(), 1u);
+  const glm::uvec3 t = s.mesh.triangles[0];
+  expect_vec3(s.mesh.positions[t.x], {0, 0, -5});
+  expect_vec3(s.mesh.positions[t.y], {0, 0, -8});
+  expect_vec3(s.mesh.positions[t.z], {0, 1, -5});
+  EXPECT_EQ(s.mesh.triangle_object[0], 1u);  // the node carrying the mesh
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry
+
+std::vector<glm::vec3> corners(const Scene& s) {
+  std::vector<glm::vec3> out;
+  for (const glm::uvec3& t : s.mesh.triangles)
+    for (unsigned i : {t.x, t.y, t.z}) out.push_back(s.mesh.positions[i]);
+  return out;
+}
+
+TEST_F(GltfLoaderTest, IndexedAndNonIndexedGiveIdenticalTriangles) {
+  // A unit quad as two triangles: (0,1,2), (0,2,3).
+  const std::vector<float> quad = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+  const std::vector<float> unrolled = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 0, 0, 1, 1, 0, 0, 1, 0};
+  std::vector<std::vector<glm::vec3>> results;
+  for (int variant = 0; variant < 4; ++variant) {
+    Gltf g;
+    int pos = g.add_floats(variant == 3 ? unrolled : quad, "VEC3");
+    int idx = variant == 0   ? g.add_u8({0, 1, 2, 0, 2, 3})
+              : variant == 1 ? g.add_u16({0, 1, 2, 0, 2, 3})
+              : variant == 2 ? g.add_u32({0, 1, 2, 0, 2, 3})
+                             : -1;
+    Scene s =
+        load("indexed" + std::to_string(variant) + ".gltf",
+             g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos, "", idx) + "]"));
+    ASSERT_EQ(s.mesh.triangles.size(), 2u) << variant;
+    results.push_back(corners(s));
+  }
+  for (int variant = 1; variant < 4; ++variant) {
+    ASSERT_EQ(results[variant].size(), results[0].size());
+    for (std::size_t i = 0; i < results[0].size(); ++i)
+      expect_vec3(results[variant][i], results[0][i], 0.0f);
+  }
+}
+
+TEST_F(GltfLoaderTest, GeometricNormalsWhenNormalAbsent) {
+  Gltf g;
+  // Counter-clockwise seen from +Y: cross((0,0,1), (1,0,0)) = (0,1,0).
+  int pos = g.add_floats({0, 0, 0, 0, 0, 1, 1, 0, 0}, "VEC3");
+  Scene s =
+      load("flat.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) + "]"));
+  ASSERT_EQ(s.mesh.normals.size(), s.mesh.positions.size());
+  for (glm::vec3 n : s.mesh.normals) expect_vec3(n, {0, 1, 0});
+  SurfacePoint sp = s.surface_point(0, 0.2f, 0.3f);
+  expect_vec3(sp.geometric_normal, {0, 1, 0});
+  expect_vec3(sp.shading_normal, {0, 1, 0});
+  expect_vec3(sp.position, {0.3f, 0, 0.2f});  // 0.2 * (0,0,1) + 0.3 * (1,0,0)
+}
+
+TEST_F(GltfLoaderTest, NormalsUseInverseTransposeAndMirroringKeepsFrontFaces) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  const float r = std::sqrt(0.5f);
+  int nrm = g.add_floats({r, r, 0, r, r, 0, r, r, 0}, "VEC3");
+  // Scale (2,1,1): normals map by diag(1/2,1,1): (0.5,1,0)/|.| = (1,2,0)/sqrt(5).
+  Scene s = load("normals.gltf", g.json("\"nodes\":[{\"mesh\":0,\"scale\":[2,1,1]},{\"mesh\":1,"
+                                        "\"scale\":[-1,1,1]}],\"meshes\":[" +
+                                        triangle_mesh(pos, ",\"NORMAL\":" + std::to_string(nrm)) +
+                                        "," + triangle_mesh(pos) + "]"));
+  ASSERT_EQ(s.mesh.triangles.size(), 2u);
+  expect_vec3(s.mesh.normals[s.mesh.triangles[0].x], glm::vec3(1, 2, 0) / std::sqrt(5.0f));
+  // Mirrored by x -> -x: the winding is flipped back so the front face still faces +Z.
+  SurfacePoint sp = s.surface_point(1, 0.25f, 0.25f);
+  expect_vec3(sp.geometric_normal, {0, 0, 1});
+}
+
+TEST_F(GltfLoaderTest, NormalizedTexcoordsAndSecondSet) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  int uv0 = g.add_u16({0, 0, 65535, 0, 0, 32768}, "VEC2", true);
+  int uv1 = g.add_u8({255, 255, 0, 51, 102, 0}, "VEC2", true);
+  Scene s =
+      load("uv.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                             triangle_mesh(pos, ",\"TEXCOORD_0\":" + std::to_string(uv0) +
+                                                    ",\"TEXCOORD_1\":" + std::to_string(uv1)) +
+                             "]"));
+  ASSERT_EQ(s.mesh.uv0.size(), 3u);
+  ASSERT_EQ(s.mesh.uv1.size(), 3u);
+  EXPECT_FLOAT_EQ(s.mesh.uv0[1].x, 1.0f);
+  EXPECT_NEAR(s.mesh.uv0[2].y, 32768.0f / 65535.0f, 1e-7);
+  EXPECT_FLOAT_EQ(s.mesh.uv1[0].x, 1.0f);
+  EXPECT_FLOAT_EQ(s.mesh.uv1[1].y, 0.2f);  // 51 / 255
+  EXPECT_FLOAT_EQ(s.mesh.uv1[2].x, 0.4f);  // 102 / 255
+}
+
+TEST_F(GltfLoaderTest, InterleavedStrideAndStripsAndSkippedLines) {
+  Gltf g;
+  // Interleaved: position (3 floats) + 1 float of padding per vertex, byteStride 16.
+  std::vector<float> data = {0, 0, 0, 9, 1, 0, 0, 9, 0, 1, 0, 9, 1, 1, 0, 9};
+  int view = g.add_view(data.data(), data.size() * sizeof(float), 16);
+  int pos = g.add_accessor_json("{\"bufferView\":" + std::to_string(view) +
+                                ",\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"}");
+  // TRIANGLE_STRIP (5) over 0,1,2,3: (0,1,2), (2,1,3) keep counter-clockwise orientation.
+  Scene s = load("strip.gltf", g.json("\"nodes\":[{\"mesh\":0},{\"mesh\":1}],\"meshes\":[" +
+                                      triangle_mesh(pos, "", -1, -1, ",\"mode\":5") + "," +
+                                      triangle_mesh(pos, "", -1, -1, ",\"mode\":1") + "]"));
+  ASSERT_EQ(s.mesh.triangles.size(), 2u);
+  for (std::uint32_t t = 0; t < 2; ++t)
+    expect_vec3(s.surface_point(t, 0.3f, 0.3f).geometric_normal, {0, 0, 1});
+  expect_vec3(s.mesh.positions[s.mesh.triangles[1].y], {1, 1, 0});  // (1, 3, 2)
+  int skipped = 0;                                                  // the LINES primitive
+  for (const std::string& w : s.warnings) skipped += w.find("skipped") != std::string::npos;
+  EXPECT_EQ(skipped, 1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Materials and textures
+
+// A 24-bit BMP (stb decodes it like a PNG). pixels: row 0 is the top; RGB.
+std::vector<unsigned char> bmp(int w, int h, const std::vector<std::uint8_t>& rgb) {
+  int row = (3 * w + 3) / 4 * 4;
+  std::vector<unsigned char> out(54 + static_cast<std::size_t>(row) * h, 0);
+  auto u32 = [&](std::size_t at, std::uint32_t v) { std::memcpy(&out[at], &v, 4); };
+  out[0] = 'B', out[1] = 'M';
+  u32(2, static_cast<std::uint32_t>(out.size()));
+  u32(10, 54);
+  u32(14, 40);
+  u32(18, static_cast<std::uint32_t>(w));
+  u32(22, static_cast<std::uint32_t>(h));
+  out[26] = 1, out[28] = 24;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      std::size_t dst = 54 + static_cast<std::size_t>(h - 1 - y) * row + 3 * x;  // bottom-up
+      std::size_t src = 3 * (static_cast<std::size_t>(y) * w + x);
+      out[dst] = rgb[src + 2], out[dst + 1] = rgb[src + 1], out[dst + 2] = rgb[src];
+    }
+  return out;
+}
+
+TEST_F(GltfLoaderTest, TextureWrapModesSampleHandComputedTexels) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  int uv = g.add_floats({0, 0, 1, 0, 0, 1}, "VEC2");
+  // 4 x 2 texels; red = 10 * x, green = 100 + 10 * y: every texel is distinguishable.
+  std::vector<std::uint8_t> rgb;
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x)
+      rgb.insert(rgb.end(), {std::uint8_t(10 * x), std::uint8_t(100 + 10 * y), 0});
+  std::string image = "data:image/bmp;base64," + base64(bmp(4, 2, rgb));
+  std::string materials;
+  for (int i = 0; i < 3; ++i)
+    materials += std::string(i ? "," : "") +
+                 "{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":" + std::to_string(i) +
+                 "}}}";
+  Scene s = load("wrap.gltf",
+                 g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                        triangle_mesh(pos, ",\"TEXCOORD_0\":" + std::to_string(uv), -1, 0) +
+                        "],\"materials\":[" + materials + "],\"images\":[{\"uri\":\"" + image +
+                        "\"}],\"samplers\":["
+                        "{\"magFilter\":9728,\"wrapS\":10497,\"wrapT\":10497},"
+                        "{\"magFilter\":9728,\"wrapS\":33071,\"wrapT\":33071},"
+                        "{\"magFilter\":9728,\"wrapS\":33648,\"wrapT\":33648}],\"textures\":["
+                        "{\"source\":0,\"sampler\":0},{\"source\":0,\"sampler\":1},"
+                        "{\"source\":0,\"sampler\":2}]"));
+  ASSERT_EQ(s.textures.size(), 3u);
+  const Texture &repeat = s.textures[0], &clamp = s.textures[1], &mirror = s.textures[2];
+  EXPECT_EQ(repeat.wrap_s, Wrap::Repeat);
+  EXPECT_EQ(clamp.wrap_s, Wrap::ClampToEdge);
+  EXPECT_EQ(mirror.wrap_t, Wrap::MirroredRepeat);
+  EXPECT_TRUE(repeat.nearest);
+  auto x_of = [](glm::vec4 t) { return static_cast<int>(std::lround(t.r * 255.0f / 10.0f)); };
+  auto y_of = [](glm::vec4 t) {
+    return static_cast<int>(std::lround((t.g * 255.0f - 100.0f) / 10.0f));
+  };
+  // u = 1.125 -> texel x = floor(4.5) = 4: repeat 0, clamp 3, mirror (period 8) 8-1-4 = 3.
+  EXPECT_EQ(x_of(repeat.sample({1.125f, 0.25f})), 0);
+  EXPECT_EQ(x_of(clamp.sample({1.125f, 0.25f})), 3);
+  EXPECT_EQ(x_of(mirror.sample({1.125f, 0.25f})), 3);
+  // u = -0.125 -> x = -1: repeat 3, clamp 0, mirror 7 -> 8-1-7 = 0.
+  EXPECT_EQ(x_of(repeat.sample({-0.125f, 0.25f})), 3);
+  EXPECT_EQ(x_of(clamp.sample({-0.125f, 0.25f})), 0);
+  EXPECT_EQ(x_of(mirror.sample({-0.125f, 0.25f})), 0);
+  // u = 1.375 -> x = 5: repeat 1, clamp 3, mirror 8-1-5 = 2.
+  EXPECT_EQ(x_of(repeat.sample({1.375f, 0.25f})), 1);
+  EXPECT_EQ(x_of(clamp.sample({1.375f, 0.25f})), 3);
+  EXPECT_EQ(x_of(mirror.sample({1.375f, 0.25f})), 2);
+  // Rows: v = 0.25 is the top row (y = 0), v = 0.75 the bottom; v = 1.25 wraps to y = 0
+  // (repeat), stays at 1 (clamp), mirrors (period 4) 2 -> 4-1-2 = 1.
+  EXPECT_EQ(y_of(repeat.sample({0.1f, 0.25f})), 0);
+  EXPECT_EQ(y_of(repeat.sample({0.1f, 0.75f})), 1);
+  EXPECT_EQ(y_of(repeat.sample({0.1f, 1.25f})), 0);
+  EXPECT_EQ(y_of(clamp.sample({0.1f, 1.25f})), 1);
+  EXPECT_EQ(y_of(mirror.sample({0.1f, 1.25f})), 1);
+}
+
+TEST_F(GltfLoaderTest, MaterialFactorsTexturesAndDefaultMaterial) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  int uv = g.add_floats({0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f}, "VEC2");
+  // 1x1 textures: base colour sRGB 188 -> linear ((188/255 + 0.055)/1.055)^2.4 = 0.50289;
+  // metallic-roughness (R, G, B) = (0, 128, 64): roughness 128/255, metallic 64/255.
+  std::string base = "data:image/bmp;base64," + base64(bmp(1, 1, {188, 188, 188}));
+  std::string mr = "data:image/bmp;base64," + base64(bmp(1, 1, {0, 128, 64}));
+  Scene s =
+      load("material.gltf",
+           g.json("\"nodes\":[{\"mesh\":0},{\"mesh\":1}],\"meshes\":[" +
+                  triangle_mesh(pos, ",\"TEXCOORD_0\":" + std::to_string(uv), -1, 0) + "," +
+                  triangle_mesh(pos) +
+                  "],\"materials\":[{\"name\":\"glaze\","
+                  "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,1,1,1],"
+                  "\"baseColorTexture\":{\"index\":0},\"metallicFactor\":1,\"roughnessFactor\":0.5,"
+                  "\"metallicRoughnessTexture\":{\"index\":1}},\"doubleSided\":true}],"
+                  "\"images\":[{\"uri\":\"" +
+                  base + "\"},{\"uri\":\"" + mr +
+                  "\"}],"
+                  "\"textures\":[{\"source\":0},{\"source\":1}]"));
+  ASSERT_EQ(s.materials.size(), 2u);
+  EXPECT_EQ(s.materials[0].name, "glaze");
+  EXPECT_TRUE(s.materials[0].double_sided);
+  EXPECT_EQ(s.materials[1].name, "default");  // glTF's default: white, metallic 1, roughness 1
+  EXPECT_EQ(s.mesh.triangle_material[1], 1u);
+  EXPECT_FLOAT_EQ(s.materials[1].metallic, 1.0f);
+
+  MaterialPoint mp = s.material_at(s.surface_point(0, 0.3f, 0.3f));
+  const float decoded = std::pow((188.0f / 255.0f + 0.055f) / 1.055f, 2.4f);
+  EXPECT_NEAR(mp.base_color.r, 0.5f * decoded, 1e-5);
+  EXPECT_NEAR(mp.base_color.g, decoded, 1e-5);
+  EXPECT_NEAR(mp.roughness, 0.5f * 128.0f / 255.0f, 1e-5);
+  EXPECT_NEAR(mp.metallic, 64.0f / 255.0f, 1e-5);
+}
+
+TEST_F(GltfLoaderTest, EmissiveStrengthMakesEmittersWeightedByPower) {
+  Gltf g;
+  // Two emissive triangles: A (area 0.5) with emissive (1,1,1) * 4; B (area 2) with (1,1,1) * 1.
+  // Power ~ area * luminance: A = 2, B = 2 -> cdf (0.5, 1). And one non-emissive triangle.
+  int a = g.add_floats(kTriangle, "VEC3");
+  int b = g.add_floats({0, 0, 1, 2, 0, 1, 0, 2, 1}, "VEC3");
+  Scene s = load("emissive.gltf",
+                 g.json("\"extensionsUsed\":[\"KHR_materials_emissive_strength\"],"
+                        "\"nodes\":[{\"mesh\":0},{\"mesh\":1},{\"mesh\":2}],\"meshes\":[" +
+                        triangle_mesh(a, "", -1, 0) + "," + triangle_mesh(b, "", -1, 1) + "," +
+                        triangle_mesh(a, "", -1, 2) +
+                        "],\"materials\":["
+                        "{\"emissiveFactor\":[1,1,1],\"extensions\":{\"KHR_materials_emissive_"
+                        "strength\":{\"emissiveStrength\":4}}},"
+                        "{\"emissiveFactor\":[1,1,1]},{}]"));
+  expect_vec3(s.materials[0].emissive, {4, 4, 4});
+  ASSERT_EQ(s.emitters.size(), 2u);
+  EXPECT_FLOAT_EQ(s.emitters[0].area, 0.5f);
+  EXPECT_FLOAT_EQ(s.emitters[1].area, 2.0f);
+  expect_vec3(s.emitters[0].radiance, {4, 4, 4});
+  ASSERT_EQ(s.emitter_cdf.size(), 2u);
+  EXPECT_NEAR(s.emitter_cdf[0], 0.5f, 1e-6);
+  EXPECT_FLOAT_EQ(s.emitter_cdf[1], 1.0f);
+  float p = 0.0f;
+  EXPECT_EQ(s.sample_emitter(0.7f, &p), 1u);
+  EXPECT_NEAR(p, 0.5f, 1e-6);
+}
+
+TEST_F(GltfLoaderTest, PunctualLightTransform) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  const double h = std::sqrt(0.5);
+  // Rotation 90 degrees about +X maps the light's -Z to (0, sin 90, -cos 90) = (0, 1, 0).
+  Scene s =
+      load("light.gltf",
+           g.json("\"extensionsUsed\":[\"KHR_lights_punctual\"],\"extensions\":{"
+                  "\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"spot\",\"color\":[1,0.5,0.5],"
+                  "\"intensity\":5,\"range\":10,\"spot\":{\"innerConeAngle\":0.2,"
+                  "\"outerConeAngle\":0.6}}]}},\"nodes\":[{\"mesh\":0},{\"translation\":[1,2,3],"
+                  "\"rotation\":[" +
+                  std::to_string(h) + ",0,0," + std::to_string(h) +
+                  "],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}],\"meshes\":[" +
+                  triangle_mesh(pos) + "]"));
+  ASSERT_EQ(s.lights.size(), 1u);
+  const PunctualLight& l = s.lights[0];
+  EXPECT_EQ(l.type, PunctualLight::Type::Spot);
+  expect_vec3(l.position, {1, 2, 3});
+  expect_vec3(l.direction, {0, 1, 0});
+  expect_vec3(l.intensity, {5, 2.5f, 2.5f});
+  EXPECT_FLOAT_EQ(l.range, 10.0f);
+  EXPECT_FLOAT_EQ(l.inner_cone, 0.2f);
+  EXPECT_FLOAT_EQ(l.outer_cone, 0.6f);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cameras and scenes
+
+std::string two_cameras(Gltf& g) {
+  int pos = g.add_floats(kTriangle, "VEC3");
+  return "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"aspectRatio\":1.5,"
+         "\"znear\":0.05},\"extras\":{\"lens\":{\"fstop\":8,\"focus_distance\":1.5}}},"
+         "{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.7,\"znear\":0.1}}],"
+         "\"nodes\":[{\"mesh\":0},{\"name\":\"left\",\"camera\":0,\"translation\":[0,1,5],"
+         "\"scale\":[2,2,2],\"extras\":{\"lens\":{\"focal_length\":0.085,\"fstop\":2.8}}},"
+         "{\"name\":\"right\",\"camera\":1,\"translation\":[1,0,5]}],"
+         "\"meshes\":[" +
+         triangle_mesh(pos) + "]";
+}
+
+TEST_F(GltfLoaderTest, CameraLensExtrasAndScaleStripped) {
+  Gltf g;
+  Scene s = load("cameras.gltf", g.json(two_cameras(g)));
+  ASSERT_EQ(s.cameras.size(), 2u);
+  const Camera& c = s.cameras[0];
+  EXPECT_EQ(c.name, "left");
+  EXPECT_FALSE(c.synthesized);
+  EXPECT_EQ(c.node, 1);
+  EXPECT_FLOAT_EQ(c.yfov, 0.5f);
+  ASSERT_TRUE(c.aspect_ratio.has_value());
+  EXPECT_FLOAT_EQ(*c.aspect_ratio, 1.5f);
+  EXPECT_FLOAT_EQ(c.znear, 0.05f);
+  // The node's extras.lens wins over the camera object's key by key.
+  ASSERT_TRUE(c.lens.focal_length && c.lens.fstop && c.lens.focus_distance);
+  EXPECT_DOUBLE_EQ(*c.lens.focal_length, 0.085);
+  EXPECT_DOUBLE_EQ(*c.lens.fstop, 2.8);
+  EXPECT_DOUBLE_EQ(*c.lens.focus_distance, 1.5);
+  // Scale 2 is stripped: unit axes, translation kept.
+  for (int axis = 0; axis < 3; ++axis)
+    EXPECT_NEAR(glm::length(glm::vec3(c.camera_to_world[axis])), 1.0f, 1e-6);
+  expect_vec3(glm::vec3(c.camera_to_world[3]), {0, 1, 5});
+  expect_vec3(glm::vec3(c.camera_to_world[2]), {0, 0, 1});
+  EXPECT_FALSE(s.cameras[1].aspect_ratio.has_value());
+  EXPECT_FALSE(s.cameras[1].lens.fstop.has_value());
+}
+
+TEST_F(GltfLoaderTest, CameraSelectionByNameAndErrorListingNames) {
+  Gltf g;
+  Scene s = load("select.gltf", g.json(two_cameras(g)));
+  EXPECT_EQ(s.camera_index("right"), 1u);
+  EXPECT_EQ(s.camera_index("left"), 0u);
+  try {
+    s.camera_index("top");
+    FAIL() << "expected dofcache::Error";
+  } catch (const Error& e) {
+    std::string m = e.what();
+    EXPECT_EQ(m.find('\n'), std::string::npos);
+    EXPECT_NE(m.find("'top'"), std::string::npos) << m;
+    EXPECT_NE(m.find("'left', 'right'"), std::string::npos) << m;
+  }
+}
+
+TEST_F(GltfLoaderTest, SceneIndexSelection) {
+  Gltf g;
+  int a = g.add_floats(kTriangle, "VEC3");
+  int b = g.add_floats({0, 0, 7, 1, 0, 7, 0, 1, 7}, "VEC3");
+  std::string text = g.json(
+      "\"scene\":1,\"scenes\":[{\"nodes\":[0]},{\"nodes\":[1]}],"
+      "\"nodes\":[{\"mesh\":0},{\"mesh\":1}],\"meshes\":[" +
+      triangle_mesh(a) + "," + triangle_mesh(b) + "]");
+  Scene by_default = load("scenes.gltf", text);
+  EXPECT_FLOAT_EQ(by_default.mesh.positions[0].z, 7.0f);  // the file's default scene is 1
+  LoadOptions first;
+  first.scene_index = 0;
+  Scene chosen = load("scenes.gltf", text, first);
+  EXPECT_FLOAT_EQ(chosen.mesh.positions[0].z, 0.0f);
+  EXPECT_NE(chosen.content_hash, by_default.content_hash);
+}
+
+TEST_F(GltfLoaderTest, SynthesizedCameraFramesTheBounds) {
+  Gltf g;
+  // Bounds (0,0,0)-(2,2,0): centre (1,1,0), radius = half diagonal = sqrt(2).
+  int pos = g.add_floats({0, 0, 0, 2, 0, 0, 0, 2, 0}, "VEC3");
+  Scene s = load("nocamera.gltf",
+                 g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) + "]"));
+  ASSERT_EQ(s.cameras.size(), 1u);
+  const Camera& c = s.cameras[0];
+  EXPECT_TRUE(c.synthesized);
+  EXPECT_EQ(c.name, "auto");
+  EXPECT_EQ(c.node, -1);
+  EXPECT_FLOAT_EQ(c.yfov, 0.8f);
+  const float distance = std::sqrt(2.0f) / std::sin(0.4f);  // the sphere fills yfov
+  expect_vec3(glm::vec3(c.camera_to_world[3]), {1, 1, distance}, 1e-4f);
+  expect_vec3(glm::vec3(c.camera_to_world[2]), {0, 0, 1});  // looks down -Z
+}
+
+TEST_F(GltfLoaderTest, MemoryLoadMatchesFileLoad) {
+  Gltf g;
+  std::string text = g.json(two_cameras(g));
+  Scene from_file = load("memory.gltf", text);
+  Scene from_memory = load_gltf_from_memory(text, "memory test");
+  EXPECT_EQ(from_memory.source, "memory test");
+  EXPECT_EQ(from_file.content_hash, from_memory.content_hash);
+  EXPECT_NE(from_file.content_hash, 0u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input: one dofcache::Error, one line, naming the file and the problem.
+
+void expect_error(const std::function<void()>& load, const std::vector<std::string>& parts) {
+  try {
+    load();
+    ADD_FAILURE() << "expected dofcache::Error";
+  } catch (const Error& e) {
+    std::string m = e.what();
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    for (const std::string& part : parts)
+      EXPECT_NE(m.find(part), std::string::npos) << "'" << part << "' not in: " << m;
+  }
+}
+
+TEST_F(GltfLoaderTest, MissingFile) {
+  std::string path = (dir() / "does_not_exist.gltf").string();
+  expect_error([&] { load_gltf(path); }, {path, "cannot open"});
+}
+
+TEST_F(GltfLoaderTest, InvalidJson) {
+  std::string path = write("broken.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"nodes\": [ {");
+  expect_error([&] { load_gltf(path); }, {path, "invalid JSON", "line 1"});
+}
+
+TEST_F(GltfLoaderTest, MissingBufferFile) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  std::string path = write(
+      "nobuffer.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) + "]",
+                              "missing_data.bin"));
+  expect_error([&] { load_gltf(path); }, {path, "not found", "missing_data.bin"});
+}
+
+TEST_F(GltfLoaderTest, ShortBuffer) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  // The bufferView claims more bytes than the buffer holds.
+  std::string text = g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) + "]");
+  text.replace(text.find("\"byteLength\":36"), 15, "\"byteLength\":48");
+  std::string path = write("short.gltf", text);
+  expect_error([&] { load_gltf(path); }, {path, "bufferView 0", "exceeds buffer"});
+}
+
+TEST_F(GltfLoaderTest, AccessorOutOfRange) {
+  Gltf g;
+  std::vector<float> data = kTriangle;
+  int view = g.add_view(data.data(), data.size() * sizeof(float));
+  // 3 vec3 floats = 36 bytes fit; offset 12 + 3 * 12 = 48 bytes do not.
+  int pos = g.add_accessor_json(
+      "{\"bufferView\":" + std::to_string(view) +
+      ",\"byteOffset\":12,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}");
+  std::string path = write(
+      "accessor.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(path); }, {path, "accessor 0", "POSITION", "exceed bufferView 0"});
+}
+
+TEST_F(GltfLoaderTest, IndexOutOfRange) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  int idx = g.add_u16({0, 1, 7});
+  std::string path = write("index.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                                                triangle_mesh(pos, "", idx) + "]"));
+  expect_error([&] { load_gltf(path); }, {path, "indices", "index 7", "out of range"});
+}
+
+TEST_F(GltfLoaderTest, NanPosition) {
+  Gltf g;
+  std::vector<float> data = kTriangle;
+  data[4] = std::numeric_limits<float>::quiet_NaN();
+  int pos = g.add_floats(data, "VEC3");
+  std::string path =
+      write("nan.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(path); }, {path, "POSITION", "vertex 1", "not finite"});
+}
+
+TEST_F(GltfLoaderTest, ZeroAreaTriangle) {
+  Gltf g;
+  // Triangle 1 repeats a vertex.
+  int pos = g.add_floats({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 0}, "VEC3");
+  std::string path = write(
+      "degenerate.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":["
+                                "{\"name\":\"Bad\",\"primitives\":[{\"attributes\":{\"POSITION\":" +
+                                std::to_string(pos) + "}}]}]"));
+  expect_error([&] { load_gltf(path); }, {path, "mesh 'Bad'", "triangle 1", "zero area"});
+}
+
+TEST_F(GltfLoaderTest, BadSceneIndex) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  std::string path =
+      write("badscene.gltf", g.json("\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+                                    "\"meshes\":[" +
+                                    triangle_mesh(pos) + "]"));
+  LoadOptions options;
+  options.scene_index = 3;
+  expect_error([&] { load_gltf(path, options); }, {path, "scene 3", "out of range"});
+}
+
+TEST_F(GltfLoaderTest, BadReferencesAndNoGeometry) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  std::string bad_mesh = write(
+      "badmesh.gltf", g.json("\"nodes\":[{\"mesh\":4}],\"meshes\":[" + triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(bad_mesh); }, {bad_mesh, "node (0)", "mesh index 4"});
+  std::string bad_material =
+      write("badmaterial.gltf",
+            g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos, "", -1, 2) + "]"));
+  expect_error([&] { load_gltf(bad_material); }, {bad_material, "material index 2"});
+  std::string cycle =
+      write("cycle.gltf", g.json("\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"children\":[1]},"
+                                 "{\"children\":[0],\"mesh\":0}],\"meshes\":[" +
+                                 triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(cycle); }, {cycle, "cycle"});
+  std::string empty = write("empty.gltf", g.json("\"nodes\":[{\"name\":\"nothing\"}]"));
+  expect_error([&] { load_gltf(empty); }, {empty, "no triangle geometry"});
+  std::string points =
+      write("points.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                                  triangle_mesh(pos, "", -1, -1, ",\"mode\":0") + "]"));
+  expect_error([&] { load_gltf(points); }, {points, "no triangle geometry"});
+  std::string extension =
+      write("extension.gltf", g.json("\"extensionsRequired\":[\"KHR_draco_mesh_compression\"],"
+                                     "\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                                     triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(extension); }, {extension, "KHR_draco_mesh_compression"});
+  expect_error([&] { load_gltf_from_memory("", "empty input"); }, {"empty input"});
+}
+
+TEST_F(GltfLoaderTest, GarbageNeverCrashes) {
+  // Truncations of a valid file and a GLB header with nonsense lengths: errors, never crashes.
+  Gltf g;
+  std::string text = g.json(two_cameras(g));
+  for (std::size_t n = 0; n < text.size(); n += 7) {
+    try {
+      load_gltf_from_memory(text.substr(0, n), "truncated");
+    } catch (const Error&) {
+    }
+  }
+  std::string glb("glTF\x02\x00\x00\x00\xff\xff\x00\x00\x10\x00\x00\x00JSON{}", 26);
+  EXPECT_THROW(load_gltf_from_memory(glb, "bad glb"), Error);
+}
+
+}  // namespace
+}  // namespace dofcache::scene
