@@ -22,7 +22,7 @@ struct RenderOptions {
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
-  std::string cache = "none", cache_debug, cache_trace;
+  std::string cache = "none", cache_debug, cache_trace, radius_rule = "paper";
   render::CacheSettings cache_settings;
   bool quiet = false;
 };
@@ -56,6 +56,7 @@ int run_render(const RenderOptions& o) {
   std::unique_ptr<cache::TraceWriter> trace;
   s.cache = o.cache_settings;
   s.cache.cache = radiance_cache.get();
+  s.cache.radius_rule = render::parse_radius_rule(o.radius_rule);
 
   if (!o.quiet) {
     std::printf("scene   %s: %zu triangles, %zu emissive, %zu punctual lights\n",
@@ -102,6 +103,8 @@ int run_render(const RenderOptions& o) {
                      {"specular_depth", s.shading.specular_depth}}},
         {"output", o.out},
         {"cache", {{"backend", o.cache}, {"min_factor", s.cache.min_factor},
+                   {"radius_rule", o.radius_rule}, {"accuracy", s.cache.accuracy},
+                   {"max_radius_pixels", s.cache.max_radius_pixels},
                    {"sample_quality", s.cache.sample_quality},
                    {"max_normal_angle_deg", s.cache.lookup.max_normal_angle_deg},
                    {"min_samples", s.cache.lookup.min_samples}, {"lookups", st.cache_lookups},
@@ -177,6 +180,18 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--min-factor", o->cache_settings.min_factor,
                   "Cache sample radius in focus, in pixel footprints (Algorithm 1's minFactor)")
       ->capture_default_str()->check(CLI::Range(1e-3, 1e4));
+  cmd->add_option("--cache-radius", o->radius_rule,
+                  "How far a cache sample is reused: paper (eqs. 4.1-4.2: CoC out of focus, half "
+                  "a pixel in focus) or adaptive (also widened where the illumination is smooth, "
+                  "from the distances its gather rays measured)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"paper", "adaptive"}));
+  cmd->add_option("--cache-accuracy", o->cache_settings.accuracy,
+                  "Adaptive radius: fraction of the harmonic mean distance to nearby geometry")
+      ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
+  cmd->add_option("--cache-max-radius", o->cache_settings.max_radius_pixels,
+                  "Adaptive radius: cap in pixel footprints")
+      ->capture_default_str()->check(CLI::Range(0.0, 1e4));
   cmd->add_option("--cache-normal-angle", o->cache_settings.lookup.max_normal_angle_deg,
                   "Cache lookups reject samples whose normal differs by more (degrees)")
       ->capture_default_str()->check(CLI::Range(0.1, 90.0));

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <thread>
 #include <vector>
 
@@ -45,6 +46,7 @@ struct Context {
   ThinLensCamera camera;
   Shader shader;
   Shader sample_shader;  // for cache samples: more light and gather samples
+  const DiffuseLookup* reflections;  // cached diffuse light for reflected surfaces, or null
 };
 
 ShadingSettings cache_sample_shading(const RenderSettings& s) {
@@ -53,6 +55,24 @@ ShadingSettings cache_sample_shading(const RenderSettings& s) {
   q.gather_rays *= s.cache.sample_quality;
   return q;
 }
+
+// Diffuse illumination of surfaces seen in reflections, from the cache as it was at the start of
+// the pass (never the tile buffers: a read-only view keeps the result thread-count independent).
+class CacheView final : public DiffuseLookup {
+ public:
+  CacheView(const cache::RadianceCache* cache, const cache::LookupOptions& options)
+      : cache_(cache), options_(options) {}
+  bool lookup(const ShadingPoint& p, glm::vec3* e) const override {
+    cache::LookupResult r;
+    if (!cache_->lookup(p.surface.position, p.n, options_, &r)) return false;
+    *e = r.value;
+    return true;
+  }
+
+ private:
+  const cache::RadianceCache* cache_;
+  cache::LookupOptions options_;
+};
 
 // Per-pixel cache statistics (debug images); each pixel is written by its own tile only.
 struct PixelCacheStats {
@@ -96,14 +116,20 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
   }
   work.lookup_seconds += seconds_since(t0);
   if (hit) return r.value;
-  glm::vec3 e = c.sample_shader.diffuse_illumination(p, key, rng, work.rays);
+  float harmonic = 0.0f;
+  glm::vec3 e = c.sample_shader.diffuse_illumination(p, key, rng, work.rays, &harmonic);
   if (cs.insert) {
     cache::CacheSample sample;
     sample.position = x;
     sample.normal = p.n;
     sample.value = e;
-    sample.radius = static_cast<float>(
-        cache::sample_radius(c.camera.imaging(), c.camera.depth(x), cs.min_factor));
+    const double depth = c.camera.depth(x);
+    double radius = cache::sample_radius(c.camera.imaging(), depth, cs.min_factor);
+    if (cs.radius_rule == RadiusRule::Adaptive) {
+      double cap = cs.max_radius_pixels * c.camera.imaging().pixel_footprint(depth);
+      radius = std::max(radius, std::min(cs.accuracy * static_cast<double>(harmonic), cap));
+    }
+    sample.radius = static_cast<float>(radius);
     sample.frame = cs.frame;
     work.buffer.add(sample);
     if (density) *density += 1.0f;
@@ -123,7 +149,7 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
     e = c.settings.cache.cache ? cached_diffuse(c, p, key, rng, work, density)
                                : c.shader.diffuse_illumination(p, key, rng, work.rays);
   }
-  return c.shader.shade(p, e, rng, work.rays);
+  return c.shader.shade(p, e, rng, work.rays, c.reflections);
 }
 
 // The film position and lens point of sample `s` of pixel (x, y).
@@ -187,6 +213,12 @@ void render_samples(const Context& c, const Tile& t, std::uint32_t s0, std::uint
 
 }  // namespace
 
+RadiusRule parse_radius_rule(const std::string& name) {
+  if (name == "paper") return RadiusRule::Paper;
+  if (name == "adaptive") return RadiusRule::Adaptive;
+  throw Error("unknown cache radius rule '" + name + "' (valid: paper, adaptive)");
+}
+
 Mode parse_mode(const std::string& name) {
   if (name == "pinhole") return Mode::Pinhole;
   if (name == "drt") return Mode::Drt;
@@ -220,6 +252,10 @@ void RenderSettings::validate() const {
     if (!std::isfinite(cache.min_factor) || cache.min_factor <= 0.0 || cache.min_factor > 1e4)
       throw Error("cache min factor must be a positive number, got " +
                   std::to_string(cache.min_factor));
+    if (!(cache.accuracy > 0.0 && cache.accuracy <= 10.0))
+      throw Error("cache accuracy must be in (0, 10]");
+    if (!(cache.max_radius_pixels >= 0.0 && cache.max_radius_pixels <= 1e4))
+      throw Error("cache maximum radius must be in [0, 10000] pixels");
     if (cache.sample_quality < 1 || cache.sample_quality > 256)
       throw Error("cache sample quality must be in [1, 256]");
     if (cache.lookup.min_samples < 1 || cache.lookup.min_samples > 1024)
@@ -243,11 +279,13 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
                     const scene::Camera& camera, const RenderSettings& settings) {
   settings.validate();
   auto start = std::chrono::steady_clock::now();
+  cache::RadianceCache* cache = settings.cache.cache;
+  std::unique_ptr<CacheView> reflections;
+  if (cache) reflections = std::make_unique<CacheView>(cache, settings.cache.lookup);
   Context c{scene, accel, settings, make_camera(camera, settings),
             Shader(scene, accel, settings.shading),
-            Shader(scene, accel, cache_sample_shading(settings))};
+            Shader(scene, accel, cache_sample_shading(settings)), reflections.get()};
   const int w = settings.width, h = settings.height;
-  cache::RadianceCache* cache = settings.cache.cache;
   RenderOutput out;
   out.color = image::Image(w, h, 3, 0.0f);
   out.depth = image::Image(w, h, 1, std::numeric_limits<float>::infinity());

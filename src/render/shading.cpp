@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <glm/common.hpp>
@@ -212,8 +213,11 @@ glm::vec3 Shader::direct_light(const ShadingPoint& p, int samples, std::uint64_t
 }
 
 glm::vec3 Shader::indirect_light(const ShadingPoint& p, int rays, int bounces_left,
-                                 std::uint64_t key, Rng& rng, RayCounters& counters) const {
+                                 std::uint64_t key, Rng& rng, RayCounters& counters,
+                                 float* harmonic_distance) const {
+  if (harmonic_distance) *harmonic_distance = std::numeric_limits<float>::infinity();
   if (rays <= 0 || bounces_left <= 0) return glm::vec3(0.0f);
+  float inverse_sum = 0.0f;
   // Cosine-weighted gather: the pdf cos/pi cancels, so E/pi is the mean incoming radiance.
   Frame frame(p.n);
   glm::vec3 sum(0.0f);
@@ -226,6 +230,7 @@ glm::vec3 Shader::indirect_light(const ShadingPoint& p, int rays, int bounces_le
     ++counters.rays;
     scene::Hit hit = accel_.intersect(ray);
     if (!hit.valid()) continue;
+    inverse_sum += 1.0f / std::max(hit.t, epsilon_);
     ShadingPoint q = prepare(ray, hit);
     if (!has_diffuse(q)) continue;  // emission is counted by direct light sampling
     std::uint64_t sub = hash_combine(key, static_cast<std::uint64_t>(k) + 1);
@@ -233,31 +238,39 @@ glm::vec3 Shader::indirect_light(const ShadingPoint& p, int rays, int bounces_le
     if (bounces_left > 1) e += indirect_light(q, 1, bounces_left - 1, sub, rng, counters);
     sum += diffuse_reflectance(q) * e;
   }
+  if (harmonic_distance && inverse_sum > 0.0f)
+    *harmonic_distance = static_cast<float>(rays) / inverse_sum;
   return sum / static_cast<float>(rays);
 }
 
 glm::vec3 Shader::diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
-                                       RayCounters& counters) const {
+                                       RayCounters& counters, float* harmonic_distance) const {
   ++counters.shading_points;
   return direct_light(p, settings_.light_samples, hash_combine(key, 11), rng, counters) +
          indirect_light(p, settings_.gather_rays, settings_.bounces, hash_combine(key, 12), rng,
-                        counters);
+                        counters, harmonic_distance);
 }
 
 glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng,
-                        RayCounters& counters, int depth) const {
+                        RayCounters& counters, const DiffuseLookup* cached, int depth) const {
   glm::vec3 l = emitted(p);
   if (has_diffuse(p)) l += diffuse_reflectance(p) * diffuse_illum;
-  return l + specular(p, rng, counters, depth);
+  return l + specular(p, rng, counters, cached, depth);
 }
 
 glm::vec3 Shader::specular(const ShadingPoint& p, Rng& rng, RayCounters& counters,
-                           int depth) const {
+                           const DiffuseLookup* cached, int depth) const {
   if (depth >= settings_.specular_depth) return glm::vec3(0.0f);
   const float alpha = ggx_alpha(p.material.roughness);
   const glm::vec3 f0 = specular_f0(p.material);
   const float n_v = glm::dot(p.n, p.wo);
   if (n_v <= 1e-6f) return glm::vec3(0.0f);
+  // Russian roulette on weak lobes: a rough dielectric reflects about 4% (F0 = 0.04) yet would
+  // cost a shadow ray and a reflection ray per camera ray. Evaluating it with probability q and
+  // dividing by q keeps the estimate unbiased; metals and grazing angles (F -> 1) keep q = 1.
+  const float keep = std::clamp(4.0f * luminance(fresnel_schlick(f0, n_v)), 0.125f, 1.0f);
+  if (keep < 1.0f && rng.uniform() >= keep) return glm::vec3(0.0f);
+  const float inv_q = 1.0f / keep;
   glm::vec3 result(0.0f);
 
   // Punctual lights cannot be hit by sampled rays: evaluate the BRDF towards them directly.
@@ -324,38 +337,39 @@ glm::vec3 Shader::specular(const ShadingPoint& p, Rng& rng, RayCounters& counter
   float phi = 2.0f * kPi * u2;
   glm::vec3 h = frame.to_world({sin_h * std::cos(phi), sin_h * std::sin(phi), cos_h});
   float v_h = glm::dot(p.wo, h);
-  if (v_h <= 0.0f) return result;
+  if (v_h <= 0.0f) return result * inv_q;
   glm::vec3 wi = 2.0f * v_h * h - p.wo;
   float n_l = glm::dot(p.n, wi);
-  if (n_l <= 0.0f || glm::dot(p.ng, wi) <= 0.0f) return result;
+  if (n_l <= 0.0f || glm::dot(p.ng, wi) <= 0.0f) return result * inv_q;
   // f cos / pdf with pdf = D (n.h) / (4 v.h): F G (v.h) / ((n.v)(n.h)).
   glm::vec3 weight = fresnel_schlick(f0, v_h) *
                      (smith_g1(n_v, alpha) * smith_g1(n_l, alpha) * v_h / (n_v * cos_h));
-  if (luminance(weight) < 1e-4f) return result;
+  if (luminance(weight) < 1e-4f) return result * inv_q;
 
   scene::Ray ray;
   ray.origin = p.surface.position + p.ng * epsilon_;
   ray.direction = wi;
   ++counters.rays;
   scene::Hit hit = accel_.intersect(ray);
-  if (!hit.valid()) return result;
+  if (!hit.valid()) return result * inv_q;
   ShadingPoint q = prepare(ray, hit);
   glm::vec3 le = emitted(q);
   if (le.x + le.y + le.z > 0.0f) {
     float pdf_light = emitter_pdf(hit.triangle, wi, hit.t);
     le *= power(brdf_pdf(cos_h, v_h), pdf_light);
   }
-  // Seen in a reflection, diffuse light is estimated more cheaply than at primary hits.
+  // Seen in a reflection, diffuse light comes from the cache if it has it, else from an estimate
+  // cheaper than at primary hits (a reflection is one of many lens rays averaged per pixel).
   glm::vec3 e(0.0f);
-  if (has_diffuse(q)) {
+  if (has_diffuse(q) && !(cached && cached->lookup(q, &e))) {
     std::uint64_t key = hash_combine(rng.next_u32(), rng.next_u32());
     e = direct_light(q, 1, key, rng, counters) +
         indirect_light(q, std::max(1, settings_.gather_rays / 8), settings_.bounces, key + 1, rng,
                        counters);
   }
-  glm::vec3 reflected = le + specular(q, rng, counters, depth + 1);
+  glm::vec3 reflected = le + specular(q, rng, counters, cached, depth + 1);
   if (has_diffuse(q)) reflected += diffuse_reflectance(q) * e;
-  return result + weight * reflected;
+  return (result + weight * reflected) * inv_q;
 }
 
 }  // namespace dofcache::render

@@ -180,9 +180,18 @@ TEST_F(Cli, AbsurdParameters) {
   expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
 }
 
+TEST_F(Cli, CommandLineSyntaxErrorsExitWithTwo) {
+  Result r = run("render --width 10 --width 20");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_EQ(run("render --no-such-option").exit_code, 2);
+  EXPECT_EQ(run("frobnicate").exit_code, 2);
+}
+
 TEST_F(Cli, CompareMismatchedSizes) {
   ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
-  ASSERT_EQ(run("render --out " + (dir_ / "b.exr").string() + kTiny + " --width 30").exit_code, 0);
+  ASSERT_EQ(run("render --out " + (dir_ / "b.exr").string() +
+                " --width 30 --height 18 --spp 1 --gather-rays 2 -q").exit_code, 0);
   Result r = run("compare " + (dir_ / "a.exr").string() + " " + (dir_ / "b.exr").string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;

@@ -32,9 +32,23 @@ const char* mode_name(Mode mode);
 // (1, 1, 2, 4, ...): during a pass the cache is read only and new samples go to per-tile buffers
 // (a tile reuses its own new samples at once); between passes the buffers are merged in tile order.
 // So the image is the same for any thread count.
+// How far a cache sample may be reused.
+//   paper:    radius(D) = factor1(D) max(CoC_px(D), minFactor), eqs. (4.1), (4.2): in focus, half a
+//             pixel footprint, so every in-focus pixel pays about one full shade.
+//   adaptive: the paper's radius as a floor, widened where the illumination is smooth: up to
+//             `accuracy` times the harmonic mean distance to the surrounding geometry (Ward's
+//             split-sphere bound, measured by the gather rays the sample already traced), capped at
+//             `max_radius_pixels` pixel footprints. The albedo is applied per hit, so textures stay
+//             sharp; only the illumination is interpolated farther.
+enum class RadiusRule { Paper, Adaptive };
+RadiusRule parse_radius_rule(const std::string& name);
+
 struct CacheSettings {
   cache::RadianceCache* cache = nullptr;  // not owned; null: shade every hit
   double min_factor = 0.5;                // minFactor of Algorithm 1
+  RadiusRule radius_rule = RadiusRule::Paper;
+  double accuracy = 0.1;                  // adaptive rule: fraction of the harmonic mean distance
+  double max_radius_pixels = 8.0;         // adaptive rule: cap, in pixel footprints
   cache::LookupOptions lookup;
   // A cache sample is reused by many lens rays, so it is computed with more light and gather
   // samples than a per-ray shade: these multiply ShadingSettings::light_samples / gather_rays.

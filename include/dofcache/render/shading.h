@@ -42,6 +42,14 @@ struct ShadingPoint {
   bool front_face = true;
 };
 
+// Read-only access to cached diffuse illumination, for surfaces seen in reflections (view
+// independent there too). Must be deterministic and thread-safe.
+class DiffuseLookup {
+ public:
+  virtual ~DiffuseLookup() = default;
+  virtual bool lookup(const ShadingPoint& p, glm::vec3* e_over_pi) const = 0;
+};
+
 class Shader {
  public:
   Shader(const scene::Scene& scene, const scene::Accel& accel, const ShadingSettings& settings);
@@ -49,12 +57,16 @@ class Shader {
   ShadingPoint prepare(const scene::Ray& ray, const scene::Hit& hit) const;
 
   // E/pi at `p` (RGB, albedo excluded). `key` seeds its stratified light and gather patterns.
+  // If `harmonic_distance` is set it receives the harmonic mean length of the gather rays (Ward's
+  // split-sphere bound on how fast the illumination can change; +inf if every ray escaped).
   glm::vec3 diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
-                                 RayCounters& counters) const;
+                                 RayCounters& counters, float* harmonic_distance = nullptr) const;
 
   // Outgoing radiance towards p.wo given the diffuse illumination at p (computed or cached).
+  // `cached` (optional) serves the diffuse illumination of surfaces seen in reflections.
   glm::vec3 shade(const ShadingPoint& p, glm::vec3 diffuse_illumination, Rng& rng,
-                  RayCounters& counters, int depth = 0) const;
+                  RayCounters& counters, const DiffuseLookup* cached = nullptr,
+                  int depth = 0) const;
 
   // The diffuse-lobe multiplier (1 - F(n.v)) c_diff that turns E/pi into outgoing radiance.
   static glm::vec3 diffuse_reflectance(const ShadingPoint& p);
@@ -69,8 +81,10 @@ class Shader {
   glm::vec3 direct_light(const ShadingPoint& p, int samples, std::uint64_t key, Rng& rng,
                          RayCounters& counters) const;
   glm::vec3 indirect_light(const ShadingPoint& p, int rays, int bounces_left, std::uint64_t key,
-                           Rng& rng, RayCounters& counters) const;
-  glm::vec3 specular(const ShadingPoint& p, Rng& rng, RayCounters& counters, int depth) const;
+                           Rng& rng, RayCounters& counters,
+                           float* harmonic_distance = nullptr) const;
+  glm::vec3 specular(const ShadingPoint& p, Rng& rng, RayCounters& counters,
+                     const DiffuseLookup* cached, int depth) const;
   bool visible(glm::vec3 from, glm::vec3 normal, glm::vec3 to_dir, float distance,
                RayCounters& counters) const;
   // Solid-angle density with which direct_light's emitter sampling picks direction `wi` reaching

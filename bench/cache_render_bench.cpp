@@ -1,0 +1,206 @@
+// The paper's Tables 4.1 and 4.2 on our machine, plus the honest headline figure:
+//   1. none vs octree vs vdb at the same lens samples per pixel: time, speed-up, error against a
+//      converged reference (uncached DRT with many samples, cached in bench/results/references/);
+//   2. equal-quality speed-up: the time uncached DRT needs to reach the cached render's error
+//      (uncached runs at doubling spp, interpolated in log-log), divided by the cached time;
+//   3. the minFactor sweep 0.5, 1, 2, 4 on the Cornell box.
+// All variants run side by side in one process. Writes bench/results/cache_render.{json,csv}.
+//   cache_render_bench [--width W] [--spp N] [--ref-spp N] [--threads T] [--scene NAME]...
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "bench_common.h"
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/image/image_io.h"
+#include "dofcache/image/metrics.h"
+#include "dofcache/render/renderer.h"
+#include "dofcache/render/setup.h"
+#include "dofcache/scene/accel.h"
+
+using namespace dofcache;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  int width = 128, spp = 16, ref_spp = 512, threads = 0, sample_quality = 4;
+  double accuracy = 0.1, max_radius_px = 8.0;
+  std::vector<std::string> scenes;
+};
+
+struct Run {
+  double seconds;
+  image::ErrorMetrics error;
+  render::RenderStats stats;
+};
+
+struct SceneSetup {
+  std::string name;
+  scene::Scene scene;
+  std::unique_ptr<scene::Accel> accel;
+  render::RenderSettings base;
+};
+
+const Options* g_options = nullptr;  // the bench's settings, for run()
+
+SceneSetup load(const std::string& file, const Options& o) {
+  SceneSetup s;
+  s.name = fs::path(file).stem().string();
+  s.scene = render::load_scene(std::string(DOFCACHE_SOURCE_DIR) + "/scenes/" + file);
+  s.accel = std::make_unique<scene::Accel>(s.scene);
+  const scene::Camera& cam = s.scene.cameras[0];
+  s.base.width = o.width;
+  s.base.height = render::height_for_width(cam, o.width);
+  s.base.threads = o.threads;
+  s.base.lens = render::resolve_lens(s.scene, *s.accel, cam, {}).lens;
+  s.base.progress = Progress::Display::Never;
+  return s;
+}
+
+image::Image reference(const SceneSetup& s, const Options& o) {
+  fs::path dir = fs::path(bench::results_dir()) / "references";
+  fs::create_directories(dir);
+  fs::path file = dir / (s.name + "_" + std::to_string(s.base.width) + "x" +
+                         std::to_string(s.base.height) + "_" + std::to_string(o.ref_spp) + "spp_" +
+                         std::to_string(s.scene.content_hash % 100000) + ".exr");
+  if (fs::exists(file)) return image::read_image(file.string());
+  std::fprintf(stderr, "rendering the %d-spp reference of %s (once; kept in %s)\n", o.ref_spp,
+               s.name.c_str(), dir.c_str());
+  render::RenderSettings r = s.base;
+  r.spp = o.ref_spp;
+  r.seed = 1000003;  // independent of the measured renders' noise
+  r.progress = Progress::Display::Auto;
+  r.progress_label = "reference " + s.name;
+  render::RenderOutput out = render::render(s.scene, *s.accel, s.scene.cameras[0], r);
+  image::write_image(file.string(), out.color);
+  return out.color;
+}
+
+Run run(const SceneSetup& s, const image::Image& ref, int spp, const std::string& backend,
+        double min_factor = 0.5, render::RadiusRule rule = render::RadiusRule::Paper) {
+  render::RenderSettings r = s.base;
+  r.spp = spp;
+  auto cache = cache::make_radiance_cache(backend);
+  r.cache.cache = cache.get();
+  r.cache.min_factor = min_factor;
+  r.cache.radius_rule = rule;
+  r.cache.sample_quality = g_options->sample_quality;
+  r.cache.accuracy = g_options->accuracy;
+  r.cache.max_radius_pixels = g_options->max_radius_px;
+  render::RenderOutput out = render::render(s.scene, *s.accel, s.scene.cameras[0], r);
+  return {out.stats.seconds, image::compare(out.color, ref), out.stats};
+}
+
+// Time uncached DRT needs to reach `target` relMSE: doubling spp until below it, then log-log
+// interpolation between the last two points. Returns -1 if not reached within the budget.
+// `uncached` memoises the uncached runs by spp, shared by every cached variant of a scene.
+double equal_quality_time(const SceneSetup& s, const image::Image& ref, double target,
+                          int max_spp, std::map<int, Run>* uncached,
+                          std::vector<std::pair<int, Run>>* curve) {
+  double prev_t = 0, prev_e = 0;
+  for (int spp = 1; spp <= max_spp; spp *= 2) {
+    auto it = uncached->find(spp);
+    if (it == uncached->end()) it = uncached->emplace(spp, run(s, ref, spp, "none")).first;
+    const Run& u = it->second;
+    curve->emplace_back(spp, u);
+    if (u.error.rel_mse <= target) {
+      if (prev_t <= 0) return u.seconds;
+      double a = std::log(prev_e), b = std::log(u.error.rel_mse), g = std::log(target);
+      double f = (a - g) / (a - b);
+      return std::exp(std::log(prev_t) + f * (std::log(u.seconds) - std::log(prev_t)));
+    }
+    prev_t = u.seconds, prev_e = u.error.rel_mse;
+  }
+  return -1.0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--width")) o.width = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--spp")) o.spp = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--ref-spp")) o.ref_spp = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--threads")) o.threads = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--sample-quality")) o.sample_quality = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--accuracy")) o.accuracy = std::atof(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--max-radius-px")) o.max_radius_px = std::atof(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--scene")) o.scenes.push_back(argv[i + 1]);
+  }
+  g_options = &o;
+  if (o.scenes.empty())
+    o.scenes = {"cornell_box.gltf", "color_bars.gltf", "color_spheres.gltf", "glossy_closeup.glb"};
+
+  bench::Table t41({"scene", "cache", "spp", "time [s]", "speed-up", "relMSE", "PSNR [dB]",
+                    "SSIM", "hit rate", "samples", "cache MB"});
+  bench::Table teq({"scene", "cache", "cached time [s]", "cached relMSE", "uncached time to match [s]",
+                    "equal-quality speed-up"});
+  bench::Table t42({"scene", "min factor", "time [s]", "relMSE", "PSNR [dB]", "samples"});
+  nlohmann::json curves = nlohmann::json::array();
+
+  for (const std::string& file : o.scenes) {
+    SceneSetup s = load(file, o);
+    image::Image ref = reference(s, o);
+    std::fprintf(stderr, "measuring %s\n", s.name.c_str());
+    Run none = run(s, ref, o.spp, "none");
+    std::map<int, Run> uncached{{o.spp, none}};
+    for (const char* backend : {"none", "octree", "vdb", "vdb adaptive"}) {
+      bool adaptive = !std::strcmp(backend, "vdb adaptive");
+      Run r = !std::strcmp(backend, "none") ? none
+              : adaptive ? run(s, ref, o.spp, "vdb", 0.5, render::RadiusRule::Adaptive)
+                         : run(s, ref, o.spp, backend);
+      t41.add_row({s.name, backend, o.spp, bench::Table::Cell(r.seconds, 2),
+                   bench::Table::Cell(none.seconds / r.seconds, 2),
+                   bench::Table::Cell(r.error.rel_mse, 5), bench::Table::Cell(r.error.psnr, 2),
+                   bench::Table::Cell(r.error.ssim, 4), bench::Table::Cell(r.stats.cache_hit_rate(), 3),
+                   static_cast<long>(r.stats.cache_samples),
+                   bench::Table::Cell(r.stats.cache_memory_bytes / 1e6, 2)});
+      if (!std::strcmp(backend, "vdb") || adaptive) {
+        std::vector<std::pair<int, Run>> curve;
+        double t_eq =
+            equal_quality_time(s, ref, r.error.rel_mse, 4 * o.ref_spp, &uncached, &curve);
+        teq.add_row({s.name, backend, bench::Table::Cell(r.seconds, 2), bench::Table::Cell(r.error.rel_mse, 5),
+                     t_eq > 0 ? bench::Table::Cell(t_eq, 2) : bench::Table::Cell("not reached"),
+                     t_eq > 0 ? bench::Table::Cell(t_eq / r.seconds, 1) : bench::Table::Cell("-")});
+        nlohmann::json c = nlohmann::json::array();
+        for (auto& [spp, u] : curve)
+          c.push_back({{"spp", spp}, {"seconds", u.seconds}, {"rel_mse", u.error.rel_mse}});
+        curves.push_back({{"scene", s.name}, {"cache", backend}, {"uncached", c}});
+      }
+    }
+    if (s.name == "cornell_box") {
+      for (double mf : {0.5, 1.0, 2.0, 4.0}) {
+        Run r = run(s, ref, o.spp, "vdb", mf);
+        t42.add_row({s.name, bench::Table::Cell(mf, 1), bench::Table::Cell(r.seconds, 2),
+                     bench::Table::Cell(r.error.rel_mse, 5), bench::Table::Cell(r.error.psnr, 2),
+                     static_cast<long>(r.stats.cache_samples)});
+      }
+    }
+  }
+  std::printf("\nTable 4.1 again: the same %d lens samples per pixel, error against a %d-spp "
+              "uncached reference (%d px wide)\n", o.spp, o.ref_spp, o.width);
+  t41.print();
+  std::printf("\nEqual-quality speed-up: uncached DRT time to reach the cached render's relMSE\n");
+  teq.print();
+  std::printf("\nTable 4.2 again: minFactor sweep (vdb)\n");
+  t42.print();
+
+  nlohmann::json results;
+  results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"reference_spp", o.ref_spp},
+                         {"threads", o.threads}, {"sample_quality", o.sample_quality},
+                         {"accuracy", o.accuracy}, {"max_radius_px", o.max_radius_px}};
+  results["rows"] = t41.to_json();
+  results["columns"] = t41.header();
+  results["equal_quality"] = teq.to_json();
+  results["min_factor_sweep"] = t42.to_json();
+  results["uncached_curves"] = curves;
+  std::printf("\nwrote %s\n", bench::write_results("cache_render", results).c_str());
+  return 0;
+}

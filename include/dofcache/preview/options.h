@@ -1,0 +1,44 @@
+#pragma once
+// Settings shared by every preview method (gather, scatter, layered, layered with the occlusion
+// fix). One struct, passed down: the renderer that supplies the near-plane id layers must plan the
+// layers with the same options as the post-process (see layers.h).
+
+namespace dofcache::preview {
+
+struct PreviewOptions {
+  // Worker threads for the post-process (a TBB arena of this size); 0 uses every TBB thread.
+  int threads = 0;
+
+  // --- circle of confusion ---------------------------------------------------------------------
+  // Blur radii (|CoC| / 2, pixels) are clamped to this, so a surface almost touching the lens does
+  // not ask for a blur wider than the image.
+  double max_coc_radius = 64.0;
+
+  // --- layer planning (layers.h) -----------------------------------------------------------------
+  // 0: the automatic rule of plan_layers; > 0 forces this many layers (still evenly spaced).
+  int layer_count = 0;
+  // Upper bound of the automatic rule (cost is about linear in the layer count). At most 64.
+  int max_layers = 12;
+  // Smallest spacing of neighbouring layers in CoC *radius* (pixels). The default is half the
+  // radius that pyramid level 1 produces (3 px, see pyramid.h).
+  double min_layer_step = 1.5;
+
+  // --- pyramid blur (pyramid.h) ------------------------------------------------------------------
+  // true: blend the two pyramid levels whose blur brackets the layer radius (variance matched);
+  // false: Kraus & Strengert's rounding up to the next power-of-two level (over-blurs).
+  bool blend_pyramid_levels = true;
+  // Blur and composite each layer only inside the box its matte covers (plus the kernel support).
+  // Gives the same image as processing the whole frame; false is for testing that.
+  bool crop_layers = true;
+
+  // --- occlusion fix (occlusion.h) ---------------------------------------------------------------
+  // Keep only mask pixels that some lens ray can reach (Lee et al. 2010); see occlusion.h.
+  bool mask_lens_reach = true;
+
+  // --- scatter baseline --------------------------------------------------------------------------
+  // Width of a depth bin of the scatter baseline in signed CoC diameter (pixels). Splats of one bin
+  // add up; bins are composited far to near. At most 128 bins are used.
+  double scatter_bin_width = 2.0;
+};
+
+}  // namespace dofcache::preview

@@ -1,0 +1,91 @@
+#pragma once
+// Depth-of-field preview by post-processing one pinhole render (paper section 3): the single entry
+// point over the four methods. Pipeline and measured costs: docs/preview.md.
+//
+// Layered (Kraus & Strengert 2007, paper 3.1), for every layer i = n-1 .. 0 (back to front):
+//   1. culling: pixels with signed CoC c < c_{i-2} are foreground for layer i;
+//   2. disocclusion: their colour and CoC are filled by normalised pull-push (pull_push.h);
+//   3. matting: colour and alpha multiplied by w_i(c) (layers.h);
+//   4. blurring: pyramid blur of premultiplied colour and alpha with radius r_i (pyramid.h);
+//   5. blending: "over" onto the layers behind; the final image is divided by its total alpha
+//      (exactly 1 wherever the blurred mattes add up; elsewhere it removes the residual darkening).
+// LayeredOcclusion (paper 3.2) replaces step 2 for the culled pixels that a revealed layer covers:
+// the colour and depth come from A_{n-1}, then A_{n-2}, ..., down to A_{max(i-1, 1)} (each
+// nearer one overwrites, so the nearest revealed surface at depth >= z_{i-1} wins; that is the
+// plateau slab [z_{i-1}, z_i) of layer i and everything behind it), and those fragments are matted
+// with revealed_matting_weight (hard front cut). Pull-push fills only what stays unfilled.
+// (The paper says "down to A_i"; with the matting indices of 3.1 that would drop the hidden
+// surfaces of layer i's own plateau slab, A_{i-1}.)
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dofcache/image/image.h"
+#include "dofcache/lens/thin_lens.h"
+#include "dofcache/preview/layers.h"
+#include "dofcache/preview/options.h"
+
+namespace dofcache::preview {
+
+enum class PreviewMethod { Gather, Scatter, Layered, LayeredOcclusion };
+
+// "gather", "scatter", "layered", "layered-occlusion".
+const char* to_string(PreviewMethod method);
+// The inverse; throws dofcache::Error listing the valid names.
+PreviewMethod parse_preview_method(const std::string& name);
+
+// A_j of the paper: the scene rendered with the near clipping plane at layer j's depth, valid where
+// mask = 1 (the mask build_occlusion_masks gave for layer j, or a subset of it).
+struct RevealedLayer {
+  double near_depth = 0;  // must equal plan.layers[j].depth of the plan render_preview makes
+  image::Image color;     // RGB linear
+  image::Image depth;     // 1 channel, camera-space z (metres)
+  image::Image mask;      // 1 channel, 1 where color/depth are valid
+};
+
+struct PreviewInputs {
+  image::Image color;  // RGB linear, the pinhole render
+  image::Image depth;  // 1 channel, camera-space z in metres, +inf for background / miss
+  image::Image ids;    // 1 channel, float-encoded object or primitive id, -1 for none (L_0)
+  lens::LensImaging imaging;
+  std::vector<RevealedLayer> revealed;  // LayeredOcclusion only; any order, any subset of layers
+};
+
+// Wall-clock milliseconds per stage of one render_preview call.
+struct PreviewTimings {
+  double setup_ms = 0;       // CoC map, layer plan, revealed-layer index
+  double fill_ms = 0;        // layered: culling + revealed fill + pull-push disocclusion
+  double matting_ms = 0;     // layered: mattes, premultiplication, layer bounding boxes
+  double blur_blend_ms = 0;  // layered: pyramid blur; "over" is fused into its last expand
+  double filter_ms = 0;      // gather / scatter: the whole filter
+  double resolve_ms = 0;     // division by total alpha, output image
+  double total_ms = 0;
+  int layers = 0;          // layers planned (layered methods)
+  int layers_blurred = 0;  // layers whose matte was not empty
+};
+
+// Reusable scratch memory: keep one across frames to avoid reallocating buffers.
+class PreviewWorkspace {
+ public:
+  PreviewWorkspace();
+  ~PreviewWorkspace();
+  PreviewWorkspace(const PreviewWorkspace&) = delete;
+  PreviewWorkspace& operator=(const PreviewWorkspace&) = delete;
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// The preview (RGB). If every |CoC| is at most 1 px (zero aperture, or everything at the focus
+// distance) every method returns the input colour unchanged. LayeredOcclusion without revealed
+// layers is Layered. Throws dofcache::Error on mismatched image shapes, or a revealed layer whose
+// near_depth matches no layer of the plan.
+image::Image render_preview(const PreviewInputs& inputs, PreviewMethod method,
+                            const PreviewOptions& options, PreviewTimings* timings = nullptr);
+image::Image render_preview(const PreviewInputs& inputs, PreviewMethod method,
+                            const PreviewOptions& options, PreviewWorkspace& workspace,
+                            PreviewTimings* timings = nullptr);
+
+}  // namespace dofcache::preview

@@ -1,0 +1,218 @@
+#pragma once
+// Internal building blocks of the preview: an RGBA value type, row-parallel loops, per-thread
+// scratch rows, the pyramid reduce/expand on RGBA buffers and the pull-push levels.
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <cstring>
+#include <vector>
+
+namespace dofcache::preview::detail {
+
+struct alignas(16) Rgba {
+  float r, g, b, a;
+};
+// The arithmetic goes through a 4-float vector type so that it maps to single SIMD instructions.
+typedef float Float4 __attribute__((vector_size(16)));
+inline Float4 as_vec(const Rgba& x) {
+  Float4 v;
+  std::memcpy(&v, &x, sizeof v);
+  return v;
+}
+inline Rgba as_rgba(Float4 v) {
+  Rgba x;
+  std::memcpy(&x, &v, sizeof x);
+  return x;
+}
+inline Rgba operator+(const Rgba& x, const Rgba& y) { return as_rgba(as_vec(x) + as_vec(y)); }
+inline Rgba operator*(const Rgba& x, float s) { return as_rgba(as_vec(x) * s); }
+
+// f(y_begin, y_end) over [0, rows) in parallel chunks of at least `grain` rows.
+template <class F>
+void parallel_rows(int rows, const F& f, int grain = 4) {
+  if (rows <= 0) return;
+  tbb::parallel_for(tbb::blocked_range<int>(0, rows, grain),
+                    [&](const tbb::blocked_range<int>& r) { f(r.begin(), r.end()); });
+}
+
+template <class T>
+void ensure_size(std::vector<T>& v, size_t n) {
+  if (v.size() < n) v.resize(n);
+}
+
+inline double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// A 2D window into a row-major RGBA buffer.
+struct RgbaView {
+  Rgba* data = nullptr;
+  int width = 0, height = 0;
+  std::ptrdiff_t stride = 0;  // elements between rows
+  Rgba* row(int y) const { return data + y * stride; }
+};
+
+// Per-thread scratch rows (grown on demand, never shrunk).
+class ScratchRows {
+ public:
+  Rgba* get(int slot, size_t n) {
+    auto& rows = local_.local();
+    if (rows.size() <= static_cast<size_t>(slot)) rows.resize(slot + 1);
+    ensure_size(rows[slot], n);
+    return rows[slot].data();
+  }
+
+ private:
+  tbb::enumerable_thread_specific<std::vector<std::vector<Rgba>>> local_;
+};
+
+// 4x4 box reduce (Kraus & Strengert 2007): coarse pixel m covers fine pixels 2m-1 .. 2m+2 on each
+// axis (clamped to the edge). coarse must be ceil(fine/2) in each dimension.
+void reduce_box4(const RgbaView& fine, const RgbaView& coarse, ScratchRows& scratch);
+
+// reduce_box4 from rows produced on demand: src(y, out) writes fine row y (fine_width pixels).
+// Each fine row is produced about once (a ring of four rows per task), so the fine level never
+// has to exist as a whole.
+template <class RowSource>
+void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, ScratchRows& scratch,
+                      const RowSource& src);
+
+// Biquadratic B-spline expand: fine pixel x lies at coarse coordinate x/2 - 1/4; taps (m-1, m,
+// m+1) with m = x/2 have weights (9/32, 22/32, 1/32) for even x and (1/32, 22/32, 9/32) for odd x
+// (the quadratic B-spline at distances 3/4, 1/4, 5/4). store(y, row) receives every fine row.
+template <class Store>
+void expand_bspline2(const RgbaView& coarse, int fine_width, int fine_height, ScratchRows& scratch,
+                     const Store& store);
+
+// Pull-push levels for C channels plus a weight (interleaved, C + 1 floats per pixel).
+struct PullPushLevel {
+  int width = 0, height = 0;
+  std::vector<float> data;
+};
+// Pulls levels 2 .. n-1 (1x1) from `levels[1]` (already filled by the caller), then pushes back
+// down to level 1 so that every level-1 pixel holds a normalised filled value with weight 1.
+// Needs n >= 2; channels 1..8.
+void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels);
+// Size the pull-push levels for a width x height level 0; returns the number of levels.
+int prepare_pull_push(std::vector<PullPushLevel>& levels, int width, int height, int channels);
+// Bilinear lookup of the filled level 1 at fine pixel (x, y): coarse coordinate (x + 1/2)/2 - 1/2,
+// so the weights are 3/4 and 1/4 (edges clamped). Vertical first, then horizontal.
+struct PullPushTaps {
+  int i0, i1;  // coarse indices (clamped)
+  float f;     // weight of i1
+};
+inline PullPushTaps pull_push_taps(int fine, int coarse_size) {
+  int m = fine >> 1, i0 = (fine & 1) ? m : m - 1;
+  return {std::max(i0, 0), std::min(i0 + 1, coarse_size - 1), (fine & 1) ? 0.25f : 0.75f};
+}
+template <int C>
+inline void pull_push_sample(const PullPushLevel& l1, int x, int y, float* out) {
+  constexpr int stride = C + 1;
+  const PullPushTaps tx = pull_push_taps(x, l1.width), ty = pull_push_taps(y, l1.height);
+  const float* r0 = l1.data.data() + static_cast<size_t>(ty.i0) * l1.width * stride;
+  const float* r1 = l1.data.data() + static_cast<size_t>(ty.i1) * l1.width * stride;
+  for (int k = 0; k < C; ++k) {
+    float a = (1 - ty.f) * r0[tx.i0 * stride + k] + ty.f * r1[tx.i0 * stride + k];
+    float b = (1 - ty.f) * r0[tx.i1 * stride + k] + ty.f * r1[tx.i1 * stride + k];
+    out[k] = (1 - tx.f) * a + tx.f * b;
+  }
+}
+// The same for the first four channels of pixels [xa, xb) of row y at once (identical values);
+// `tmp` holds at least (xb - xa) / 2 + 3 entries.
+inline void pull_push_sample_row(const PullPushLevel& l1, int y, int xa, int xb, Rgba* out,
+                                 Rgba* tmp) {
+  const PullPushTaps ty = pull_push_taps(y, l1.height);
+  const float* r0 = l1.data.data() + static_cast<size_t>(ty.i0) * l1.width * 5;
+  const float* r1 = l1.data.data() + static_cast<size_t>(ty.i1) * l1.width * 5;
+  const int ca = std::max((xa >> 1) - 1, 0), cb = std::min(((xb - 1) >> 1) + 1, l1.width - 1);
+  const Float4 w0 = {1 - ty.f, 1 - ty.f, 1 - ty.f, 1 - ty.f}, w1 = {ty.f, ty.f, ty.f, ty.f};
+  for (int c = ca; c <= cb; ++c) {
+    Float4 a, b;
+    std::memcpy(&a, r0 + 5 * c, sizeof a);
+    std::memcpy(&b, r1 + 5 * c, sizeof b);
+    tmp[c - ca] = as_rgba(w0 * a + w1 * b);
+  }
+  for (int x = xa; x < xb; ++x) {
+    const PullPushTaps tx = pull_push_taps(x, l1.width);
+    out[x - xa] = as_rgba(as_vec(tmp[tx.i0 - ca]) * (1 - tx.f) + as_vec(tmp[tx.i1 - ca]) * tx.f);
+  }
+}
+void pull_push_sample(const PullPushLevel& l1, int channels, int x, int y, float* out);
+
+// ---- template implementation ---------------------------------------------------------------
+
+template <class RowSource>
+void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, ScratchRows& scratch,
+                      const RowSource& src) {
+  const int fw = fine_width, fh = fine_height, cw = coarse.width;
+  parallel_rows(
+      coarse.height,
+      [&](int y0, int y1) {
+        Rgba* tmp = scratch.get(0, fw + 3) + 1;  // tmp[-1], tmp[fw], tmp[fw+1] repeat the edges
+        Rgba* ring[4];
+        int tag[4] = {-1, -1, -1, -1};
+        for (int k = 0; k < 4; ++k) ring[k] = scratch.get(2 + k, fw);
+        auto fetch = [&](int fy) -> const Rgba* {
+          int slot = fy & 3;  // rows 2y-1 .. 2y+2 of one coarse row never share a slot
+          if (tag[slot] != fy) {
+            src(fy, ring[slot]);
+            tag[slot] = fy;
+          }
+          return ring[slot];
+        };
+        for (int y = y0; y < y1; ++y) {
+          const Rgba* r0 = fetch(std::max(2 * y - 1, 0));
+          const Rgba* r1 = fetch(std::min(2 * y, fh - 1));
+          const Rgba* r2 = fetch(std::min(2 * y + 1, fh - 1));
+          const Rgba* r3 = fetch(std::min(2 * y + 2, fh - 1));
+          for (int x = 0; x < fw; ++x) tmp[x] = (r0[x] + r1[x]) + (r2[x] + r3[x]);
+          tmp[-1] = tmp[0];
+          tmp[fw] = tmp[fw - 1];
+          tmp[fw + 1] = tmp[fw - 1];
+          Rgba* out = coarse.row(y);
+          for (int x = 0; x < cw; ++x)
+            out[x] = ((tmp[2 * x - 1] + tmp[2 * x]) + (tmp[2 * x + 1] + tmp[2 * x + 2])) * 0.0625f;
+        }
+      },
+      4);
+}
+
+template <class Store>
+void expand_bspline2(const RgbaView& coarse, int fine_width, int fine_height, ScratchRows& scratch,
+                     const Store& store) {
+  constexpr float kNear = 22.0f / 32.0f, kFar = 9.0f / 32.0f, kOut = 1.0f / 32.0f;
+  const int cw = coarse.width, ch = coarse.height;
+  parallel_rows(
+      fine_height,
+      [&](int y0, int y1) {
+        Rgba* tmp = scratch.get(0, cw + 2) + 1;  // tmp[-1] and tmp[cw] repeat the edges
+        Rgba* out = scratch.get(1, fine_width + 1);
+        for (int y = y0; y < y1; ++y) {
+          int m = y >> 1;
+          const Rgba* rm = coarse.row(std::max(m - 1, 0));
+          const Rgba* r0 = coarse.row(std::min(m, ch - 1));
+          const Rgba* rp = coarse.row(std::min(m + 1, ch - 1));
+          float wm = (y & 1) ? kOut : kFar, wp = (y & 1) ? kFar : kOut;
+          for (int x = 0; x < cw; ++x) tmp[x] = rm[x] * wm + r0[x] * kNear + rp[x] * wp;
+          tmp[-1] = tmp[0];
+          tmp[cw] = tmp[cw - 1];
+          int pairs = fine_width >> 1;
+          for (int k = 0; k < pairs; ++k) {
+            out[2 * k] = tmp[k - 1] * kFar + tmp[k] * kNear + tmp[k + 1] * kOut;
+            out[2 * k + 1] = tmp[k - 1] * kOut + tmp[k] * kNear + tmp[k + 1] * kFar;
+          }
+          if (fine_width & 1) {  // then pairs = cw - 1 and tmp[cw] is the padded edge
+            int k = pairs;
+            out[2 * k] = tmp[k - 1] * kFar + tmp[k] * kNear + tmp[k + 1] * kOut;
+          }
+          store(y, static_cast<const Rgba*>(out));
+        }
+      },
+      2);
+}
+
+}  // namespace dofcache::preview::detail

@@ -1,0 +1,485 @@
+// The layered preview: culling, disocclusion (pull-push or revealed layers), matting, pyramid blur
+// and back-to-front blending, one layer at a time (see preview.h and docs/preview.md).
+//
+// Cost control: per frame the pinhole colour and CoC are packed into one RGBA stream and
+// summarised per 2x2 block (for the pull of the disocclusion) and per 16x16 tile. Per layer the
+// tiles are classified (wholly behind the layer: skipped; nothing culled; wholly culled; mixed),
+// the matted layer is produced row by row straight into the first pyramid reduce (it is never
+// stored at full resolution), and the pyramid runs on the bounding box of the tiles whose matte
+// can be non-zero, plus the kernel's reach.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "dofcache/core/error.h"
+#include "dofcache/preview/pyramid.h"
+#include "matting_kernel.h"
+#include "pipeline.h"
+
+namespace dofcache::preview::detail {
+namespace {
+
+constexpr int kTile = 16;
+using Block = PreviewWorkspace::Impl::Block;
+using Tile = PreviewWorkspace::Impl::Tile;
+
+struct Box {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // [x0, x1) x [y0, y1)
+  bool empty() const { return x0 >= x1 || y0 >= y1; }
+};
+
+// The blurred layer is non-zero at most 2^(L+2) - 4 pixels outside its matte (reducing to level L
+// spreads by 2^(L+1) - 2, expanding back as much again). With this margin, aligned to the level-L
+// grid, the cropped pyramid reads only zeros across its cut edges: the same result as uncropped.
+Box crop_for(const Box& b, int top_level, int width, int height) {
+  const int a = 1 << top_level, m = 4 * a + a;
+  auto down = [&](int v) { return v <= 0 ? 0 : (v / a) * a; };
+  auto up = [&](int v, int limit) { return std::min(limit, ((v + a - 1) / a) * a); };
+  return {down(b.x0 - m), down(b.y0 - m), up(b.x1 + m, width), up(b.y1 + m, height)};
+}
+
+// {r, g, b, c} -> {r a, g a, b a, a}.
+inline Rgba premultiply(const Rgba& v, float alpha) {
+  Float4 r = as_vec(v) * alpha;
+  r[3] = alpha;
+  return as_rgba(r);
+}
+
+// Few bits are ever set (a pixel is revealed by one or two layers): clear them one by one rather
+// than call the generic routine (no POPCNT without -march flags).
+int popcount64(std::uint64_t v) {
+  int c = 0;
+  for (; v; v &= v - 1) ++c;
+  return c;
+}
+int ctz64(std::uint64_t v) { return __builtin_ctzll(v); }
+
+}  // namespace
+
+void layered_preview(const PreviewInputs& in, const PreviewOptions& options, const LayerPlan& plan,
+                     bool occlusion, PreviewWorkspace::Impl& ws, image::Image& out,
+                     PreviewTimings& timings) {
+  using clock = std::chrono::steady_clock;
+  const int W = in.color.width(), H = in.color.height();
+  const size_t N = static_cast<size_t>(W) * H;
+  const int n = plan.size();
+  const float* color = in.color.data().data();
+  timings.layers = n;
+
+  // ---------------------------------------------------------------- setup (per frame)
+  auto t0 = clock::now();
+  ensure_size(ws.packed, N);
+  Rgba* px = ws.packed.data();
+  parallel_rows(H, [&](int y0, int y1) {
+    for (size_t p = static_cast<size_t>(y0) * W; p < static_cast<size_t>(y1) * W; ++p)
+      px[p] = Rgba{color[3 * p], color[3 * p + 1], color[3 * p + 2], ws.coc[p]};
+  });
+
+  // Revealed fragments, packed by pixel then layer.
+  occlusion = occlusion && !in.revealed.empty();
+  if (occlusion) {
+    CocMap coc_of(in.imaging, options.max_coc_radius);
+    ensure_size(ws.revealed_bits, N);
+    ensure_size(ws.revealed_first, N);
+    std::vector<const RevealedLayer*> by_layer(n, nullptr);
+    for (const RevealedLayer& r : in.revealed) {
+      int j = -1;
+      for (int k = 0; k < n; ++k) {
+        double z = plan.layers[k].depth;
+        if (z == r.near_depth || std::abs(z - r.near_depth) <= 1e-9 * std::abs(z)) j = k;
+      }
+      if (j < 0)
+        throw Error("preview: a revealed layer's near depth (" + std::to_string(r.near_depth) +
+                    " m) matches no layer of the plan; plan the layers with the same options");
+      if (r.color.width() != W || r.color.height() != H || r.color.channels() != 3 ||
+          r.depth.width() != W || r.depth.height() != H || r.depth.channels() != 1 ||
+          r.mask.width() != W || r.mask.height() != H || r.mask.channels() != 1)
+        throw Error(
+            "preview: a revealed layer's colour (RGB), depth and mask must have the size "
+            "of the pinhole image");
+      if (j == 0) continue;  // mask_0 is empty by definition
+      by_layer[j] = &r;
+    }
+    // One pass over the rows, all masks per row (the row of bits stays in cache), counting the
+    // fragments per row; then offsets: prefix over rows, then per pixel.
+    std::vector<int> row_start(H + 1, 0);
+    parallel_rows(H, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) {
+        std::uint64_t* bits = ws.revealed_bits.data() + static_cast<size_t>(y) * W;
+        std::fill(bits, bits + W, 0);
+        for (int j = 1; j < n; ++j) {
+          if (!by_layer[j]) continue;
+          const float* m = by_layer[j]->mask.data().data() + static_cast<size_t>(y) * W;
+          const std::uint64_t bit = std::uint64_t{1} << j;
+          for (int x = 0; x < W; ++x) bits[x] |= m[x] > 0.5f ? bit : 0;
+        }
+        int c = 0;
+        for (int x = 0; x < W; ++x) c += popcount64(bits[x]);
+        row_start[y + 1] = c;
+      }
+    });
+    for (int y = 0; y < H; ++y) row_start[y + 1] += row_start[y];
+    ensure_size(ws.revealed, static_cast<size_t>(row_start[H]));
+    parallel_rows(H, [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) {
+        int k = row_start[y];
+        for (size_t p = static_cast<size_t>(y) * W; p < static_cast<size_t>(y + 1) * W; ++p) {
+          std::uint64_t b = ws.revealed_bits[p];
+          ws.revealed_first[p] = b ? k : -1;
+          k += popcount64(b);
+        }
+      }
+    });
+    parallel_rows(H, [&](int y0, int y1) {
+      for (size_t p = static_cast<size_t>(y0) * W; p < static_cast<size_t>(y1) * W; ++p) {
+        std::uint64_t b = ws.revealed_bits[p];
+        for (int k = ws.revealed_first[p]; b; b &= b - 1, ++k) {
+          const RevealedLayer& r = *by_layer[ctz64(b)];
+          const float* c = r.color.data().data() + 3 * p;
+          ws.revealed[k] = Rgba{c[0], c[1], c[2], coc_of(r.depth.data()[p])};
+        }
+      }
+    });
+  }
+
+  // 2x2 block and 16x16 tile summaries.
+  const int bw = (W + 1) / 2, bh = (H + 1) / 2;
+  ensure_size(ws.blocks, static_cast<size_t>(bw) * bh);
+  parallel_rows(bh, [&](int y0, int y1) {
+    for (int by = y0; by < y1; ++by)
+      for (int bx = 0; bx < bw; ++bx) {
+        Block blk{{0, 0, 0, 0},
+                  std::numeric_limits<float>::infinity(),
+                  -std::numeric_limits<float>::infinity(),
+                  0};
+        int count = 0;
+        for (int y = 2 * by; y < std::min(2 * by + 2, H); ++y)
+          for (int x = 2 * bx; x < std::min(2 * bx + 2, W); ++x) {
+            size_t p = static_cast<size_t>(y) * W + x;
+            blk.mean = blk.mean + px[p];
+            blk.cmin = std::min(blk.cmin, px[p].a);
+            blk.cmax = std::max(blk.cmax, px[p].a);
+            if (occlusion) blk.bits |= ws.revealed_bits[p];
+            ++count;
+          }
+        blk.mean = blk.mean * (1.0f / count);
+        ws.blocks[static_cast<size_t>(by) * bw + bx] = blk;
+      }
+  });
+  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
+  ensure_size(ws.tiles, static_cast<size_t>(tw) * th);
+  parallel_rows(
+      th,
+      [&](int ty0, int ty1) {
+        for (int ty = ty0; ty < ty1; ++ty)
+          for (int tx = 0; tx < tw; ++tx) {
+            Tile t{std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                   0};
+            for (int y = ty * kTile; y < std::min((ty + 1) * kTile, H); ++y)
+              for (int x = tx * kTile; x < std::min((tx + 1) * kTile, W); ++x) {
+                size_t p = static_cast<size_t>(y) * W + x;
+                t.cmin = std::min(t.cmin, px[p].a);
+                t.cmax = std::max(t.cmax, px[p].a);
+                if (occlusion) t.bits |= ws.revealed_bits[p];
+              }
+            ws.tiles[static_cast<size_t>(ty) * tw + tx] = t;
+          }
+      },
+      1);
+
+  ensure_size(ws.acc, N);
+  std::fill(ws.acc.begin(), ws.acc.begin() + N, Rgba{0, 0, 0, 0});
+  ensure_size(ws.tile_class, static_cast<size_t>(tw) * th);
+  const int pp_levels = prepare_pull_push(ws.pull_push, W, H, 4);
+  const int max_level = pyramid_max_level(W, H);
+  timings.setup_ms += ms_since(t0);
+
+  Rgba* acc = ws.acc.data();
+  enum TileClass : unsigned char { kSkip, kKept, kCulled, kMixed };
+
+  for (int i = n - 1; i >= 0; --i) {
+    Matte matte;
+    matte.c0 = static_cast<float>(plan.origin);
+    matte.inv_step = plan.step > 0 ? static_cast<float>(1.0 / plan.step) : 0.0f;
+    matte.i = i;
+    matte.n = n;
+    // Culling: c < c_{i-2}. Revealed fill: the nearest A_j with j >= max(i-1, 1).
+    const float cull =
+        i >= 2 ? static_cast<float>(plan.anchor(i - 2)) : -std::numeric_limits<float>::infinity();
+    // The matte is zero at and behind c_{i+1} (except on the back layer), and at and before
+    // c_{i-2} (except on layers 0 and 1, whose rising ramps lie before every pixel).
+    const float behind =
+        i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : std::numeric_limits<float>::infinity();
+    const int lowest = std::max(i - 1, 1);
+    const std::uint64_t usable = occlusion && lowest < 64 ? ~((std::uint64_t{1} << lowest) - 1) : 0;
+
+    // ------------------------------------------------------- culling + disocclusion (pull)
+    auto t1 = clock::now();
+    bool any_unknown = false;
+    if (i >= 2 && cull > static_cast<float>(plan.coc_min) && pp_levels >= 2) {
+      PullPushLevel& l1 = ws.pull_push[1];
+      std::atomic<long> unknown{0};
+      parallel_rows(
+          bh,
+          [&](int y0, int y1) {
+            long local_unknown = 0;
+            for (int by = y0; by < y1; ++by)
+              for (int bx = 0; bx < bw; ++bx) {
+                const Block& blk = ws.blocks[static_cast<size_t>(by) * bw + bx];
+                float* q = l1.data.data() + (static_cast<size_t>(by) * bw + bx) * 5;
+                if (blk.cmin >= cull) {  // wholly kept
+                  q[0] = blk.mean.r;
+                  q[1] = blk.mean.g;
+                  q[2] = blk.mean.b;
+                  q[3] = blk.mean.a;
+                  q[4] = 1;
+                  continue;
+                }
+                if (blk.cmax < cull && !(blk.bits & usable)) {  // wholly culled, nothing revealed
+                  q[4] = 0;
+                  ++local_unknown;
+                  continue;
+                }
+                Rgba sum{0, 0, 0, 0};
+                int known = 0;
+                for (int y = 2 * by; y < std::min(2 * by + 2, H); ++y)
+                  for (int x = 2 * bx; x < std::min(2 * bx + 2, W); ++x) {
+                    size_t p = static_cast<size_t>(y) * W + x;
+                    const Rgba* v = &px[p];
+                    if (px[p].a < cull) {
+                      std::uint64_t all = usable ? ws.revealed_bits[p] : 0, b = all & usable;
+                      if (!b) {
+                        ++local_unknown;
+                        continue;
+                      }
+                      v = &ws.revealed[ws.revealed_first[p] +
+                                       popcount64(all & ((b & (~b + 1)) - 1))];
+                    }
+                    sum = sum + *v;
+                    ++known;
+                  }
+                float inv = known ? 1.0f / known : 0.0f;
+                q[0] = sum.r * inv;
+                q[1] = sum.g * inv;
+                q[2] = sum.b * inv;
+                q[3] = sum.a * inv;
+                q[4] = known ? 1.0f : 0.0f;
+              }
+            unknown += local_unknown;
+          },
+          8);
+      any_unknown = unknown.load() > 0;
+      if (any_unknown) pull_push_levels(ws.pull_push, pp_levels, 4);
+    }
+    const PullPushLevel& l1 = ws.pull_push[std::min(1, pp_levels - 1)];
+    timings.fill_ms += ms_since(t1);
+
+    // ------------------------------------------------------- matting
+    // Tiles are classified once; matte_row then produces any row segment of the premultiplied
+    // layer on demand (the pyramid's first reduce consumes it, so the full-resolution layer is
+    // never stored).
+    auto t2 = clock::now();
+    const float lo = i >= 2 ? cull : -std::numeric_limits<float>::infinity();
+    std::vector<Box> band_box(th);
+    parallel_rows(
+        th,
+        [&](int ty0, int ty1) {
+          for (int ty = ty0; ty < ty1; ++ty) {
+            Box b{W, H, 0, 0};
+            for (int tx = 0; tx < tw; ++tx) {
+              const size_t ti = static_cast<size_t>(ty) * tw + tx;
+              const Tile& tile = ws.tiles[ti];
+              TileClass cls;
+              bool nonzero;
+              if (tile.cmin >= behind) {
+                cls = kSkip;
+                nonzero = false;
+              } else if (tile.cmin >= cull) {
+                cls = kKept;
+                nonzero = tile.cmax > lo;  // some c in (lo, behind)
+              } else if (tile.cmax < cull && !(tile.bits & usable)) {
+                cls = any_unknown ? kCulled : kSkip;
+                nonzero = any_unknown;
+                if (any_unknown) {  // the filled CoC over the tile's footprint on level 1
+                  float fmin = std::numeric_limits<float>::infinity(), fmax = -fmin;
+                  const int cx0 = std::max(tx * kTile / 2 - 1, 0),
+                            cx1 = std::min((tx + 1) * kTile / 2 + 1, l1.width);
+                  const int cy0 = std::max(ty * kTile / 2 - 1, 0),
+                            cy1 = std::min((ty + 1) * kTile / 2 + 1, l1.height);
+                  for (int cy = cy0; cy < cy1; ++cy)
+                    for (int cx = cx0; cx < cx1; ++cx) {
+                      float c = l1.data[(static_cast<size_t>(cy) * l1.width + cx) * 5 + 3];
+                      fmin = std::min(fmin, c);
+                      fmax = std::max(fmax, c);
+                    }
+                  nonzero = fmin < behind && fmax > lo;
+                  if (!nonzero) cls = kSkip;
+                }
+              } else {
+                cls = kMixed;
+                nonzero = true;
+              }
+              ws.tile_class[ti] = cls;
+              if (nonzero) {
+                b.x0 = std::min(b.x0, tx * kTile);
+                b.x1 = std::max(b.x1, std::min((tx + 1) * kTile, W));
+                b.y0 = std::min(b.y0, ty * kTile);
+                b.y1 = std::max(b.y1, std::min((ty + 1) * kTile, H));
+              }
+            }
+            band_box[ty] = b;
+          }
+        },
+        1);
+    Box box{W, H, 0, 0};
+    for (const Box& b : band_box)
+      if (!b.empty()) {
+        box.x0 = std::min(box.x0, b.x0);
+        box.y0 = std::min(box.y0, b.y0);
+        box.x1 = std::max(box.x1, b.x1);
+        box.y1 = std::max(box.y1, b.y1);
+      }
+
+    // Premultiplied layer pixels [xa, xb) of row y into out.
+    auto matte_row = [&](int y, int xa, int xb, Rgba* out) {
+      const Matte m = matte;  // a local copy: stores through `out` cannot alias it
+      const int ty = y / kTile;
+      Rgba* culled_tmp = nullptr;  // scratch of pull_push_sample_row, fetched once per row
+      const Rgba* src = px + static_cast<size_t>(y) * W;
+      for (int x = xa; x < xb;) {
+        const int tx = x / kTile, xe = std::min(xb, (tx + 1) * kTile);
+        const TileClass cls =
+            static_cast<TileClass>(ws.tile_class[static_cast<size_t>(ty) * tw + tx]);
+        Rgba* o = out - xa;
+        switch (cls) {
+          case kSkip:
+            std::fill(o + x, o + xe, Rgba{0, 0, 0, 0});
+            break;
+          case kKept:
+            for (int k = x; k < xe; ++k) o[k] = premultiply(src[k], m.weight(src[k].a));
+            break;
+          case kCulled: {
+            if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
+            pull_push_sample_row(l1, y, x, xe, o + x, culled_tmp);
+            for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.weight(o[k].a));
+            break;
+          }
+          case kMixed:
+            for (int k = x; k < xe; ++k) {
+              Rgba v = src[k];
+              float alpha;
+              if (v.a >= cull) {
+                alpha = m.weight(v.a);
+              } else {
+                const size_t p = static_cast<size_t>(y) * W + k;
+                std::uint64_t all = usable ? ws.revealed_bits[p] : 0, b = all & usable;
+                if (b) {
+                  v = ws.revealed[ws.revealed_first[p] + popcount64(all & ((b & (~b + 1)) - 1))];
+                  alpha = m.revealed_weight(v.a);
+                } else if (any_unknown) {
+                  pull_push_sample<4>(l1, k, y, &v.r);
+                  alpha = m.weight(v.a);
+                } else {
+                  alpha = 0;
+                }
+              }
+              o[k] = alpha > 0 ? premultiply(v, alpha) : Rgba{0, 0, 0, 0};
+            }
+            break;
+        }
+        x = xe;
+      }
+    };
+    timings.matting_ms += ms_since(t2);
+    if (box.empty()) continue;
+    ++timings.layers_blurred;
+
+    // ------------------------------------------------------- blur + blend ("over")
+    auto t3 = clock::now();
+    LevelBlend lb =
+        level_blend_for_radius(plan.layers[i].blur_radius, max_level, options.blend_pyramid_levels);
+    const int top = lb.t > 0 ? lb.level + 1 : lb.level;
+    auto over = [](Rgba& dst, const Rgba& src) { dst = src + dst * (1.0f - src.a); };
+    if (top == 0) {  // sharp layer: matte straight into the composite
+      parallel_rows(box.y1 - box.y0, [&](int r0, int r1) {
+        Rgba* tmp = ws.scratch.get(2, box.x1 - box.x0);
+        for (int y = box.y0 + r0; y < box.y0 + r1; ++y) {
+          matte_row(y, box.x0, box.x1, tmp);
+          Rgba* d = acc + static_cast<size_t>(y) * W + box.x0;
+          for (int x = 0; x < box.x1 - box.x0; ++x) over(d[x], tmp[x]);
+        }
+      });
+    } else {
+      const Box crop = options.crop_layers ? crop_for(box, top, W, H) : Box{0, 0, W, H};
+      const int cw0 = crop.x1 - crop.x0, ch0 = crop.y1 - crop.y0;
+      if (ws.pyramid.size() < static_cast<size_t>(top + 1)) ws.pyramid.resize(top + 1);
+      RgbaView views[32];
+      views[0] = {nullptr, cw0, ch0, 0};  // level 0 is produced row by row by matte_row
+      for (int k = 1; k <= top; ++k) {
+        int w = (views[k - 1].width + 1) / 2, h = (views[k - 1].height + 1) / 2;
+        ensure_size(ws.pyramid[k], static_cast<size_t>(w) * h);
+        views[k] = {ws.pyramid[k].data(), w, h, w};
+        if (k == 1)
+          reduce_box4_rows(cw0, ch0, views[1], ws.scratch, [&](int y, Rgba* out) {
+            matte_row(crop.y0 + y, crop.x0, crop.x1, out);
+          });
+        else
+          reduce_box4(views[k - 1], views[k], ws.scratch);
+      }
+      Rgba* acc0 = acc + static_cast<size_t>(crop.y0) * W + crop.x0;
+      const float t = lb.t, s = 1.0f - lb.t;
+      if (lb.t > 0 && lb.level == 0) {
+        // Blend level 0 (the sharp layer) with level 1 and composite.
+        expand_bspline2(views[1], cw0, ch0, ws.scratch, [&](int y, const Rgba* e) {
+          Rgba* l = ws.scratch.get(2, cw0);
+          matte_row(crop.y0 + y, crop.x0, crop.x1, l);
+          Rgba* d = acc0 + static_cast<size_t>(y) * W;
+          for (int x = 0; x < cw0; ++x) over(d[x], l[x] * s + e[x] * t);
+        });
+      } else {
+        if (lb.t > 0) {  // mix at level l: (1 - t) reduce_l + t expand(reduce_{l+1})
+          const RgbaView& dst = views[lb.level];
+          expand_bspline2(views[lb.level + 1], dst.width, dst.height, ws.scratch,
+                          [&](int y, const Rgba* e) {
+                            Rgba* d = dst.row(y);
+                            for (int x = 0; x < dst.width; ++x) d[x] = d[x] * s + e[x] * t;
+                          });
+        }
+        for (int k = lb.level; k >= 2; --k) {  // expand in place into the level below
+          const RgbaView& dst = views[k - 1];
+          expand_bspline2(views[k], dst.width, dst.height, ws.scratch,
+                          [&](int y, const Rgba* e) { std::copy(e, e + dst.width, dst.row(y)); });
+        }
+        expand_bspline2(views[1], cw0, ch0, ws.scratch, [&](int y, const Rgba* e) {
+          Rgba* d = acc0 + static_cast<size_t>(y) * W;
+          for (int x = 0; x < cw0; ++x) over(d[x], e[x]);
+        });
+      }
+    }
+    timings.blur_blend_ms += ms_since(t3);
+  }
+
+  // ---------------------------------------------------------------- resolve
+  auto t4 = clock::now();
+  float* o = out.data().data();
+  parallel_rows(H, [&](int y0, int y1) {
+    for (size_t p = static_cast<size_t>(y0) * W; p < static_cast<size_t>(y1) * W; ++p) {
+      const Rgba& a = acc[p];
+      if (a.a > 1e-6f) {
+        float inv = 1.0f / a.a;
+        o[3 * p] = a.r * inv;
+        o[3 * p + 1] = a.g * inv;
+        o[3 * p + 2] = a.b * inv;
+      } else {
+        o[3 * p] = color[3 * p];
+        o[3 * p + 1] = color[3 * p + 1];
+        o[3 * p + 2] = color[3 * p + 2];
+      }
+    }
+  });
+  timings.resolve_ms += ms_since(t4);
+}
+
+}  // namespace dofcache::preview::detail
