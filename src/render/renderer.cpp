@@ -178,7 +178,8 @@ void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters
       out.depth.at(x, y, 0) = c.camera.depth(sp.position);
       float* n = out.normal.pixel(x, y);
       n[0] = sp.shading_normal.x, n[1] = sp.shading_normal.y, n[2] = sp.shading_normal.z;
-      out.ids.at(x, y, 0) = static_cast<float>(c.scene.mesh.triangle_object[hit.triangle]);
+      out.ids.at(x, y, 0) = static_cast<float>(
+          c.settings.triangle_ids ? hit.triangle : c.scene.mesh.triangle_object[hit.triangle]);
     }
 }
 

@@ -103,6 +103,20 @@ Shader::Shader(const scene::Scene& scene, const scene::Accel& accel,
     triangle_emitter_[scene.emitters[e].triangle] = static_cast<int>(e);
 }
 
+bool Shader::direction_to(const scene::PunctualLight& light, glm::vec3 x, glm::vec3* wi,
+                          float* distance) const {
+  if (light.type == scene::PunctualLight::Type::Directional) {
+    *wi = -light.direction;
+    *distance = 2.0f * scene_.bounds.diagonal() + 1.0f;  // beyond everything
+    return true;
+  }
+  glm::vec3 d = light.position - x;
+  *distance = glm::length(d);
+  if (*distance <= 0.0f) return false;
+  *wi = d / *distance;
+  return true;
+}
+
 float Shader::emitter_pdf(std::uint32_t triangle, glm::vec3 wi, float distance) const {
   int e = triangle_emitter_[triangle];
   if (e < 0) return 0.0f;
@@ -194,15 +208,7 @@ glm::vec3 Shader::direct_light(const ShadingPoint& p, int samples, std::uint64_t
   for (const scene::PunctualLight& light : scene_.lights) {
     glm::vec3 wi;
     float dist;
-    if (light.type == scene::PunctualLight::Type::Directional) {
-      wi = -light.direction;
-      dist = 2.0f * scene_.bounds.diagonal() + 1.0f;
-    } else {
-      glm::vec3 d = light.position - x;
-      dist = glm::length(d);
-      if (dist <= 0.0f) continue;
-      wi = d / dist;
-    }
+    if (!direction_to(light, x, &wi, &dist)) continue;
     float cos_x = glm::dot(p.n, wi);
     if (cos_x <= 0.0f || glm::dot(p.ng, wi) <= 0.0f) continue;
     float att = punctual_attenuation(light, wi, dist);
@@ -277,15 +283,7 @@ glm::vec3 Shader::specular(const ShadingPoint& p, Rng& rng, RayCounters& counter
   for (const scene::PunctualLight& light : scene_.lights) {
     glm::vec3 wi;
     float dist;
-    if (light.type == scene::PunctualLight::Type::Directional) {
-      wi = -light.direction;
-      dist = 2.0f * scene_.bounds.diagonal() + 1.0f;
-    } else {
-      glm::vec3 d = light.position - p.surface.position;
-      dist = glm::length(d);
-      if (dist <= 0.0f) continue;
-      wi = d / dist;
-    }
+    if (!direction_to(light, p.surface.position, &wi, &dist)) continue;
     float n_l = glm::dot(p.n, wi);
     if (n_l <= 0.0f || glm::dot(p.ng, wi) <= 0.0f) continue;
     glm::vec3 h = glm::normalize(wi + p.wo);

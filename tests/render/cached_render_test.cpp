@@ -26,16 +26,7 @@ scene::Scene diffuse_scene() {
   add_quad_z(s, -0.6f, 0.2f, -0.6f, 0.4f, -2.5f, 1, 1);
   add_quad_z(s, 0.4f, 1.2f, -1.0f, 0.2f, -1.6f, 0, 2);
   add_quad_z(s, -0.4f, 0.4f, 0.9f, 1.3f, -1.0f, 2, 3);
-  auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
-  for (glm::vec3 p : {glm::vec3(-1, 1.4f, -0.8f), glm::vec3(-1, 1.9f, -0.8f),
-                      glm::vec3(1, 1.9f, -0.8f), glm::vec3(1, 1.4f, -0.8f)}) {
-    s.mesh.positions.push_back(p);
-    s.mesh.normals.push_back({0, 0, -1});
-    s.bounds.extend(p);
-  }
-  s.mesh.triangles.push_back({base, base + 1, base + 2});
-  s.mesh.triangles.push_back({base, base + 2, base + 3});
-  for (int i = 0; i < 2; ++i) s.mesh.triangle_material.push_back(2), s.mesh.triangle_object.push_back(4);
+  testing::add_light_facing_away(s, 1.4f, 1.9f, -0.8f, 2, 4);
   testing::build_emitters(s);
   s.cameras.push_back(testing::origin_camera(0.9f));
   return s;

@@ -96,17 +96,8 @@ scene::Scene shaded_scene() {
   add_quad_z(s, -0.5f, 0.5f, -0.5f, 0.5f, -2.0f, 1, 1);  // red occluder
   add_quad_z(s, 0.6f, 1.0f, -1.0f, 0.0f, -2.5f, 3, 2);   // glossy metal panel
   add_quad_z(s, -0.3f, 0.3f, 0.8f, 1.2f, -1.0f, 2, 3);   // light, facing the back wall? (faces +Z)
-  // A second light facing the scene: a quad wound the other way (faces -Z) near the camera.
-  auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
-  for (glm::vec3 p : {glm::vec3(-1, 1.5f, -0.5f), glm::vec3(-1, 2.0f, -0.5f),
-                      glm::vec3(1, 2.0f, -0.5f), glm::vec3(1, 1.5f, -0.5f)}) {
-    s.mesh.positions.push_back(p);
-    s.mesh.normals.push_back({0, 0, -1});
-    s.bounds.extend(p);
-  }
-  s.mesh.triangles.push_back({base, base + 1, base + 2});
-  s.mesh.triangles.push_back({base, base + 2, base + 3});
-  for (int i = 0; i < 2; ++i) s.mesh.triangle_material.push_back(2), s.mesh.triangle_object.push_back(4);
+  // A second light facing the scene (wound the other way, facing -Z) near the camera.
+  testing::add_light_facing_away(s, 1.5f, 2.0f, -0.5f, 2, 4);
   testing::build_emitters(s);
   s.cameras.push_back(testing::origin_camera(0.9f));
   return s;

@@ -27,6 +27,25 @@ inline void add_quad_z(scene::Scene& s, float x0, float x1, float y0, float y1, 
   }
 }
 
+// Adds a horizontal-ish light panel at height y0..y1, x in [-1, 1], plane z = `z`, facing -Z
+// (away from a camera at the origin, towards the scene behind it).
+inline void add_light_facing_away(scene::Scene& s, float y0, float y1, float z,
+                                  std::uint32_t material, std::uint32_t object) {
+  auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
+  for (glm::vec3 p : {glm::vec3(-1, y0, z), glm::vec3(-1, y1, z), glm::vec3(1, y1, z),
+                      glm::vec3(1, y0, z)}) {
+    s.mesh.positions.push_back(p);
+    s.mesh.normals.push_back({0, 0, -1});
+    s.bounds.extend(p);
+  }
+  s.mesh.triangles.push_back({base, base + 1, base + 2});
+  s.mesh.triangles.push_back({base, base + 2, base + 3});
+  for (int i = 0; i < 2; ++i) {
+    s.mesh.triangle_material.push_back(material);
+    s.mesh.triangle_object.push_back(object);
+  }
+}
+
 inline scene::Material emissive_material(glm::vec3 radiance) {
   scene::Material m;
   m.base_color = glm::vec4(0.0f, 0.0f, 0.0f, 1.0f);

@@ -73,6 +73,9 @@ struct RenderSettings {
   const image::Image* mask = nullptr;
   // Visibility only (depth, normal, ids through pixel centres): no shading, colour stays black.
   bool visibility_only = false;
+  // The id image holds triangle (primitive) ids instead of object ids. The preview's occlusion
+  // masks need them to tell a revealed part of an object from its clipped front.
+  bool triangle_ids = false;
   CacheSettings cache;
   Progress::Display progress = Progress::Display::Auto;
   std::string progress_label = "render";
@@ -106,7 +109,7 @@ struct RenderOutput {
   image::Image color;   // linear RGB
   image::Image depth;   // camera-space depth through the pixel centre (+inf: nothing)
   image::Image normal;  // world-space shading normal through the pixel centre
-  image::Image ids;     // object id through the pixel centre (-1: nothing)
+  image::Image ids;     // object (or triangle) id through the pixel centre (-1: nothing)
   // With a cache: per pixel, the fraction of lookups the cache served, and the number of samples
   // created there (1 channel each; empty without a cache).
   image::Image cache_hits;

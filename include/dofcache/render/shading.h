@@ -87,6 +87,9 @@ class Shader {
                      const DiffuseLookup* cached, int depth) const;
   bool visible(glm::vec3 from, glm::vec3 normal, glm::vec3 to_dir, float distance,
                RayCounters& counters) const;
+  // Unit direction from x towards a punctual light and its distance (false if x is on it).
+  bool direction_to(const scene::PunctualLight& light, glm::vec3 x, glm::vec3* wi,
+                    float* distance) const;
   // Solid-angle density with which direct_light's emitter sampling picks direction `wi` reaching
   // emitter triangle `triangle` at distance `distance` (for multiple importance sampling).
   float emitter_pdf(std::uint32_t triangle, glm::vec3 wi, float distance) const;
