@@ -1,0 +1,327 @@
+// The only translation unit that includes OpenVDB (BUILD-NOTES: it dominates build time).
+#include "dofcache/cache/vdb_cache.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cassert>
+#include <cmath>
+
+#include <glm/common.hpp>
+#include <openvdb/openvdb.h>
+#include <openvdb/tree/ValueAccessor.h>
+
+#include "dofcache/cache/sample_store.h"
+#include "dofcache/core/error.h"
+#include "grid_math.h"
+
+namespace dofcache::cache {
+namespace {
+
+using Tree = openvdb::Int32Tree;  // voxel -> index of its first sample on the level
+using LeafT = Tree::LeafNodeType;
+using ConstAccessor = openvdb::tree::ValueAccessor<const Tree, /*IsSafe=*/false>;
+
+// Levels e = kMinExponent .. kMinExponent + 63 (voxels from 2^-40 m to 2^23 m): one mask bit each.
+constexpr int kMinExponent = -40;
+constexpr int kLevelCount = 64;
+// Samples are filed at a level coarse enough that their voxel coordinates stay below 2^27 in
+// magnitude, far inside OpenVDB's 32-bit index space. A query reaches a level only inside the
+// bounds of its samples' spheres, so its voxel coordinates are in range too.
+constexpr int kCoordBits = 27;
+
+// Where a sample sits on a level: its leaf (origin) and voxel within the leaf. The level's arrays
+// are sorted by this key, so each leaf's samples form one block and, inside it, each voxel's
+// samples one run, in the leaves' own voxel order (z fastest).
+struct VoxelKey {
+  openvdb::Coord leaf;
+  openvdb::Index offset;
+  bool operator<(const VoxelKey& o) const {
+    return leaf < o.leaf || (leaf == o.leaf && offset < o.offset);
+  }
+};
+
+struct Level {
+  explicit Level(int e) : exponent(e), h(std::ldexp(1.0, e)), inv_h(std::ldexp(1.0, -e)) {}
+
+  int exponent;
+  double h, inv_h;
+  // Every voxel of an allocated leaf holds the index of its first sample in `samples` (empty
+  // voxels too: their run is empty), so a run of voxels along z is one contiguous range, read
+  // from two values of one leaf. Voxels with samples are active.
+  Tree tree{0};
+  SampleColumns samples;                  // sorted by VoxelKey
+  std::vector<std::uint32_t> leaf_begin;  // first sample of each leaf, increasing
+  float r_max = 0.0f;                     // largest radius on the level
+  glm::dvec3 lo{0.0}, hi{0.0};            // bounds of the level's (padded) spheres
+  glm::vec3 lo_f{0.0f}, hi_f{0.0f};       // the same, rounded outwards to float
+
+  void update_float_bounds() {
+    for (int a = 0; a < 3; ++a) {
+      lo_f[a] = std::nextafter(static_cast<float>(lo[a]), -INFINITY);
+      hi_f[a] = std::nextafter(static_cast<float>(hi[a]), INFINITY);
+    }
+  }
+
+  // End of the run that stops at a leaf's last voxel: the start of the next leaf's block.
+  std::uint32_t leaf_end(std::uint32_t begin) const {
+    auto it = std::upper_bound(leaf_begin.begin(), leaf_begin.end(), begin);
+    return it == leaf_begin.end() ? static_cast<std::uint32_t>(samples.size()) : *it;
+  }
+};
+
+// floor(x) for |x| < 2^31. std::floor is a library call on baseline x86-64 (no SSE4.1 round),
+// and lookups take six per level.
+inline __attribute__((always_inline)) openvdb::Int32 floor_to_int(double x) {
+  auto i = static_cast<openvdb::Int32>(x);  // truncates towards zero
+  return i - (x < static_cast<double>(i) ? 1 : 0);
+}
+
+// The voxel of p at the level with inverse voxel size inv_h (a power of two: p * inv_h is exact).
+// Callers keep |p| * inv_h below 2^28 (samples by their level choice, queries by the level's
+// bounds test).
+inline __attribute__((always_inline)) openvdb::Coord voxel_of(glm::dvec3 p, double inv_h) {
+  return openvdb::Coord(floor_to_int(p.x * inv_h), floor_to_int(p.y * inv_h),
+                        floor_to_int(p.z * inv_h));
+}
+
+// Every mutation of any cache takes a fresh, globally unique epoch; a thread's cached accessors
+// are valid while their epoch matches the cache's.
+std::atomic<std::uint64_t> g_epoch{0};
+
+// Per-thread OpenVDB accessors, one per non-empty level of a cache the thread reads. Coherent
+// lookups (the lens rays of a pixel, the pixels of a tile) then hit the accessors' cached leaf and
+// skip the root-to-leaf descent. Unregistered (IsSafe = false) accessors of a const tree: no
+// locking, and nothing touches the tree when they are dropped. A thread keeps readers for the last
+// few caches it used, so alternating between two caches does not rebuild them every time.
+struct Reader {
+  std::uint64_t epoch = 0;
+  std::vector<ConstAccessor> accessors;
+};
+struct Readers {
+  std::array<Reader, 4> slots;
+  unsigned next = 0;
+};
+thread_local Readers t_readers;
+
+class VdbRadianceCache final : public RadianceCache {
+ public:
+  explicit VdbRadianceCache(const VdbCacheOptions& options) : epoch_(++g_epoch) {
+    float s = options.cell_scale;
+    if (!(s >= 1.0f && s <= 8.0f) || std::exp2(std::round(std::log2(s))) != s)
+      throw Error("vdb cache: cell_scale must be 1, 2, 4 or 8, got " + std::to_string(s));
+    cell_scale_ = s;
+    openvdb::initialize();
+  }
+
+  std::string name() const override { return "vdb"; }
+
+  bool lookup(glm::vec3 p, glm::vec3 n, const LookupOptions& options,
+              LookupResult* out) const override {
+    WeightedSum sum;
+    const Reader& reader = this->reader();
+    SampleTest test(p, n, options);
+    glm::dvec3 q(p);
+    for (std::size_t k = 0; k < active_.size(); ++k) {
+      const Bounds& bounds = bounds_[k];
+      if (p.x < bounds.lo.x || p.y < bounds.lo.y || p.z < bounds.lo.z || p.x > bounds.hi.x ||
+          p.y > bounds.hi.y || p.z > bounds.hi.z)
+        continue;
+      const Level& level = *active_[k];
+      // The voxels the ball of the level's largest radius around q touches: any sample that can
+      // accept q has its centre, hence its voxel, inside that ball. Along z they form runs, each
+      // one contiguous range of samples (split where the run crosses into another leaf).
+      double r = level.r_max * kRadiusPad;
+      openvdb::Coord a = voxel_of(q - r, level.inv_h), b = voxel_of(q + r, level.inv_h);
+      const ConstAccessor& acc = reader.accessors[k];
+      for (openvdb::Int32 x = a.x(); x <= b.x(); ++x)
+        for (openvdb::Int32 y = a.y(); y <= b.y(); ++y)
+          for (openvdb::Int32 z0 = a.z(); z0 <= b.z();) {
+            openvdb::Int32 z1 = std::min(b.z(), (z0 & ~openvdb::Int32{LeafT::DIM - 1}) +
+                                                    openvdb::Int32{LeafT::DIM - 1});
+            const openvdb::Coord c(x, y, z0);
+            if (const LeafT* leaf = acc.probeConstLeaf(c)) {
+              openvdb::Index first = LeafT::coordToOffset(c);
+              openvdb::Index last = first + static_cast<openvdb::Index>(z1 - z0);
+              auto begin = static_cast<std::uint32_t>(leaf->getValue(first));
+              auto end = last + 1 < LeafT::SIZE
+                             ? static_cast<std::uint32_t>(leaf->getValue(last + 1))
+                             : level.leaf_end(static_cast<std::uint32_t>(leaf->getValue(0)));
+              level.samples.test_range(begin, end, test, &sum);
+            }
+            z0 = z1 + 1;
+          }
+    }
+    return sum.finish(options.min_samples, out);
+  }
+
+  std::size_t size() const override {
+    std::size_t n = 0;
+    for (const Level* level : active_) n += level->samples.size();
+    return n;
+  }
+
+  std::size_t memory_bytes() const override {
+    std::size_t bytes = heap_bytes(active_) + heap_bytes(bounds_);
+    for (const Level* level : active_)
+      bytes += sizeof(Level) + static_cast<std::size_t>(level->tree.memUsage()) +
+               heap_bytes(level->leaf_begin) + level->samples.memory_bytes();
+    return bytes;
+  }
+
+  void for_each_sample(const std::function<void(const CacheSample&)>& fn) const override {
+    struct Ref {
+      std::uint32_t id, level, index;
+    };
+    std::vector<Ref> refs;
+    refs.reserve(size());
+    for (std::size_t k = 0; k < active_.size(); ++k)
+      for (std::size_t i = 0; i < active_[k]->samples.size(); ++i)
+        refs.push_back({active_[k]->samples.id(i), static_cast<std::uint32_t>(k),
+                        static_cast<std::uint32_t>(i)});
+    std::sort(refs.begin(), refs.end(), [](const Ref& x, const Ref& y) { return x.id < y.id; });
+    for (const Ref& r : refs) fn(active_[r.level]->samples.get(r.index));
+  }
+
+ protected:
+  void add_samples(const std::vector<CacheSample>& samples) override {
+    // Group by level, then merge each touched level once.
+    std::array<std::vector<std::uint32_t>, kLevelCount> by_level;
+    for (std::uint32_t i = 0; i < samples.size(); ++i)
+      by_level[level_index(samples[i])].push_back(i);
+    for (int k = 0; k < kLevelCount; ++k) {
+      if (by_level[k].empty()) continue;
+      if (!levels_[k]) levels_[k] = std::make_unique<Level>(kMinExponent + k);
+      merge_into(*levels_[k], samples, by_level[k]);
+      mask_ |= std::uint64_t{1} << k;
+    }
+    rebuild_active();
+  }
+
+  void remove_all() override {
+    for (auto& level : levels_) level.reset();
+    mask_ = 0;
+    rebuild_active();
+    active_.shrink_to_fit();
+    bounds_.shrink_to_fit();
+  }
+
+ private:
+  const Reader& reader() const {
+    Readers& readers = t_readers;
+    for (const Reader& r : readers.slots)
+      if (r.epoch == epoch_) return r;
+    Reader& r = readers.slots[readers.next++ % readers.slots.size()];
+    r.accessors.clear();
+    for (const Level* level : active_) r.accessors.emplace_back(level->tree);
+    r.epoch = epoch_;
+    return r;
+  }
+
+  // The level whose voxels are at least cell_scale times the radius, and coarse enough to keep
+  // the sample's voxel coordinates small.
+  int level_index(const CacheSample& s) const {
+    int e = ceil_log2(static_cast<double>(cell_scale_) * s.radius);
+    double extent = std::max({std::abs(s.position.x), std::abs(s.position.y),
+                              std::abs(s.position.z)});
+    if (extent > 0.0) e = std::max(e, ceil_log2(extent) - kCoordBits);
+    assert(e < kMinExponent + kLevelCount && "sample radius beyond 2^23 m");
+    return std::clamp(e - kMinExponent, 0, kLevelCount - 1);
+  }
+
+  // Adds samples[indices] to the level: merges them, sorted by VoxelKey, with the level's sorted
+  // arrays and rewrites the start indices of every leaf. One pass over the level (between render
+  // passes, so bandwidth, not latency, bound).
+  static void merge_into(Level& level, const std::vector<CacheSample>& samples,
+                         const std::vector<std::uint32_t>& indices) {
+    auto key_of = [&](glm::vec3 p) {
+      openvdb::Coord c = voxel_of(glm::dvec3(p), level.inv_h);
+      return VoxelKey{c & ~(LeafT::DIM - 1), LeafT::coordToOffset(c)};
+    };
+    std::vector<std::pair<VoxelKey, std::uint32_t>> added;  // (key, index into samples)
+    added.reserve(indices.size());
+    for (std::uint32_t i : indices) {
+      const CacheSample& s = samples[i];
+      added.push_back({key_of(s.position), i});
+      level.r_max = std::max(level.r_max, s.radius);
+      glm::dvec3 p(s.position);
+      double r = s.radius * kRadiusPad;
+      bool first = level.samples.empty() && added.size() == 1;
+      level.lo = first ? p - r : glm::min(level.lo, p - r);
+      level.hi = first ? p + r : glm::max(level.hi, p + r);
+    }
+    level.update_float_bounds();
+    std::stable_sort(added.begin(), added.end(),
+                     [](const auto& x, const auto& y) { return x.first < y.first; });
+
+    // Merge, and note each sample's key for the start indices below.
+    SampleColumns merged;
+    merged.reserve(level.samples.size() + added.size());
+    std::vector<VoxelKey> keys;
+    keys.reserve(level.samples.size() + added.size());
+    std::size_t old = 0, next = 0;
+    VoxelKey old_key{};
+    if (old < level.samples.size()) old_key = key_of(level.samples.position(old));
+    while (old < level.samples.size() || next < added.size()) {
+      bool take_new = old == level.samples.size() ||
+                      (next < added.size() && added[next].first < old_key);
+      if (take_new) {
+        merged.push_back(samples[added[next].second]);
+        keys.push_back(added[next].first);
+        ++next;
+      } else {
+        merged.append_from(level.samples, old);
+        keys.push_back(old_key);
+        if (++old < level.samples.size()) old_key = key_of(level.samples.position(old));
+      }
+    }
+    level.samples.swap(merged);
+
+    // Start indices: for each leaf, a running count over its 512 voxels.
+    openvdb::tree::ValueAccessor<Tree> acc(level.tree);
+    level.leaf_begin.clear();
+    for (std::size_t i = 0; i < keys.size();) {
+      std::size_t end = i;
+      while (end < keys.size() && keys[end].leaf == keys[i].leaf) ++end;
+      LeafT* leaf = acc.touchLeaf(keys[i].leaf);
+      level.leaf_begin.push_back(static_cast<std::uint32_t>(i));
+      std::size_t j = i;
+      for (openvdb::Index offset = 0; offset < LeafT::SIZE; ++offset) {
+        leaf->setValueOnly(offset, static_cast<openvdb::Int32>(j));
+        bool occupied = j < end && keys[j].offset == offset;
+        while (j < end && keys[j].offset == offset) ++j;
+        if (occupied) leaf->setValueOn(offset);
+      }
+      i = end;
+    }
+  }
+
+  void rebuild_active() {
+    active_.clear();
+    bounds_.clear();
+    for (int k = 0; k < kLevelCount; ++k)
+      if (mask_ >> k & 1) {
+        active_.push_back(levels_[k].get());
+        bounds_.push_back({levels_[k]->lo_f, levels_[k]->hi_f});
+      }
+    epoch_ = ++g_epoch;
+  }
+
+  float cell_scale_ = 4.0f;
+  std::array<std::unique_ptr<Level>, kLevelCount> levels_;
+  std::uint64_t mask_ = 0;      // bit k: level kMinExponent + k holds samples
+  std::vector<Level*> active_;  // the non-empty levels, finest first
+  struct Bounds {
+    glm::vec3 lo, hi;
+  };
+  std::vector<Bounds> bounds_;  // their float bounds, packed for the lookup's first test
+  std::uint64_t epoch_;
+};
+
+}  // namespace
+
+std::unique_ptr<RadianceCache> make_vdb_radiance_cache(const VdbCacheOptions& options) {
+  return std::make_unique<VdbRadianceCache>(options);
+}
+
+}  // namespace dofcache::cache
