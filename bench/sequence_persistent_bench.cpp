@@ -1,0 +1,305 @@
+// Camera-path sequences with a persistent radiance cache (issue 4) on the two shipped paths: the
+// slow dolly (a glTF animation, sampled at 12 fps: 25 frames of small camera motion) and the
+// focus pull (a keyframe file, 36 frames). For each path, three ways of rendering every frame run
+// side by side, interleaved frame by frame so that a change in machine load hits all alike:
+//   none        DRT without a cache;
+//   fresh       the vdb cache, emptied before every frame;
+//   persistent  the vdb cache carried across frames (reuse rule, eviction: persistent_cache.h).
+// Per frame: time (wall and process CPU), rays, shading points, relative MSE against a converged
+// reference (uncached DRT, --ref-spp lens samples, cached in bench/results/references/), the
+// reuse rate (lookups served entirely by samples of earlier frames) and flicker (mean absolute
+// difference to the previous frame; the reference's own figure is what the scene's change
+// explains, the rest is error). Writes bench/results/sequence_persistent.{json,csv}.
+//   sequence_persistent_bench [--width W] [--spp N] [--ref-spp N] [--threads T] [--frames N]
+//                             [--path dolly|focus_pull]...
+#include <time.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bench_common.h"
+#include "dofcache/core/rng.h"
+#include "dofcache/image/image_io.h"
+#include "dofcache/image/metrics.h"
+#include "dofcache/render/renderer.h"
+#include "dofcache/render/setup.h"
+#include "dofcache/scene/accel.h"
+#include "dofcache/sequence/camera_path.h"
+#include "dofcache/sequence/persistent_cache.h"
+#include "dofcache/sequence/sequence_renderer.h"
+
+using namespace dofcache;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Options {
+  int width = 96, spp = 16, ref_spp = 256, threads = 0, max_frames = 0;
+  std::vector<std::string> paths;
+};
+
+struct PathCase {
+  std::string name, scene_file, keyframe_file;  // keyframe_file empty: the glTF animation
+  double fps;
+};
+
+const PathCase kCases[] = {
+    {"dolly", "cornell_box_dolly.gltf", "", 12.0},
+    {"focus_pull", "cornell_box.gltf", "paths/cornell_focus_pull.json", 24.0},
+};
+
+enum Method { kNone, kFresh, kPersistent, kMethods };
+const char* kMethodNames[] = {"none", "fresh", "persistent"};
+
+double cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+struct FrameResult {
+  double wall = 0, cpu = 0, rel_mse = 0, flicker = -1, error_flicker = -1;
+  std::uint64_t rays = 0, shading_points = 0;
+  sequence::FrameCacheStats cache;
+};
+
+// Mean absolute difference over pixels and channels.
+double mean_abs_diff(const image::Image& a, const image::Image& b) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.data().size(); ++i) sum += std::abs(a.data()[i] - b.data()[i]);
+  return sum / static_cast<double>(a.data().size());
+}
+
+// Mean absolute change of the error between consecutive frames: |(a1 - r1) - (a0 - r0)|.
+double error_change(const image::Image& a1, const image::Image& r1, const image::Image& a0,
+                    const image::Image& r0) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a1.data().size(); ++i)
+    sum += std::abs((a1.data()[i] - r1.data()[i]) - (a0.data()[i] - r0.data()[i]));
+  return sum / static_cast<double>(a1.data().size());
+}
+
+std::string hex(std::uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+// The converged reference of one frame: uncached DRT with many lens samples, its own seeds.
+image::Image reference(const scene::Scene& scene, const scene::Accel& accel,
+                       const sequence::FrameSpec& f, const render::RenderSettings& base,
+                       const Options& o, const std::string& name) {
+  fs::path dir = fs::path(bench::results_dir()) / "references";
+  fs::create_directories(dir);
+  std::uint64_t key = hash_combine(scene.content_hash, static_cast<std::uint64_t>(o.ref_spp));
+  for (int c = 0; c < 4; ++c)
+    for (int k = 0; k < 4; ++k) {
+      float v = f.camera.camera_to_world[c][k];
+      std::uint32_t bits;
+      std::memcpy(&bits, &v, 4);
+      key = hash_combine(key, bits);
+    }
+  for (double v : {f.lens.focal_length, f.lens.fstop, f.lens.focus_distance}) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, 8);
+    key = hash_combine(key, bits);
+  }
+  key = hash_combine(key, static_cast<std::uint64_t>(base.shading.light_samples) << 32 |
+                              static_cast<std::uint64_t>(base.shading.gather_rays));
+  fs::path file = dir / ("sequence_" + name + "_" + std::to_string(base.width) + "x" +
+                         std::to_string(base.height) + "_f" + std::to_string(f.number) + "_" +
+                         hex(key).substr(0, 8) + ".exr");
+  if (fs::exists(file)) return image::read_image(file.string());
+  std::fprintf(stderr, "rendering the %d-spp reference of %s frame %d (once; kept in %s)\n",
+               o.ref_spp, name.c_str(), f.number, dir.c_str());
+  render::RenderSettings r = base;
+  r.spp = o.ref_spp;
+  r.lens = f.lens;
+  r.seed = sequence::frame_seed(1000003, f.number);  // independent of the measured renders
+  r.cache.cache = nullptr;
+  render::RenderOutput out = render::render(scene, accel, f.camera, r);
+  image::write_image(file.string(), out.color);
+  return out.color;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--width")) o.width = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--spp")) o.spp = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--ref-spp")) o.ref_spp = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--threads")) o.threads = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--frames")) o.max_frames = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--path")) o.paths.push_back(argv[i + 1]);
+  }
+
+  bench::Table summary({"path", "frames", "method", "total wall [s]", "total CPU [s]",
+                        "speed-up vs fresh (CPU)", "rays [M]", "shading points",
+                        "mean relMSE", "relMSE / fresh (mean)", "relMSE / fresh (max)",
+                        "mean reuse", "flicker", "reference flicker", "error flicker"},
+                       4);
+  nlohmann::json per_frame_json = nlohmann::json::object();
+  const std::string scenes = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/";
+  sequence::ReusePolicy policy;  // the defaults a user gets
+
+  for (const PathCase& pc : kCases) {
+    if (!o.paths.empty() && std::find(o.paths.begin(), o.paths.end(), pc.name) == o.paths.end())
+      continue;
+    scene::Scene scene = render::load_scene(scenes + pc.scene_file);
+    scene::Accel accel(scene);
+    const scene::Camera& cam = scene.cameras[0];
+    sequence::CameraPath path =
+        pc.keyframe_file.empty()
+            ? sequence::load_gltf_camera_path(scenes + pc.scene_file, cam)
+            : sequence::load_keyframe_path(scenes + pc.keyframe_file, cam);
+    auto [first, last] = sequence::path_frame_range(path, pc.fps);
+    if (o.max_frames > 0) last = std::min(last, first + o.max_frames - 1);
+    std::vector<sequence::FrameSpec> frames =
+        sequence::plan_frames(scene, accel, cam, path, pc.fps, first, last, {});
+
+    render::RenderSettings base;
+    base.width = o.width;
+    base.height = render::height_for_width(cam, o.width);
+    base.spp = o.spp;
+    base.threads = o.threads;
+    base.progress = Progress::Display::Never;
+    std::fprintf(stderr, "%s: %zu frames at %dx%d, %d spp\n", pc.name.c_str(), frames.size(),
+                 base.width, base.height, base.spp);
+
+    std::vector<image::Image> refs;
+    for (const sequence::FrameSpec& f : frames)
+      refs.push_back(reference(scene, accel, f, base, o, pc.name));
+
+    sequence::PersistentCache fresh("vdb", policy), persistent("vdb", policy);
+    std::vector<std::vector<FrameResult>> results(kMethods);
+    std::vector<image::Image> previous(kMethods);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      const sequence::FrameSpec& f = frames[i];
+      std::fprintf(stderr, "  frame %d\r", f.number);
+      for (int m = 0; m < kMethods; ++m) {
+        render::RenderSettings r = base;
+        r.lens = f.lens;
+        r.seed = sequence::frame_seed(1, f.number);
+        r.cache.frame = static_cast<std::uint32_t>(f.number);
+        sequence::PersistentCache* pcache =
+            m == kFresh ? &fresh : m == kPersistent ? &persistent : nullptr;
+        auto t0 = std::chrono::steady_clock::now();
+        double c0 = cpu_seconds();
+        if (m == kFresh) fresh.clear();
+        if (pcache) r.cache.cache = pcache->begin_frame(f.number, render::make_camera(f.camera, r));
+        render::RenderOutput out = render::render(scene, accel, f.camera, r);
+        FrameResult fr;
+        if (pcache) fr.cache = pcache->end_frame();
+        fr.cpu = cpu_seconds() - c0;
+        fr.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        fr.rays = out.stats.rays;
+        fr.shading_points = out.stats.shading_points;
+        fr.rel_mse = image::compare(out.color, refs[i]).rel_mse;
+        if (i > 0) {
+          fr.flicker = mean_abs_diff(out.color, previous[m]);
+          fr.error_flicker = error_change(out.color, refs[i], previous[m], refs[i - 1]);
+        }
+        previous[m] = std::move(out.color);
+        results[m].push_back(fr);
+      }
+    }
+
+    // Per-path summary.
+    double fresh_cpu = 0.0;
+    for (const FrameResult& fr : results[kFresh]) fresh_cpu += fr.cpu;
+    double ref_flicker = 0.0;
+    for (std::size_t i = 1; i < refs.size(); ++i)
+      ref_flicker += mean_abs_diff(refs[i], refs[i - 1]);
+    ref_flicker /= std::max<std::size_t>(1, refs.size() - 1);
+    nlohmann::json frames_json = nlohmann::json::array();
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      nlohmann::json row = {{"frame", frames[i].number},
+                            {"focus_distance", frames[i].lens.focus_distance}};
+      if (i > 0) row["reference_flicker"] = mean_abs_diff(refs[i], refs[i - 1]);
+      for (int m = 0; m < kMethods; ++m) {
+        const FrameResult& fr = results[m][i];
+        nlohmann::json j = {{"wall_seconds", fr.wall}, {"cpu_seconds", fr.cpu},
+                            {"rays", fr.rays}, {"shading_points", fr.shading_points},
+                            {"rel_mse", fr.rel_mse}};
+        if (i > 0) j["flicker"] = fr.flicker, j["error_flicker"] = fr.error_flicker;
+        if (m != kNone)
+          j.update({{"reuse_rate", fr.cache.reuse_rate()}, {"hit_rate", fr.cache.hit_rate()},
+                    {"inserted", fr.cache.inserted}, {"shrunk", fr.cache.shrunk},
+                    {"evicted", fr.cache.evicted_unused + fr.cache.evicted_memory},
+                    {"samples", fr.cache.samples_at_end},
+                    {"memory_bytes", fr.cache.memory_bytes}});
+        row[kMethodNames[m]] = j;
+      }
+      frames_json.push_back(row);
+    }
+    per_frame_json[pc.name] = frames_json;
+
+    std::printf("\n%s: per frame (relMSE x 1e3; reuse = lookups served by earlier frames)\n",
+                pc.name.c_str());
+    bench::Table detail({"frame", "focus [m]", "none", "fresh", "persistent", "pers./fresh",
+                         "reuse", "fresh CPU [s]", "pers. CPU [s]", "new samples"},
+                        3);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      const FrameResult &fr = results[kFresh][i], &pr = results[kPersistent][i];
+      detail.add_row({frames[i].number, bench::Table::Cell(frames[i].lens.focus_distance, 3),
+                      bench::Table::Cell(1e3 * results[kNone][i].rel_mse, 3),
+                      bench::Table::Cell(1e3 * fr.rel_mse, 3),
+                      bench::Table::Cell(1e3 * pr.rel_mse, 3),
+                      bench::Table::Cell(pr.rel_mse / fr.rel_mse, 3),
+                      bench::Table::Cell(pr.cache.reuse_rate(), 3), bench::Table::Cell(fr.cpu, 2),
+                      bench::Table::Cell(pr.cpu, 2), static_cast<long>(pr.cache.inserted)});
+    }
+    detail.print();
+
+    for (int m = 0; m < kMethods; ++m) {
+      double wall = 0, cpu = 0, rays = 0, sp = 0, err = 0, ratio = 0, ratio_max = 0, reuse = 0,
+             flicker = 0, err_flicker = 0;
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        const FrameResult& fr = results[m][i];
+        wall += fr.wall, cpu += fr.cpu, rays += fr.rays, sp += fr.shading_points;
+        err += fr.rel_mse;
+        double q = fr.rel_mse / results[kFresh][i].rel_mse;
+        ratio += q;
+        ratio_max = std::max(ratio_max, q);
+        if (i > 0) {
+          reuse += fr.cache.reuse_rate();
+          flicker += fr.flicker;
+          err_flicker += fr.error_flicker;
+        }
+      }
+      const double n = static_cast<double>(frames.size()), pairs = std::max(1.0, n - 1.0);
+      summary.add_row({pc.name, static_cast<long>(frames.size()), kMethodNames[m],
+                       bench::Table::Cell(wall, 2), bench::Table::Cell(cpu, 2),
+                       bench::Table::Cell(fresh_cpu / cpu, 2), bench::Table::Cell(rays * 1e-6, 1),
+                       static_cast<long>(sp), bench::Table::Cell(err / n, 6),
+                       bench::Table::Cell(ratio / n, 3), bench::Table::Cell(ratio_max, 3),
+                       bench::Table::Cell(m == kNone ? 0.0 : reuse / pairs, 3),
+                       bench::Table::Cell(flicker / pairs, 5),
+                       bench::Table::Cell(ref_flicker, 5),
+                       bench::Table::Cell(err_flicker / pairs, 5)});
+    }
+  }
+  std::printf("\nSummary (speed-up = fresh-cache CPU time / this method's CPU time; relMSE / fresh "
+              "= per-frame error ratio against the fresh cache; flicker = mean |frame - previous "
+              "frame|; error flicker = mean |change of the error between frames|)\n");
+  summary.print();
+  nlohmann::json results;
+  results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"reference_spp", o.ref_spp},
+                         {"backend", "vdb"}, {"evict_after", policy.evict_after},
+                         {"min_factor", policy.min_factor}, {"shading", "defaults"}};
+  results["columns"] = summary.header();
+  results["rows"] = summary.to_json();
+  results["per_frame"] = per_frame_json;
+  std::printf("wrote %s\n", bench::write_results("sequence_persistent", results).c_str());
+  return 0;
+}

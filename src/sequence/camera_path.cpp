@@ -1,0 +1,129 @@
+#include "dofcache/sequence/camera_path.h"
+
+#include <cmath>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "dofcache/core/error.h"
+
+namespace dofcache::sequence {
+namespace {
+
+std::string seconds(double t) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g s", t);
+  return buf;
+}
+
+// The rigid part of a camera's world matrix, as the glTF loader takes it: keep the view axis (Z)
+// and the up direction (Y), rebuild an orthonormal right-handed frame (glTF cameras ignore scale).
+glm::dmat4 rigid_camera_frame(const glm::dmat4& world, const std::string& where) {
+  glm::dvec3 z(world[2]), y(world[1]);
+  double zl = glm::length(z);
+  if (!(zl > 1e-12)) throw Error(where + ": the camera transform collapses the view direction");
+  z /= zl;
+  y -= glm::dot(y, z) * z;
+  double yl = glm::length(y);
+  if (!(yl > 1e-12)) throw Error(where + ": the camera transform collapses the up direction");
+  y /= yl;
+  glm::dmat4 m(1.0);
+  m[0] = glm::dvec4(glm::cross(y, z), 0.0);
+  m[1] = glm::dvec4(y, 0.0);
+  m[2] = glm::dvec4(z, 0.0);
+  m[3] = glm::dvec4(glm::dvec3(world[3]), 1.0);
+  return m;
+}
+
+}  // namespace
+
+glm::dmat4 AnimatedNode::local(double time) const {
+  if (matrix) return *matrix;
+  glm::dvec3 t = translation_track.empty() ? translation : translation_track.at(time);
+  glm::dquat r = rotation_track.empty() ? rotation : rotation_track.at(time);
+  glm::dvec3 s = scale_track.empty() ? scale : scale_track.at(time);
+  return glm::translate(glm::dmat4(1.0), t) * glm::mat4_cast(r) * glm::scale(glm::dmat4(1.0), s);
+}
+
+PathSample CameraPath::at(double time) const {
+  glm::dmat4 world(1.0);
+  for (const AnimatedNode& node : chain) world = world * node.local(time);
+  const std::string where = source + " at " + seconds(time);
+  PathSample s;
+  if (!target.empty()) {
+    // Look-at: the camera looks down -Z, so +Z points from the target back to the camera.
+    glm::dvec3 eye(world[3]);
+    glm::dvec3 z = eye - target.at(time);
+    double zl = glm::length(z);
+    if (!(zl > 1e-9)) throw Error(where + ": the target is at the camera position");
+    z /= zl;
+    glm::dvec3 x = glm::cross(up, z);
+    double xl = glm::length(x);
+    if (!(xl > 1e-9)) throw Error(where + ": the view direction is parallel to 'up'");
+    x /= xl;
+    s.camera_to_world = glm::dmat4(1.0);
+    s.camera_to_world[0] = glm::dvec4(x, 0.0);
+    s.camera_to_world[1] = glm::dvec4(glm::cross(z, x), 0.0);
+    s.camera_to_world[2] = glm::dvec4(z, 0.0);
+    s.camera_to_world[3] = glm::dvec4(eye, 1.0);
+  } else {
+    s.camera_to_world = rigid_camera_frame(world, where);
+  }
+  if (!yfov.empty()) s.yfov = yfov.at(time);
+  if (!focal_length.empty()) s.focal_length = focal_length.at(time);
+  if (!fstop.empty()) s.fstop = fstop.at(time);
+  if (!focus_distance.empty()) s.focus_distance = focus_distance.at(time);
+  return s;
+}
+
+std::pair<int, int> path_frame_range(const CameraPath& path, double fps) {
+  if (!(fps > 0.0) || !std::isfinite(fps)) throw Error("frame rate must be a positive number");
+  // A hair of tolerance so that keys at exact frame times (in floating point) count.
+  auto first = static_cast<int>(std::ceil(path.start_time * fps - 1e-6));
+  auto last = static_cast<int>(std::floor(path.end_time * fps + 1e-6));
+  first = std::max(first, 0);
+  last = std::max(last, first);
+  return {first, last};
+}
+
+std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel& accel,
+                                   const scene::Camera& base, const CameraPath& path, double fps,
+                                   int first, int last, const render::LensOverrides& overrides) {
+  if (!(fps > 0.0) || !std::isfinite(fps)) throw Error("frame rate must be a positive number");
+  if (first < 0 || last < first)
+    throw Error("frame range " + std::to_string(first) + "-" + std::to_string(last) +
+                " is empty or negative");
+  std::vector<FrameSpec> frames;
+  frames.reserve(static_cast<std::size_t>(last - first) + 1);
+  for (int f = first; f <= last; ++f) {
+    FrameSpec spec;
+    spec.number = f;
+    spec.time = f / fps;
+    PathSample s = path.at(spec.time);
+    spec.camera = base;
+    spec.camera.camera_to_world = glm::mat4(s.camera_to_world);
+    if (s.yfov) {
+      if (!(*s.yfov > 0.0 && *s.yfov < 3.14159))
+        throw Error(path.source + ": yfov " + std::to_string(*s.yfov) + " at frame " +
+                    std::to_string(f) + " is not in (0, pi)");
+      spec.camera.yfov = static_cast<float>(*s.yfov);
+    }
+    // Animated values win over the command line, which wins over the scene's extras.lens.
+    render::LensOverrides o = overrides;
+    if (s.focal_length) o.focal_length = s.focal_length;
+    if (s.fstop) o.fstop = s.fstop;
+    if (s.focus_distance) o.focus_distance = s.focus_distance;
+    render::ResolvedLens lens = render::resolve_lens(scene, accel, spec.camera, o);
+    spec.lens = lens.lens;
+    spec.autofocus = lens.focus_from_scene;
+    try {
+      spec.lens.validate();
+    } catch (const Error& e) {
+      throw Error(path.source + ": frame " + std::to_string(f) + ": " + e.what());
+    }
+    frames.push_back(std::move(spec));
+  }
+  return frames;
+}
+
+}  // namespace dofcache::sequence

@@ -1,0 +1,237 @@
+// JSON keyframe files (docs/sequence.md, "Keyframe files"). Each quantity (position, target or
+// rotation, yfov, focal length, f-number, focus distance) is its own track, made of the keys
+// that give it, so a focus pull needs nothing but focus distances.
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <type_traits>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <nlohmann/json.hpp>
+
+#include "dofcache/core/error.h"
+#include "dofcache/sequence/camera_path.h"
+
+namespace dofcache::sequence {
+namespace {
+
+using nlohmann::json;
+
+constexpr int kFormatVersion = 1;
+constexpr const char* kFormatKey = "dofcache_camera_path";
+
+enum class KeyInterpolation { Step, Linear, Smooth };
+
+class KeyframeParser {
+ public:
+  explicit KeyframeParser(std::string name) : name_(std::move(name)) {}
+
+  CameraPath parse(const std::string& text, const scene::Camera& base) {
+    json doc;
+    try {
+      doc = json::parse(text);
+    } catch (const json::parse_error& e) {
+      std::string what = e.what();
+      std::size_t at = what.find("] ");
+      fail("invalid JSON: " + (at == std::string::npos ? what : what.substr(at + 2)));
+    }
+    if (!doc.is_object()) fail("the file must hold a JSON object");
+    for (const auto& [key, value] : doc.items()) {
+      (void)value;
+      static const char* known[] = {kFormatKey, "fps", "interpolation", "up", "keys",
+                                    "description", "scene"};
+      if (std::find_if(std::begin(known), std::end(known),
+                       [&](const char* k) { return key == k; }) == std::end(known))
+        fail("unknown member '" + key + "' (valid: " + kFormatKey +
+             ", fps, interpolation, up, keys, description, scene)");
+    }
+    if (!doc.contains(kFormatKey) || !doc[kFormatKey].is_number_integer())
+      fail(std::string("missing \"") + kFormatKey + "\": " + std::to_string(kFormatVersion) +
+           " (the format version)");
+    if (doc[kFormatKey].get<long long>() != kFormatVersion)
+      fail("format version " + doc[kFormatKey].dump() + " is not supported (this is version " +
+           std::to_string(kFormatVersion) + ")");
+
+    CameraPath path;
+    path.source = name_;
+    if (doc.contains("fps")) {
+      double fps = number(doc["fps"], "fps");
+      if (!(fps > 0.0)) fail("fps must be positive");
+      path.fps = fps;
+    }
+    KeyInterpolation mode = KeyInterpolation::Linear;
+    if (doc.contains("interpolation")) {
+      if (!doc["interpolation"].is_string()) fail("interpolation must be a string");
+      std::string s = doc["interpolation"].get<std::string>();
+      for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (s == "step") mode = KeyInterpolation::Step;
+      else if (s == "linear") mode = KeyInterpolation::Linear;
+      else if (s == "smooth") mode = KeyInterpolation::Smooth;
+      else fail("unknown interpolation '" + doc["interpolation"].get<std::string>() +
+                "' (valid: step, linear, smooth)");
+    }
+    if (doc.contains("up")) path.up = vec3(doc["up"], "up");
+    if (!(glm::length(path.up) > 0.0)) fail("up must not be zero");
+    if (!doc.contains("keys") || !doc["keys"].is_array() || doc["keys"].empty())
+      fail("\"keys\" must be a non-empty array of keyframes");
+
+    // The camera itself: one node at the base camera's pose, its tracks from the keys.
+    AnimatedNode node;
+    glm::dmat4 base_m(base.camera_to_world);
+    node.translation = glm::dvec3(base_m[3]);
+    node.rotation = glm::normalize(glm::quat_cast(glm::dmat3(base_m)));
+    Track<glm::dvec3> position, target;
+    Track<glm::dquat> rotation;
+    Track<double> yfov, focal_length, fstop, focus;
+    const double fps_for_frames = path.fps.value_or(24.0);
+    double last_time = -INFINITY;
+    const json& keys = doc["keys"];
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+      const json& key = keys[k];
+      key_ = "key " + std::to_string(k);
+      if (!key.is_object()) fail("must be an object");
+      for (const auto& [member, value] : key.items()) {
+        (void)value;
+        static const char* known[] = {"frame", "time", "position", "target", "rotation", "yfov",
+                                      "focal_length", "fstop", "focus_distance"};
+        if (std::find_if(std::begin(known), std::end(known),
+                         [&](const char* m) { return member == m; }) == std::end(known))
+          fail("unknown member '" + member +
+               "' (valid: frame or time, position, target or rotation, yfov, focal_length, fstop, "
+               "focus_distance)");
+      }
+      if (key.contains("frame") == key.contains("time"))
+        fail("give exactly one of \"frame\" (a frame number) or \"time\" (seconds)");
+      double t = key.contains("time") ? number(key["time"], "time")
+                                      : number(key["frame"], "frame") / fps_for_frames;
+      if (!(t > last_time)) fail("keys must be in strictly increasing time");
+      last_time = t;
+      if (key.contains("position")) add(position, t, vec3(key["position"], "position"));
+      if (key.contains("target")) add(target, t, vec3(key["target"], "target"));
+      if (key.contains("rotation")) add(rotation, t, quat(key["rotation"]));
+      if (key.contains("yfov")) add(yfov, t, positive(key["yfov"], "yfov"));
+      if (key.contains("focal_length"))
+        add(focal_length, t, positive(key["focal_length"], "focal_length"));
+      if (key.contains("fstop")) add(fstop, t, positive(key["fstop"], "fstop"));
+      if (key.contains("focus_distance"))
+        add(focus, t, positive(key["focus_distance"], "focus_distance"));
+    }
+    key_.clear();
+    if (!target.empty() && !rotation.empty())
+      fail("keys give both \"target\" and \"rotation\"; use one way to orient the camera");
+
+    bool any = false;
+    finish(position, mode, "position", any);
+    finish(target, mode, "target", any);
+    finish(rotation, mode, "rotation", any);
+    finish(yfov, mode, "yfov", any);
+    finish(focal_length, mode, "focal_length", any);
+    finish(fstop, mode, "fstop", any);
+    finish(focus, mode, "focus_distance", any);
+    if (!any) fail("no key animates anything (give position, target, rotation or lens values)");
+    node.translation_track = std::move(position);
+    node.rotation_track = std::move(rotation);
+    path.chain.push_back(std::move(node));
+    path.target = std::move(target);
+    path.yfov = std::move(yfov);
+    path.focal_length = std::move(focal_length);
+    path.fstop = std::move(fstop);
+    path.focus_distance = std::move(focus);
+    path.start_time = keys_start_;
+    path.end_time = keys_end_;
+    return path;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& problem) const {
+    throw Error(name_ + ": " + (key_.empty() ? "" : key_ + ": ") + problem);
+  }
+
+  double number(const json& v, const char* what) const {
+    if (!v.is_number()) fail(std::string(what) + " must be a number");
+    double d = v.get<double>();
+    if (!std::isfinite(d)) fail(std::string(what) + " must be finite");
+    return d;
+  }
+  double positive(const json& v, const char* what) const {
+    double d = number(v, what);
+    if (!(d > 0.0)) fail(std::string(what) + " must be positive");
+    return d;
+  }
+  glm::dvec3 vec3(const json& v, const char* what) const {
+    if (!v.is_array() || v.size() != 3) fail(std::string(what) + " must be an array of 3 numbers");
+    return {number(v[0], what), number(v[1], what), number(v[2], what)};
+  }
+  glm::dquat quat(const json& v) const {
+    if (!v.is_array() || v.size() != 4)
+      fail("rotation must be a quaternion [x, y, z, w] (glTF order)");
+    glm::dquat q(number(v[3], "rotation"), number(v[0], "rotation"), number(v[1], "rotation"),
+                 number(v[2], "rotation"));
+    double len = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+    if (!(std::abs(len - 1.0) < 1e-3)) fail("rotation must be a unit quaternion");
+    return q * (1.0 / len);
+  }
+
+  template <class T>
+  void add(Track<T>& track, double t, const T& value) {
+    track.times.push_back(t);
+    track.values.push_back(value);
+    keys_start_ = std::min(keys_start_, t);
+    keys_end_ = std::max(keys_end_, t);
+  }
+
+  // Sets the interpolation; "smooth" becomes a glTF CUBICSPLINE through the keys with
+  // Catmull-Rom tangents inside and zero tangents at the first and last key (ease in and out).
+  template <class T>
+  void finish(Track<T>& track, KeyInterpolation mode, const char* what, bool& any) const {
+    if (track.empty()) return;
+    any = true;
+    if constexpr (std::is_same_v<T, glm::dquat>) {
+      for (std::size_t k = 1; k < track.values.size(); ++k)  // one hemisphere: no long way round
+        if (glm::dot(track.values[k - 1], track.values[k]) < 0.0)
+          track.values[k] = -track.values[k];
+    }
+    if (mode == KeyInterpolation::Step) track.interpolation = Interpolation::Step;
+    if (mode == KeyInterpolation::Linear) track.interpolation = Interpolation::Linear;
+    if (mode == KeyInterpolation::Smooth) {
+      std::vector<T> v = track.values, out;
+      const std::vector<double>& t = track.times;
+      const std::size_t n = v.size();
+      for (std::size_t k = 0; k < n; ++k) {
+        T m = v[k] * 0.0;
+        if (k > 0 && k + 1 < n) m = (v[k + 1] - v[k - 1]) * (1.0 / (t[k + 1] - t[k - 1]));
+        out.push_back(m);
+        out.push_back(v[k]);
+        out.push_back(m);
+      }
+      track.values = std::move(out);
+      track.interpolation = Interpolation::CubicSpline;
+    }
+    track.validate(name_ + ": " + what);
+  }
+
+  std::string name_;
+  std::string key_;
+  double keys_start_ = INFINITY, keys_end_ = -INFINITY;
+};
+
+}  // namespace
+
+CameraPath parse_keyframe_path(const std::string& json_text, const std::string& name,
+                               const scene::Camera& base) {
+  return KeyframeParser(name).parse(json_text, base);
+}
+
+CameraPath load_keyframe_path(const std::string& json_file, const scene::Camera& base) {
+  std::ifstream in(json_file, std::ios::binary);
+  if (!in) throw Error(json_file + ": cannot open file (" + std::strerror(errno) + ")");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return parse_keyframe_path(text, json_file, base);
+}
+
+}  // namespace dofcache::sequence

@@ -1,0 +1,400 @@
+#include "dofcache/sequence/sequence_renderer.h"
+
+#include <signal.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "dofcache/core/error.h"
+#include "dofcache/core/progress.h"
+#include "dofcache/core/rng.h"
+#include "dofcache/image/image_io.h"
+#include "dofcache/sequence/cache_file.h"
+
+namespace dofcache::sequence {
+namespace {
+
+namespace fs = std::filesystem;
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+class Hasher {
+ public:
+  void add(std::uint64_t v) { h_ = hash_combine(h_, v); }
+  void add(double d) {
+    if (d == 0.0) d = 0.0;  // -0 and +0 alike
+    std::uint64_t bits;
+    std::memcpy(&bits, &d, 8);
+    add(bits);
+  }
+  void add(float f) { add(static_cast<double>(f)); }
+  void add(int i) { add(static_cast<std::uint64_t>(static_cast<std::int64_t>(i))); }
+  void add(bool b) { add(static_cast<std::uint64_t>(b)); }
+  void add(const std::string& s) {
+    add(static_cast<std::uint64_t>(s.size()));
+    for (unsigned char c : s) add(static_cast<std::uint64_t>(c));
+  }
+  std::uint64_t value() const { return h_; }
+
+ private:
+  std::uint64_t h_ = 0x73657175656e6365ULL;  // "sequence"
+};
+
+// A frame file that exists, reads back and has the frame's size: complete.
+bool frame_complete(const std::string& path, int width, int height) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return false;
+  try {
+    image::Image im = image::read_image(path);
+    return im.width() == width && im.height() == height;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
+// Temporary files (image::temporary_path_for: "<dir>/.<stem>.tmp-<pid>-<n><ext>") that a killed
+// run left behind for any of `targets`: removed, unless the process that made them still runs.
+void remove_stale_temporaries(const std::vector<std::string>& targets) {
+  std::map<fs::path, std::set<std::string>> prefixes;  // directory -> ".<stem>.tmp-"
+  for (const std::string& t : targets) {
+    if (t.empty()) continue;
+    fs::path p(t);
+    prefixes[p.parent_path()].insert("." + p.stem().string() + ".tmp-");
+  }
+  for (const auto& [dir, names] : prefixes) {
+    std::error_code ec;
+    fs::directory_iterator it(dir.empty() ? fs::path(".") : dir, ec);
+    if (ec) continue;
+    for (const fs::directory_entry& e : it) {
+      std::string name = e.path().filename().string();
+      std::size_t tmp = name.find(".tmp-");
+      if (tmp == std::string::npos || !names.count(name.substr(0, tmp + 5))) continue;
+      long pid = std::strtol(name.c_str() + tmp + 5, nullptr, 10);
+      if (pid > 0 && (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH)) continue;
+      fs::remove(e.path(), ec);
+    }
+  }
+}
+
+std::uint64_t work_of(const render::RenderSettings& s) {
+  return static_cast<std::uint64_t>(s.width) * static_cast<std::uint64_t>(s.height) *
+         static_cast<std::uint64_t>(s.visibility_only ? 1 : s.spp);
+}
+
+}  // namespace
+
+const char* cache_mode_name(CacheMode mode) {
+  switch (mode) {
+    case CacheMode::None: return "none";
+    case CacheMode::Fresh: return "fresh";
+    case CacheMode::Persistent: return "persistent";
+  }
+  return "?";
+}
+
+std::uint64_t frame_seed(std::uint64_t seed, int frame) {
+  return hash_combine(seed, static_cast<std::uint64_t>(static_cast<std::int64_t>(frame)));
+}
+
+std::string frame_path(const std::string& pattern, int frame) {
+  fs::path p(pattern);
+  std::string name = p.filename().string();
+  std::size_t first = name.find('#');
+  if (first == std::string::npos)
+    throw Error("output pattern '" + pattern + "' needs a run of '#' for the frame number, "
+                "e.g. 'frames/####.exr'");
+  std::size_t last = name.find_first_not_of('#', first);
+  if (last == std::string::npos) last = name.size();
+  if (name.find('#', last) != std::string::npos)
+    throw Error("output pattern '" + pattern + "' has more than one run of '#'");
+  std::string number = std::to_string(frame);
+  std::size_t width = last - first;
+  if (number.size() < width) number.insert(0, width - number.size(), '0');
+  name.replace(first, last - first, number);
+  return (p.parent_path() / name).string();
+}
+
+std::string default_checkpoint_path(const std::string& pattern) {
+  fs::path p(pattern);
+  return (p.parent_path() / ("." + p.filename().string() + ".checkpoint.vdb")).string();
+}
+
+std::pair<int, int> parse_frame_range(const std::string& text) {
+  auto bad = [&]() -> Error {
+    return Error("frame range '" + text + "' must be A-B or A (frame numbers >= 0, A <= B)");
+  };
+  auto number = [&](const std::string& s) {
+    if (s.empty() || s.size() > 9 || s.find_first_not_of("0123456789") != std::string::npos)
+      throw bad();
+    return std::stoi(s);
+  };
+  std::size_t dash = text.find('-');
+  int a = number(text.substr(0, dash));
+  int b = dash == std::string::npos ? a : number(text.substr(dash + 1));
+  if (b < a) throw bad();
+  return {a, b};
+}
+
+std::uint64_t records_hash(const std::vector<SampleRecord>& records) {
+  Hasher h;
+  h.add(static_cast<std::uint64_t>(records.size()));
+  for (const SampleRecord& r : records) {
+    const cache::CacheSample& s = r.sample;
+    for (int k = 0; k < 3; ++k) {
+      h.add(s.position[k]);
+      h.add(s.normal[k]);
+      h.add(s.value[k]);
+    }
+    h.add(s.radius);
+    h.add(r.base_radius);
+    h.add(r.view_radius);
+    h.add(r.footprint);
+    h.add(static_cast<std::uint64_t>(s.id) << 32 | s.frame);
+    h.add(static_cast<int>(r.last_used));
+  }
+  return h.value();
+}
+
+std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& settings,
+                           const std::vector<FrameSpec>& frames, std::size_t count,
+                           std::uint64_t initial_cache_hash) {
+  const render::RenderSettings& r = settings.render;
+  Hasher h;
+  h.add(std::string("dofcache sequence 1"));
+  h.add(scene.content_hash);
+  h.add(r.width), h.add(r.height), h.add(r.spp), h.add(static_cast<int>(r.mode));
+  h.add(r.seed);
+  h.add(r.shading.light_samples), h.add(r.shading.gather_rays), h.add(r.shading.bounces);
+  h.add(r.shading.specular_depth);
+  h.add(r.near_depth);
+  h.add(static_cast<int>(settings.cache_mode));
+  h.add(settings.cache_backend);
+  h.add(r.cache.min_factor), h.add(r.cache.sample_quality);
+  h.add(static_cast<int>(r.cache.radius_rule)), h.add(r.cache.accuracy);
+  h.add(r.cache.max_radius_pixels);
+  h.add(r.cache.lookup.max_normal_angle_deg), h.add(r.cache.lookup.min_samples);
+  h.add(r.cache.lookup.reject_in_front), h.add(r.cache.lookup.front_tolerance);
+  h.add(settings.evict_after), h.add(settings.cache_memory_mb);
+  h.add(initial_cache_hash);
+  for (std::size_t i = 0; i < count && i < frames.size(); ++i) {
+    const FrameSpec& f = frames[i];
+    h.add(f.number);
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 4; ++k) h.add(f.camera.camera_to_world[c][k]);
+    h.add(f.camera.yfov);
+    h.add(f.lens.focal_length), h.add(f.lens.fstop), h.add(f.lens.focus_distance);
+  }
+  return h.value();
+}
+
+void SequenceSettings::validate() const {
+  if (!output.empty()) frame_path(output, 0);
+  if (evict_after < 0) throw Error("--cache-evict-after must be >= 0");
+  if (!(cache_memory_mb >= 0.0) || !std::isfinite(cache_memory_mb))
+    throw Error("--cache-memory must be a number of MB >= 0");
+  if (cache_mode != CacheMode::None) {
+    if (cache_backend != "octree" && cache_backend != "vdb")
+      throw Error("cache backend '" + cache_backend + "' is not one of octree, vdb");
+    if (render.mode == render::Mode::Pinhole)
+      throw Error("the radiance cache applies to drt and accumulation renders, not pinhole");
+  } else if (!cache_in.empty() || !cache_out.empty()) {
+    throw Error("--cache-in and --cache-out need a cache (--cache octree or vdb)");
+  }
+  render::RenderSettings r = render;
+  r.cache.cache = nullptr;
+  r.validate();
+}
+
+SequenceRenderer::SequenceRenderer(const scene::Scene& scene, const scene::Accel& accel,
+                                   std::vector<FrameSpec> frames, SequenceSettings settings)
+    : scene_(scene), accel_(accel), frames_(std::move(frames)), settings_(std::move(settings)) {
+  settings_.validate();
+  if (frames_.empty()) throw Error("the sequence has no frames");
+  for (std::size_t i = 1; i < frames_.size(); ++i)
+    if (frames_[i].number <= frames_[i - 1].number)
+      throw Error("sequence frames must be in increasing frame number");
+  checkpoint_ = settings_.checkpoint;
+  if (checkpoint_.empty() && settings_.cache_mode == CacheMode::Persistent &&
+      !settings_.output.empty())
+    checkpoint_ = default_checkpoint_path(settings_.output);
+}
+
+SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
+                                      const NoticeCallback& notice) {
+  auto start = std::chrono::steady_clock::now();
+  auto say = [&](const std::string& text) {
+    if (notice) notice(text);
+  };
+  const SequenceSettings& s = settings_;
+  const CacheIdentity identity = cache_identity(scene_, s.render);
+  const int width = s.render.width, height = s.render.height;
+  const std::size_t n = frames_.size();
+  std::vector<std::string> paths(n);
+  if (!s.output.empty()) {
+    for (std::size_t i = 0; i < n; ++i) paths[i] = frame_path(s.output, frames_[i].number);
+    fs::path dir = fs::path(paths[0]).parent_path();
+    std::error_code ec;
+    if (!dir.empty()) fs::create_directories(dir, ec);
+    image::check_output_path(paths[0]);
+    std::vector<std::string> targets = paths;
+    targets.push_back(checkpoint_);
+    remove_stale_temporaries(targets);
+  }
+
+  // The initial cache: --cache-in, its samples counted as last used just before the first frame.
+  std::vector<SampleRecord> initial;
+  if (!s.cache_in.empty()) {
+    CacheFile in = read_cache_file(s.cache_in);
+    check_cache_identity(in, identity, s.cache_in);
+    initial = std::move(in.records);
+    for (SampleRecord& r : initial) r.last_used = frames_.front().number - 1;
+    say("loaded " + std::to_string(initial.size()) + " cache samples from " + s.cache_in);
+  }
+  const std::uint64_t initial_hash = records_hash(initial);
+  if (s.cache_mode != CacheMode::None) {
+    ReusePolicy policy;
+    policy.min_factor = s.render.cache.min_factor;
+    policy.evict_after = s.evict_after;
+    policy.memory_limit = static_cast<std::size_t>(s.cache_memory_mb * 1e6);
+    cache_ = std::make_unique<PersistentCache>(s.cache_backend, policy);
+    cache_->assign(initial);
+  }
+
+  // What is complete already.
+  std::vector<bool> skip(n, false);
+  SequenceSummary summary;
+  if (s.resume && !s.output.empty()) {
+    if (s.cache_mode == CacheMode::Persistent) {
+      std::error_code ec;
+      if (!checkpoint_.empty() && fs::exists(checkpoint_, ec)) {
+        try {
+          CacheFile cp = read_cache_file(checkpoint_);
+          if (!cp.checkpoint) throw Error("it is a cache file, not a sequence checkpoint");
+          check_cache_identity(cp, identity, checkpoint_);
+          if (cp.checkpoint->first_frame != frames_.front().number)
+            throw Error("it belongs to a sequence starting at frame " +
+                        std::to_string(cp.checkpoint->first_frame));
+          std::size_t at = n;
+          for (std::size_t i = 0; i < n; ++i)
+            if (frames_[i].number == cp.checkpoint->frame) at = i;
+          if (at == n)
+            throw Error("its frame " + std::to_string(cp.checkpoint->frame) +
+                        " is not in this sequence");
+          if (cp.checkpoint->sequence_key != sequence_key(scene_, s, frames_, at + 1, initial_hash))
+            throw Error("it was made with other settings, camera path or initial cache");
+          for (std::size_t i = 0; i <= at; ++i)
+            if (!frame_complete(paths[i], width, height))
+              throw Error("frame " + std::to_string(frames_[i].number) + " (" + paths[i] +
+                          ") is missing or unreadable");
+          cache_->assign(std::move(cp.records));
+          for (std::size_t i = 0; i <= at; ++i) skip[i] = true;
+          summary.resumed_after = cp.checkpoint->frame;
+          say("resuming after frame " + std::to_string(cp.checkpoint->frame) + " (checkpoint " +
+              checkpoint_ + ", " + std::to_string(cache_->size()) + " cache samples)");
+        } catch (const Error& e) {
+          std::string why = e.what();
+          if (why.rfind(checkpoint_ + ": ", 0) == 0) why = why.substr(checkpoint_.size() + 2);
+          say("not resuming from checkpoint " + checkpoint_ + ": " + why +
+              "; rendering from frame " + std::to_string(frames_.front().number));
+          cache_->assign(initial);
+        }
+      } else if (std::any_of(paths.begin(), paths.end(), [&](const std::string& p) {
+                   std::error_code e;
+                   return fs::exists(p, e);
+                 })) {
+        say("no checkpoint (" + checkpoint_ + "): rendering every frame from frame " +
+            std::to_string(frames_.front().number) + ", since each depends on the ones before");
+      }
+    } else {
+      for (std::size_t i = 0; i < n; ++i) skip[i] = frame_complete(paths[i], width, height);
+      std::size_t done = static_cast<std::size_t>(std::count(skip.begin(), skip.end(), true));
+      if (done > 0)
+        say(std::to_string(done) + " of " + std::to_string(n) +
+            " frames are complete already; rendering the others");
+    }
+  }
+
+  std::uint64_t total = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!skip[i]) total += work_of(s.render);
+  Progress progress("sequence", total, s.render.progress);
+
+  for (std::size_t i = 0; i < n; ++i) {
+    const FrameSpec& spec = frames_[i];
+    FrameReport rep;
+    rep.frame = spec.number;
+    rep.index = static_cast<int>(i);
+    rep.count = static_cast<int>(n);
+    rep.path = paths[i];
+    if (skip[i]) {
+      rep.skipped = true;
+      ++summary.skipped;
+      if (on_frame) on_frame(rep);
+      continue;
+    }
+    progress.set_label("frame " + std::to_string(spec.number) + " (" + std::to_string(i + 1) +
+                       "/" + std::to_string(n) + ")");
+    render::RenderSettings rs = s.render;
+    rs.lens = spec.lens;
+    rs.seed = frame_seed(s.render.seed, spec.number);
+    rs.progress = Progress::Display::Never;
+    rs.cache.frame = static_cast<std::uint32_t>(spec.number);
+    rs.cache.cache = nullptr;
+    if (cache_) {
+      if (s.cache_mode == CacheMode::Fresh) cache_->assign(initial);
+      rs.cache.cache = cache_->begin_frame(spec.number, render::make_camera(spec.camera, rs));
+    }
+    rep.output = render::render(scene_, accel_, spec.camera, rs);
+    rep.render_seconds = rep.output.stats.seconds;
+    if (cache_) {
+      rep.cache = cache_->end_frame();
+      rep.cache_seconds = rep.cache.maintenance_seconds;
+    }
+    auto t_write = std::chrono::steady_clock::now();
+    if (!rep.path.empty())
+      image::write_image(rep.path, rep.output.color,
+                         {{{"Z"}, rep.output.depth},
+                          {{"N.X", "N.Y", "N.Z"}, rep.output.normal},
+                          {{"id"}, rep.output.ids}});
+    if (s.cache_mode == CacheMode::Persistent && !checkpoint_.empty()) {
+      CacheFile cp;
+      cp.identity = identity;
+      cp.scene_source = scene_.source;
+      cp.min_factor = s.render.cache.min_factor;
+      cp.records = cache_->records();
+      cp.checkpoint = SequenceCheckpoint{sequence_key(scene_, s, frames_, i + 1, initial_hash),
+                                         frames_.front().number, spec.number};
+      write_cache_file(checkpoint_, cp);
+    }
+    rep.write_seconds = seconds_since(t_write);
+    ++summary.rendered;
+    progress.advance(work_of(s.render));
+    if (on_frame) on_frame(rep);
+  }
+  progress.finish();
+
+  if (!s.cache_out.empty() && cache_) {
+    if (s.cache_mode == CacheMode::Fresh && summary.rendered == 0) {
+      say("no frame was rendered, so there is no cache to write to " + s.cache_out);
+    } else {
+      CacheFile out;
+      out.identity = identity;
+      out.scene_source = scene_.source;
+      out.min_factor = s.render.cache.min_factor;
+      out.records = cache_->records();
+      write_cache_file(s.cache_out, out);
+    }
+  }
+  summary.seconds = seconds_since(start);
+  return summary;
+}
+
+}  // namespace dofcache::sequence

@@ -1,0 +1,172 @@
+// `dofcache sequence` end to end: the shipped camera paths render, a run killed midway and started
+// again with the same command produces exactly the frames of an uninterrupted run, and cache files
+// made for something else, or damaged, are refused with one line.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dofcache/image/image_io.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kScenes = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/";
+// Small and quick: every test here renders a handful of tiny frames.
+const std::string kDollyFrame0 =
+    "sequence " + kScenes + "cornell_box_dolly.gltf --frames 0 --persistent ";
+const std::string kQuick = " --width 32 --spp 4 --light-samples 1 --gather-rays 4 "
+                           "--cache-sample-quality 1 --threads 2";
+
+struct Result {
+  int exit_code;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+class SequenceCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("dofcache_seqcli_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  Result run(const std::string& args) {
+    std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " >" + (dir_ / "stdout").string() +
+                      " 2>" + (dir_ / "stderr").string();
+    int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "stdout"),
+            slurp(dir_ / "stderr")};
+  }
+
+  void expect_one_line_error(const Result& r, const std::string& needle) {
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("dofcache: error:", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
+  }
+
+  std::string at(const std::string& name) const { return (dir_ / name).string(); }
+
+  fs::path dir_;
+};
+
+TEST_F(SequenceCli, ShippedPathsRender) {
+  Result dolly = run("sequence " + kScenes + "cornell_box_dolly.gltf --frames 0-2 --persistent " +
+                     "-o '" + at("dolly/####.png") + "'" + kQuick);
+  ASSERT_EQ(dolly.exit_code, 0) << dolly.err;
+  for (const char* f : {"0000.png", "0001.png", "0002.png"})
+    EXPECT_TRUE(fs::exists(dir_ / "dolly" / f));
+  EXPECT_NE(dolly.out.find("animation 'dolly'"), std::string::npos) << dolly.out;
+  EXPECT_NE(dolly.out.find("reuse"), std::string::npos) << dolly.out;
+
+  Result pull = run("sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
+                    "paths/cornell_focus_pull.json --frames 34-35 --cache octree -o '" +
+                    at("pull/f##.exr") + "' --stats-json " + at("pull.json") + kQuick);
+  ASSERT_EQ(pull.exit_code, 0) << pull.err;
+  EXPECT_TRUE(fs::exists(dir_ / "pull/f34.exr"));
+  EXPECT_TRUE(fs::exists(dir_ / "pull/f35.exr"));
+  EXPECT_NE(slurp(dir_ / "pull.json").find("\"per_frame\""), std::string::npos);
+}
+
+TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) {
+  const std::string args = "sequence " + kScenes + "cornell_box_dolly.gltf --fps 12 --frames 0-9 "
+                           "--persistent --width 48 --spp 8 --light-samples 1 --gather-rays 8 -q";
+  ASSERT_EQ(run(args + " -o '" + at("full/####.exr") + "'").exit_code, 0);
+
+  // The same command, killed (SIGKILL: no chance to clean up) once frame 2 is on disk.
+  const std::string cut = at("cut/####.exr");
+  pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " -o '" + cut + "' >/dev/null 2>&1";
+    ::execl("/bin/sh", "sh", "-c", ("exec " + cmd).c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(dir_ / "cut/0002.exr") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+
+  Result resumed = run(args + " -o '" + cut + "'");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  for (int f = 0; f <= 9; ++f) {
+    char name[16];
+    std::snprintf(name, sizeof name, "%04d.exr", f);
+    ASSERT_TRUE(fs::exists(dir_ / "cut" / name)) << name;
+    EXPECT_EQ(dofcache::image::read_image((dir_ / "cut" / name).string()).data(),
+              dofcache::image::read_image((dir_ / "full" / name).string()).data())
+        << "frame " << f;
+  }
+  // Nothing half-written is left behind: only frames and the checkpoint.
+  for (const auto& e : fs::directory_iterator(dir_ / "cut")) {
+    std::string name = e.path().filename().string();
+    EXPECT_TRUE(name.size() == 8 || name == ".####.exr.checkpoint.vdb") << name;
+  }
+}
+
+TEST_F(SequenceCli, RefusesForeignAndDamagedCacheFiles) {
+  // A cache saved from one scene...
+  Result saved = run(kDollyFrame0 + "-o '" + at("a/####.png") + "' --cache-out " +
+                     at("cornell.vdb") + kQuick);
+  ASSERT_EQ(saved.exit_code, 0) << saved.err;
+  // ... is accepted by the same scene (the dolly file holds the Cornell box's geometry) ...
+  Result same = run("sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
+                    "paths/cornell_focus_pull.json --frames 0 --persistent -o '" +
+                    at("b/####.png") + "' --cache-in " + at("cornell.vdb") + kQuick);
+  EXPECT_EQ(same.exit_code, 0) << same.err;
+  EXPECT_NE(same.out.find("loaded"), std::string::npos) << same.out;
+  // ... refused by another scene, or with other shading settings.
+  std::ofstream(at("still.json"))
+      << R"({"dofcache_camera_path": 1, "keys": [{"time": 0, "fstop": 2}]})";
+  expect_one_line_error(run("sequence " + kScenes + "color_bars.gltf --path " + at("still.json") +
+                            " --persistent -o '" + at("c/####.png") + "' --cache-in " +
+                            at("cornell.vdb") + kQuick),
+                        "another scene");
+  expect_one_line_error(run(kDollyFrame0 + "-o '" +
+                            at("d/####.png") + "' --cache-in " + at("cornell.vdb") +
+                            " --width 32 --spp 4 --light-samples 1 --gather-rays 16 "
+                            "--cache-sample-quality 1"),
+                        "--gather-rays");
+  // Damaged: cut short.
+  std::string bytes = slurp(dir_ / "cornell.vdb");
+  std::ofstream(at("cut.vdb"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  expect_one_line_error(run(kDollyFrame0 + "-o '" +
+                            at("e/####.png") + "' --cache-in " + at("cut.vdb") + kQuick),
+                        "cut.vdb");
+}
+
+TEST_F(SequenceCli, BadOptionsGiveOneLine) {
+  const std::string dolly = "sequence " + kScenes + "cornell_box_dolly.gltf";
+  expect_one_line_error(run(dolly + " -o '" + at("x.png") + "'"), "'#'");
+  expect_one_line_error(run(dolly + " --frames 5-2 -o '" + at("####.png") + "'"), "frame range");
+  expect_one_line_error(run(dolly + " --persistent --cache none -o '" + at("####.png") + "'"),
+                        "--persistent");
+  expect_one_line_error(run("sequence -o '" + at("####.png") + "'"), "--path");
+  expect_one_line_error(run(dolly + " --animation walk -o '" + at("####.png") + "'"), "walk");
+}
+
+}  // namespace

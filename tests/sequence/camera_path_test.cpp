@@ -1,0 +1,322 @@
+// Camera paths: a glTF animation on a camera under an animated, rotated parent (LINEAR, STEP and
+// CUBICSPLINE channels, normalised-integer rotations), and JSON keyframe files, against poses
+// computed by hand.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
+
+#include "dofcache/core/error.h"
+#include "dofcache/render/setup.h"
+#include "dofcache/scene/accel.h"
+#include "dofcache/sequence/camera_path.h"
+
+using namespace dofcache;
+using namespace dofcache::sequence;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string base64(const std::vector<unsigned char>& bytes) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (std::size_t i = 0; i < bytes.size(); i += 3) {
+    unsigned v = bytes[i] << 16 | (i + 1 < bytes.size() ? bytes[i + 1] << 8 : 0) |
+                 (i + 2 < bytes.size() ? bytes[i + 2] : 0);
+    out += t[v >> 18 & 63];
+    out += t[v >> 12 & 63];
+    out += i + 1 < bytes.size() ? t[v >> 6 & 63] : '=';
+    out += i + 2 < bytes.size() ? t[v & 63] : '=';
+  }
+  return out;
+}
+
+// A glTF file: node 0 "rig" (translation (0,0,1), rotated 90 degrees about +Y) holds node 1
+// "cam" (the camera); node 2 is a triangle. Animation "move":
+//   cam translation  LINEAR       t = 0, 1:  (0,0,0) -> (2,0,0)
+//   cam rotation     STEP         t = 0, 1:  identity -> 90 degrees about +X  (normalised SHORT)
+//   rig translation  CUBICSPLINE  t = 0, 2:  (0,0,1) out-tangent (1,0,0) -> (0,0,3), other
+//                                            tangents zero
+// Animation "decor" moves only the triangle.
+class GltfAnimation : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("dofcache_path_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+    std::vector<unsigned char> bin;
+    std::vector<std::pair<std::size_t, std::size_t>> views;  // offset, length
+    auto put_floats = [&](std::vector<float> f) {
+      std::size_t at = bin.size();
+      bin.resize(at + 4 * f.size());
+      std::memcpy(bin.data() + at, f.data(), 4 * f.size());
+      views.push_back({at, 4 * f.size()});
+    };
+    put_floats({0, 0, 0, 1, 0, 0, 0, 1, 0});                   // 0: triangle
+    put_floats({0, 1});                                         // 1: cam times
+    put_floats({0, 0, 0, 2, 0, 0});                             // 2: cam translation
+    {                                                           // 3: cam rotation (SHORT)
+      std::vector<std::int16_t> q = {0, 0, 0, 32767, 23170, 0, 0, 23170};
+      std::size_t at = bin.size();
+      bin.resize(at + 2 * q.size());
+      std::memcpy(bin.data() + at, q.data(), 2 * q.size());
+      views.push_back({at, 2 * q.size()});
+    }
+    put_floats({0, 2});                                         // 4: rig times
+    put_floats({0, 0, 0, 0, 0, 1, 1, 0, 0,                      // 5: rig cubic (a, v, b) x 2
+                0, 0, 0, 0, 0, 3, 0, 0, 0});
+    put_floats({0, 1});                                         // 6: decor times
+    put_floats({0, 0, 0, 0, 5, 0});                             // 7: decor translation
+    nlohmann::json doc;
+    doc["asset"] = {{"version", "2.0"}};
+    doc["buffers"] = {{{"byteLength", bin.size()},
+                       {"uri", "data:application/octet-stream;base64," + base64(bin)}}};
+    for (auto [offset, length] : views)
+      doc["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", length}});
+    auto accessor = [&](int view, int count, const char* type, int component, bool norm = false) {
+      nlohmann::json a = {{"bufferView", view}, {"count", count}, {"type", type},
+                          {"componentType", component}};
+      if (norm) a["normalized"] = true;
+      doc["accessors"].push_back(a);
+    };
+    accessor(0, 3, "VEC3", 5126);
+    doc["accessors"][0]["min"] = {0, 0, 0};
+    doc["accessors"][0]["max"] = {1, 1, 0};
+    accessor(1, 2, "SCALAR", 5126);
+    accessor(2, 2, "VEC3", 5126);
+    accessor(3, 2, "VEC4", 5122, true);
+    accessor(4, 2, "SCALAR", 5126);
+    accessor(5, 6, "VEC3", 5126);
+    accessor(6, 2, "SCALAR", 5126);
+    accessor(7, 2, "VEC3", 5126);
+    const double h = std::sqrt(0.5);
+    doc["nodes"] = {{{"name", "rig"}, {"translation", {0, 0, 1}}, {"rotation", {0, h, 0, h}},
+                     {"children", {1}}},
+                    {{"name", "cam"}, {"camera", 0}},
+                    {{"name", "tri"}, {"mesh", 0}}};
+    doc["cameras"] = {{{"type", "perspective"},
+                       {"perspective", {{"yfov", 0.6}, {"znear", 0.01}, {"aspectRatio", 1.5}}}}};
+    doc["meshes"] = {{{"primitives", {{{"attributes", {{"POSITION", 0}}}}}}}};
+    doc["scenes"] = {{{"nodes", {0, 2}}}};
+    doc["scene"] = 0;
+    doc["animations"] = {
+        {{"name", "decor"},
+         {"samplers", {{{"input", 6}, {"output", 7}}}},
+         {"channels", {{{"sampler", 0}, {"target", {{"node", 2}, {"path", "translation"}}}}}}},
+        {{"name", "move"},
+         {"samplers", {{{"input", 1}, {"output", 2}, {"interpolation", "LINEAR"}},
+                       {{"input", 1}, {"output", 3}, {"interpolation", "STEP"}},
+                       {{"input", 4}, {"output", 5}, {"interpolation", "CUBICSPLINE"}}}},
+         {"channels", {{{"sampler", 0}, {"target", {{"node", 1}, {"path", "translation"}}}},
+                       {{"sampler", 1}, {"target", {{"node", 1}, {"path", "rotation"}}}},
+                       {{"sampler", 2}, {"target", {{"node", 0}, {"path", "translation"}}}}}}}};
+    file_ = (dir_ / "animated.gltf").string();
+    std::ofstream(file_) << doc.dump();
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path dir_;
+  std::string file_;
+};
+
+void expect_vec(glm::dvec3 got, glm::dvec3 want, double tol = 1e-4) {
+  EXPECT_NEAR(got.x, want.x, tol);
+  EXPECT_NEAR(got.y, want.y, tol);
+  EXPECT_NEAR(got.z, want.z, tol);
+}
+
+glm::dvec3 position(const PathSample& s) { return glm::dvec3(s.camera_to_world[3]); }
+glm::dvec3 forward(const PathSample& s) { return -glm::dvec3(s.camera_to_world[2]); }
+glm::dvec3 up(const PathSample& s) { return glm::dvec3(s.camera_to_world[1]); }
+
+TEST_F(GltfAnimation, ComposesChannelsDownTheHierarchy) {
+  scene::Scene sc = render::load_scene(file_);
+  ASSERT_EQ(sc.cameras.size(), 1u);
+  CameraPath path = load_gltf_camera_path(file_, sc.cameras[0]);  // picks "move", not "decor"
+  EXPECT_NE(path.source.find("'move'"), std::string::npos) << path.source;
+  EXPECT_DOUBLE_EQ(path.start_time, 0.0);
+  EXPECT_DOUBLE_EQ(path.end_time, 2.0);
+
+  // t = 0.5. rig: CUBICSPLINE at s = 0.25, td = 2: h00 = 0.84375, h10 = 0.140625,
+  // h01 = 0.15625 -> (2 * 0.140625, 0, 0.84375 * 1 + 0.15625 * 3) = (0.28125, 0, 1.3125).
+  // cam: LINEAR translation (1,0,0), STEP rotation still identity. The rig's 90-degree turn about
+  // +Y maps local +X to world -Z and the view axis -Z to world -X.
+  PathSample a = path.at(0.5);
+  expect_vec(position(a), {0.28125, 0.0, 0.3125});
+  expect_vec(forward(a), {-1, 0, 0});
+  expect_vec(up(a), {0, 1, 0});
+
+  // t = 1. rig at s = 0.5: (2 * 0.125, 0, 0.5 * 1 + 0.5 * 3) = (0.25, 0, 2); cam translation
+  // (2,0,0) -> world (0,0,-2); STEP switched to 90 degrees about +X: the view axis turns to +Y,
+  // the up axis to +Z, which the rig turns to +X.
+  PathSample b = path.at(1.0);
+  expect_vec(position(b), {0.25, 0.0, 0.0});
+  expect_vec(forward(b), {0, 1, 0});
+  expect_vec(up(b), {1, 0, 0});
+
+  // Past the end every channel holds its last value: rig (0,0,3), cam (2,0,0) -> (0,0,1).
+  expect_vec(position(path.at(5.0)), {0.0, 0.0, 1.0});
+  // The rest pose of the file matches the loader's camera (t = 0: all channels at key 0).
+  glm::dmat4 c0 = path.at(0.0).camera_to_world;
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) EXPECT_NEAR(c0[c][r], sc.cameras[0].camera_to_world[c][r], 1e-6);
+}
+
+TEST_F(GltfAnimation, SelectsAnimationsAndFrames) {
+  scene::Scene sc = render::load_scene(file_);
+  CameraPath by_index = load_gltf_camera_path(file_, sc.cameras[0], "1");
+  EXPECT_NE(by_index.source.find("'move'"), std::string::npos);
+  EXPECT_THROW(load_gltf_camera_path(file_, sc.cameras[0], "decor"), Error);  // moves no camera
+  EXPECT_THROW(load_gltf_camera_path(file_, sc.cameras[0], "nope"), Error);
+  EXPECT_EQ(path_frame_range(by_index, 24.0), std::make_pair(0, 48));
+  EXPECT_EQ(path_frame_range(by_index, 2.5), std::make_pair(0, 5));
+
+  scene::Accel accel(sc);
+  render::LensOverrides o;
+  o.focus_distance = 2.0;
+  std::vector<FrameSpec> frames = plan_frames(sc, accel, sc.cameras[0], by_index, 2.0, 1, 2, o);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(frames[0].number, 1);
+  EXPECT_DOUBLE_EQ(frames[0].time, 0.5);
+  EXPECT_NEAR(frames[0].camera.camera_to_world[3][0], 0.28125, 1e-5);
+  EXPECT_DOUBLE_EQ(frames[0].lens.focus_distance, 2.0);
+  EXPECT_THROW(plan_frames(sc, accel, sc.cameras[0], by_index, 2.0, 3, 1, o), Error);
+}
+
+TEST_F(GltfAnimation, RefusesBrokenAnimations) {
+  scene::Scene sc = render::load_scene(file_);
+  nlohmann::json doc = nlohmann::json::parse(std::ifstream(file_));
+  auto rewrite = [&](const nlohmann::json& d) {
+    std::ofstream(file_) << d.dump();
+  };
+  nlohmann::json bad = doc;
+  bad["animations"][1]["samplers"][0]["interpolation"] = "BEZIER";
+  rewrite(bad);
+  EXPECT_THROW(load_gltf_camera_path(file_, sc.cameras[0]), Error);
+  bad = doc;
+  bad["animations"][1]["samplers"][0]["output"] = 5;  // 6 values for 2 LINEAR keys
+  rewrite(bad);
+  EXPECT_THROW(load_gltf_camera_path(file_, sc.cameras[0]), Error);
+  bad = doc;
+  bad["animations"][1]["channels"][0]["sampler"] = 9;
+  rewrite(bad);
+  EXPECT_THROW(load_gltf_camera_path(file_, sc.cameras[0]), Error);
+  bad = doc;
+  bad["accessors"][2]["count"] = 200;  // reads past the buffer view
+  rewrite(bad);
+  EXPECT_THROW(load_gltf_camera_path(file_, sc.cameras[0]), Error);
+  bad = doc;
+  bad.erase("animations");
+  rewrite(bad);
+  try {
+    load_gltf_camera_path(file_, sc.cameras[0]);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no animations"), std::string::npos) << e.what();
+  }
+}
+
+scene::Camera base_camera() {
+  scene::Camera c;
+  c.camera_to_world = glm::mat4(1.0f);
+  c.camera_to_world[3] = glm::vec4(0.0f, 1.0f, 4.0f, 1.0f);
+  c.yfov = 0.7f;
+  return c;
+}
+
+TEST(KeyframePath, LookAtAndLensTracks) {
+  CameraPath p = parse_keyframe_path(R"({
+    "dofcache_camera_path": 1, "fps": 10,
+    "keys": [
+      {"frame": 0,  "position": [0, 0, 5], "target": [0, 0, 0], "focus_distance": 5, "fstop": 2},
+      {"frame": 10, "position": [1, 0, 5], "target": [1, 0, 0], "focus_distance": 3},
+      {"time": 2.0, "position": [1, 0, 5], "target": [1, 1, 0]}
+    ]})", "test.json", base_camera());
+  EXPECT_DOUBLE_EQ(*p.fps, 10.0);
+  EXPECT_DOUBLE_EQ(p.start_time, 0.0);
+  EXPECT_DOUBLE_EQ(p.end_time, 2.0);
+  PathSample s = p.at(0.5);  // frame 5: halfway between the first two keys
+  expect_vec(position(s), {0.5, 0, 5}, 1e-12);
+  expect_vec(forward(s), {0, 0, -1}, 1e-12);
+  expect_vec(up(s), {0, 1, 0}, 1e-12);
+  EXPECT_DOUBLE_EQ(*s.focus_distance, 4.0);
+  EXPECT_DOUBLE_EQ(*s.fstop, 2.0);  // one key: constant
+  EXPECT_FALSE(s.focal_length.has_value());
+  PathSample e = p.at(2.0);  // looking at (1,1,0) from (1,0,5)
+  expect_vec(forward(e), glm::normalize(glm::dvec3(0, 1, -5)), 1e-12);
+  EXPECT_DOUBLE_EQ(*e.focus_distance, 3.0);
+}
+
+TEST(KeyframePath, RotationStepAndSmooth) {
+  const double h = std::sqrt(0.5);
+  std::string rot = "[0, " + std::to_string(h) + ", 0, " + std::to_string(h) + "]";
+  CameraPath step = parse_keyframe_path(
+      R"({"dofcache_camera_path": 1, "interpolation": "step", "keys": [
+          {"time": 0, "rotation": [0, 0, 0, 1]}, {"time": 1, "rotation": )" + rot + "}]}",
+      "step.json", base_camera());
+  expect_vec(position(step.at(0.5)), {0, 1, 4}, 1e-6);  // the base camera's position
+  expect_vec(forward(step.at(0.99)), {0, 0, -1}, 1e-6);
+  expect_vec(forward(step.at(1.0)), {-1, 0, 0}, 1e-5);
+
+  // Smooth, two keys: zero tangents at both ends, so the Hermite weight is 3s^2 - 2s^3.
+  CameraPath smooth = parse_keyframe_path(
+      R"({"dofcache_camera_path": 1, "interpolation": "smooth", "keys": [
+          {"time": 0, "focus_distance": 1}, {"time": 1, "focus_distance": 2}]})",
+      "smooth.json", base_camera());
+  EXPECT_NEAR(*smooth.at(0.25).focus_distance, 1.0 + 0.15625, 1e-12);
+  EXPECT_NEAR(*smooth.at(0.5).focus_distance, 1.5, 1e-12);
+  // A pure focus pull keeps the base camera's pose.
+  glm::dmat4 m = smooth.at(0.5).camera_to_world;
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) EXPECT_NEAR(m[c][r], base_camera().camera_to_world[c][r], 1e-6);
+}
+
+TEST(KeyframePath, RefusesMistakes) {
+  auto parse = [](const std::string& keys, const std::string& extra = "") {
+    std::string text = R"({"dofcache_camera_path": 1, )" + extra + R"("keys": )" + keys + "}";
+    return parse_keyframe_path(text, "bad.json", base_camera());
+  };
+  EXPECT_THROW(parse(R"([{"time": 0, "focus": 2}])"), Error);                  // unknown member
+  EXPECT_THROW(parse(R"([{"time": 0, "frame": 0, "fstop": 2}])"), Error);      // both times
+  EXPECT_THROW(parse(R"([{"fstop": 2}])"), Error);                              // no time
+  EXPECT_THROW(parse(R"([{"time": 1, "fstop": 2}, {"time": 0, "fstop": 3}])"), Error);
+  EXPECT_THROW(parse(R"([{"time": 0, "target": [0,0,0]}, {"time": 1, "rotation": [0,0,0,1]}])"),
+               Error);
+  EXPECT_THROW(parse(R"([{"time": 0, "fstop": -2}])"), Error);
+  EXPECT_THROW(parse(R"([{"time": 0, "position": [0, 0]}])"), Error);
+  EXPECT_THROW(parse(R"([{"time": 0}])"), Error);  // animates nothing
+  EXPECT_THROW(parse(R"([])"), Error);
+  EXPECT_THROW(parse(R"([{"time": 0, "fstop": 2}])", R"("interpolation": "cubic", )"), Error);
+  EXPECT_THROW(parse_keyframe_path(R"({"keys": [{"time": 0, "fstop": 2}]})", "v.json",
+                                   base_camera()), Error);  // no format version
+  EXPECT_THROW(parse_keyframe_path("{not json", "j.json", base_camera()), Error);
+  try {
+    parse(R"([{"time": 0, "fstop": 2}, {"time": 1, "focus": 2}])");
+  } catch (const Error& e) {
+    std::string what = e.what();
+    EXPECT_NE(what.find("bad.json: key 1: unknown member 'focus'"), std::string::npos) << what;
+  }
+  // A target at the camera position is caught when the pose is evaluated.
+  CameraPath p = parse(R"([{"time": 0, "position": [0,0,0], "target": [0,0,0]}])");
+  EXPECT_THROW(p.at(0.0), Error);
+}
+
+TEST(KeyframePath, ShippedPathsLoad) {
+  std::string dir = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/";
+  scene::Scene sc = render::load_scene(dir + "cornell_box.gltf");
+  CameraPath pull = load_keyframe_path(dir + "paths/cornell_focus_pull.json", sc.cameras[0]);
+  EXPECT_FALSE(pull.focus_distance.empty());
+  scene::Scene dolly_scene = render::load_scene(dir + "cornell_box_dolly.gltf");
+  CameraPath dolly = load_gltf_camera_path(dir + "cornell_box_dolly.gltf", dolly_scene.cameras[0]);
+  auto [first, last] = path_frame_range(dolly, 24.0);
+  EXPECT_GE(last - first + 1, 24);
+  EXPECT_EQ(dolly_scene.content_hash, sc.content_hash);  // the same scene, plus an animation
+}
+
+}  // namespace
