@@ -39,10 +39,13 @@ int main(int argc, char** argv) {
   };
   add(cli::add_render_command);
   add(cli::add_compare_command);
+  add(cli::add_sequence_command);
+  add(cli::add_refocus_command);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    int code = app.exit(e);  // prints help/version, or the one-line error
+    return code == 0 ? 0 : 2;
   }
   try {
     for (auto& [sub, run] : runners)

@@ -9,6 +9,8 @@
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/image/metrics.h"
+#include "dofcache/preview/inputs_file.h"
+#include "dofcache/preview/preview_renderer.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
@@ -18,6 +20,7 @@ namespace {
 
 struct RenderOptions {
   std::string scene_path, out = "dofcache.png", camera, mode = "drt", stats_json;
+  std::string save_preview_inputs;
   int scene_index = -1, width = 640, height = 0, spp = 16, threads = 0;
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
@@ -34,6 +37,64 @@ std::string describe_lens(const lens::ThinLens& l) {
   return buf;
 }
 
+// "preview" -> Layered, "preview-occlusion" -> LayeredOcclusion, ...; nullopt for the integrators.
+std::optional<preview::PreviewMethod> preview_method(const std::string& mode) {
+  if (mode == "preview") return preview::PreviewMethod::Layered;
+  if (mode == "preview-occlusion") return preview::PreviewMethod::LayeredOcclusion;
+  if (mode == "preview-gather") return preview::PreviewMethod::Gather;
+  if (mode == "preview-scatter") return preview::PreviewMethod::Scatter;
+  return std::nullopt;
+}
+
+// The preview modes: a pinhole render (plus, for the occlusion fix, the near-plane renders)
+// post-processed into a depth-of-field image.
+int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::Accel& accel,
+                const scene::Camera& camera, const render::RenderSettings& s,
+                preview::PreviewMethod method) {
+  preview::PreviewOptions options;
+  options.threads = o.threads;
+  preview::ScenePreview p =
+      preview::render_scene_preview(scene, accel, camera, s, method, options);
+  image::write_image(o.out, p.image, {{{"Z"}, p.inputs.depth}, {{"id"}, p.inputs.ids}});
+  if (!o.save_preview_inputs.empty())
+    preview::save_preview_inputs(o.save_preview_inputs, p.inputs, p.coverage, options);
+  const preview::ScenePreviewTimings& t = p.timings;
+  if (!o.stats_json.empty()) {
+    nlohmann::json j = {
+        {"scene", scene.source}, {"camera", camera.name}, {"mode", o.mode},
+        {"method", preview::to_string(method)}, {"width", s.width}, {"height", s.height},
+        {"spp", s.spp}, {"seed", s.seed}, {"threads", t.pinhole_stats.threads},
+        {"seconds", t.total_ms * 1e-3},
+        {"lens", {{"focal_length", s.lens.focal_length}, {"fstop", s.lens.fstop},
+                  {"focus_distance", s.lens.focus_distance}}},
+        {"preview", {{"layers", t.layers}, {"revealed_layers", t.revealed_layers},
+                     {"revealed_pixels", t.revealed_pixels},
+                     {"pinhole_render_ms", t.pinhole_render_ms},
+                     {"id_render_ms", t.id_render_ms}, {"mask_build_ms", t.mask_build_ms},
+                     {"extra_region_mask_ms", t.mask_ms()},
+                     {"extra_render_ms", t.extra_render_ms},
+                     {"postprocess_ms", t.postprocess_ms}, {"total_ms", t.total_ms}}},
+        {"output", o.out}};
+    write_json_file(o.stats_json, j);
+  }
+  if (!o.quiet) {
+    std::printf("preview %dx%d %s, %d pinhole spp, %d layers", s.width, s.height,
+                preview::to_string(method), s.spp, t.layers);
+    if (method == preview::PreviewMethod::LayeredOcclusion)
+      std::printf(" (%d revealed, %llu px rendered again)", t.revealed_layers,
+                  static_cast<unsigned long long>(t.revealed_pixels));
+    std::printf(": %.2f s\n        pinhole %.1f ms, extra-region mask %.1f ms, extra render "
+                "%.1f ms, post-process %.1f ms\n",
+                t.total_ms * 1e-3, t.pinhole_render_ms, t.mask_ms(), t.extra_render_ms,
+                t.postprocess_ms);
+  }
+  std::printf("wrote   %s\n", std::filesystem::absolute(o.out).lexically_normal().c_str());
+  if (!o.save_preview_inputs.empty())
+    std::printf("wrote   %s\n",
+                std::filesystem::absolute(o.save_preview_inputs).lexically_normal().c_str());
+  return 0;
+}
+
 int run_render(const RenderOptions& o) {
   scene::Scene scene = render::load_scene(o.scene_path, o.scene_index);
   std::size_t cam_index = o.camera.empty() ? 0 : scene.camera_index(o.camera);
@@ -44,7 +105,8 @@ int run_render(const RenderOptions& o) {
   s.width = o.width;
   s.height = o.height > 0 ? o.height : render::height_for_width(camera, o.width);
   s.spp = o.spp;
-  s.mode = render::parse_mode(o.mode);
+  const std::optional<preview::PreviewMethod> method = preview_method(o.mode);
+  s.mode = method ? render::Mode::Pinhole : render::parse_mode(o.mode);
   s.seed = o.seed;
   s.threads = o.threads;
   s.shading = o.shading;
@@ -68,8 +130,22 @@ int run_render(const RenderOptions& o) {
                 lens.focus_from_scene ? " (autofocus on the image centre)" : "");
   }
   // Validate everything (including the output format) before spending time on the render.
+  if (method && radiance_cache)
+    throw dofcache::Error("the preview modes render pinhole images and use no radiance cache "
+                          "(drop --cache)");
   s.validate();
   image::check_output_path(o.out);
+  if (!o.save_preview_inputs.empty()) {
+    if (!method)
+      throw dofcache::Error("--save-preview-inputs needs a preview mode (--mode preview, "
+                            "preview-occlusion, preview-gather or preview-scatter)");
+    std::string ext = std::filesystem::path(o.save_preview_inputs).extension().string();
+    if (ext != ".exr" && ext != ".EXR")
+      throw dofcache::Error("preview inputs are saved as .exr, not '" + o.save_preview_inputs +
+                            "'");
+    image::check_output_path(o.save_preview_inputs);
+  }
+  if (method) return run_preview(o, scene, accel, camera, s, *method);
   if (!o.cache_debug.empty()) image::check_output_path(o.cache_debug + "-hits.png");
   if (!o.cache_trace.empty()) {
     if (!radiance_cache) throw dofcache::Error("--cache-trace needs a cache (--cache octree or vdb)");
@@ -147,13 +223,19 @@ Runner add_render_command(CLI::App& app) {
       ->check(CLI::Range(1, 16384));
   cmd->add_option("--height", o->height, "Image height (default: from the camera's aspect ratio)")
       ->check(CLI::Range(1, 16384));
-  cmd->add_option("--spp", o->spp, "Samples (lens rays) per pixel")->capture_default_str()
+  cmd->add_option("--spp", o->spp,
+                  "Samples (lens rays) per pixel; pinhole samples in the preview modes")
+      ->capture_default_str()
       ->check(CLI::Range(1, 1 << 20));
   cmd->add_option("--mode", o->mode,
-                  "pinhole (all in focus), drt (distributed ray tracing, the reference) or "
-                  "accumulation (one lens point per pass)")
+                  "pinhole (all in focus), drt (distributed ray tracing, the reference), "
+                  "accumulation (one lens point per pass), or a post-processed preview of a "
+                  "pinhole render: preview (layered, Kraus & Strengert), preview-occlusion "
+                  "(layered with the paper's occlusion fix: also renders what the pinhole "
+                  "cannot see), preview-gather, preview-scatter")
       ->capture_default_str()
-      ->check(CLI::IsMember({"pinhole", "drt", "accumulation"}));
+      ->check(CLI::IsMember({"pinhole", "drt", "accumulation", "preview", "preview-occlusion",
+                             "preview-gather", "preview-scatter"}));
   cmd->add_option("--fstop", o->fstop, "f-number n (aperture diameter = focal length / n)");
   cmd->add_option("--focal-length", o->focal_length, "Focal length in metres (e.g. 0.05)");
   cmd->add_option("--focus-distance", o->focus_distance, "Distance in focus, metres");
@@ -208,6 +290,9 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--cache-trace", o->cache_trace,
                   "Record the cache's lookups and inserts to FILE for bench/cache_replay_bench");
   cmd->add_option("--stats-json", o->stats_json, "Write render statistics as JSON to this file");
+  cmd->add_option("--save-preview-inputs", o->save_preview_inputs,
+                  "Preview modes: also save the pinhole images (and revealed layers) as one "
+                  "multi-part .exr for 'dofcache refocus'");
   cmd->add_flag("-q,--quiet", o->quiet, "Print only the output path");
   return [o] { return run_render(*o); };
 }

@@ -1,0 +1,149 @@
+// The preview modes of `dofcache render` and `dofcache refocus`, end to end on a tiny colour-bars
+// render: every mode writes its image; refocus reruns the post-process and warns (one line) when
+// the new lens leaves what the saved revealed layers cover; bad input gives one error line, a
+// non-zero exit and no output file.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int exit_code;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+int lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+
+const std::string kScene = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/color_bars.gltf";
+const std::string kTiny = " --width 48 --height 36 --spp 1 --gather-rays 2 --light-samples 1 -q";
+
+class PreviewCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("dofcache_preview_cli_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  Result run(const std::string& args) {
+    std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " >" + (dir_ / "stdout").string() +
+                      " 2>" + (dir_ / "stderr").string();
+    int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "stdout"),
+            slurp(dir_ / "stderr")};
+  }
+
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  // Saved preview inputs (occlusion fix) of the tiny render, in.exr.
+  void save_inputs() {
+    Result r = run("render " + kScene + " --mode preview-occlusion --out " + path("p.png") +
+                   " --save-preview-inputs " + path("in.exr") + kTiny);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    ASSERT_TRUE(fs::exists(path("in.exr")));
+  }
+
+  // Non-zero exit, one line on stderr starting "dofcache: error:", and `output` not written.
+  void expect_clean_failure(const std::string& args, const std::string& output) {
+    Result r = run(args);
+    EXPECT_NE(r.exit_code, 0) << args;
+    EXPECT_EQ(lines(r.err), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("dofcache: error:", 0), 0u) << r.err;
+    EXPECT_FALSE(fs::exists(path(output))) << args;
+    for (const auto& e : fs::directory_iterator(dir_))  // no temporary left behind either
+      EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(PreviewCli, EveryPreviewModeWritesAnImage) {
+  for (const char* mode : {"preview", "preview-occlusion", "preview-gather", "preview-scatter"}) {
+    const std::string out = path(std::string(mode) + ".png");
+    Result r = run("render " + kScene + " --mode " + mode + " --out " + out + kTiny +
+                   " --stats-json " + path(std::string(mode) + ".json"));
+    ASSERT_EQ(r.exit_code, 0) << mode << ": " << r.err;
+    EXPECT_TRUE(fs::exists(out)) << mode;
+    EXPECT_NE(r.out.find(out), std::string::npos) << r.out;
+    EXPECT_NE(slurp(path(std::string(mode) + ".json")).find("postprocess_ms"), std::string::npos);
+  }
+  EXPECT_NE(run("render --help").out.find("preview-occlusion"), std::string::npos);
+}
+
+TEST_F(PreviewCli, RefocusRerunsThePostProcessAndWarnsOutsideTheRange) {
+  save_inputs();
+  // The saved lens: nothing to warn about.
+  Result r = run("refocus " + path("in.exr") + " --out " + path("same.png") + " -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(path("same.png")));
+  EXPECT_EQ(r.err, "");
+  // Focused nearer than the saved near planes: one warning line, still an image.
+  r = run("refocus " + path("in.exr") +
+          " --focus-distance 1.0 --fstop 2 --method layered-occlusion"
+          " --out " +
+          path("near.png") + " -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(path("near.png")));
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_EQ(r.err.rfind("dofcache: warning:", 0), 0u) << r.err;
+  // The other methods use no revealed layers: no warning.
+  r = run("refocus " + path("in.exr") + " --focus-distance 1.0 --method gather --out " +
+          path("gather.exr") + " -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(path("gather.exr")));
+  EXPECT_EQ(r.err, "");
+}
+
+TEST_F(PreviewCli, BadRefocusInputIsOneLineAndNoFile) {
+  save_inputs();
+  std::ofstream(path("garbage.exr")) << "this is not an EXR file";
+  expect_clean_failure("refocus " + path("garbage.exr") + " --out " + path("o.png"), "o.png");
+  expect_clean_failure("refocus " + path("missing.exr") + " --out " + path("o.png"), "o.png");
+  // A truncated inputs file.
+  {
+    std::string bytes = slurp(path("in.exr"));
+    std::ofstream(path("cut.exr"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  expect_clean_failure("refocus " + path("cut.exr") + " --out " + path("o.png"), "o.png");
+  // An EXR that is not preview inputs (an ordinary render).
+  ASSERT_EQ(
+      run("render " + kScene + " --mode pinhole --out " + path("plain.exr") + kTiny).exit_code, 0);
+  expect_clean_failure("refocus " + path("plain.exr") + " --out " + path("o.png"), "o.png");
+  // Absurd lenses and outputs.
+  expect_clean_failure("refocus " + path("in.exr") + " --fstop -1 --out " + path("o.png"), "o.png");
+  expect_clean_failure(
+      "refocus " + path("in.exr") + " --focus-distance 0.05 --out " + path("o.png"), "o.png");
+  expect_clean_failure("refocus " + path("in.exr") + " --out " + path("o.tiff2"), "o.tiff2");
+}
+
+TEST_F(PreviewCli, PreviewOptionMisuseIsOneLineAndNoFile) {
+  expect_clean_failure("render " + kScene + " --mode drt --out " + path("o.png") +
+                           " --save-preview-inputs " + path("in.exr") + kTiny,
+                       "o.png");
+  expect_clean_failure("render " + kScene + " --mode preview --out " + path("o.png") +
+                           " --save-preview-inputs " + path("in.png") + kTiny,
+                       "o.png");
+  expect_clean_failure(
+      "render " + kScene + " --mode preview --cache vdb --out " + path("o.png") + kTiny, "o.png");
+}
+
+}  // namespace
