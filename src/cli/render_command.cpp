@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "common_options.h"
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/cache/trace.h"
 #include "dofcache/core/error.h"
@@ -213,16 +214,11 @@ Runner add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
   CLI::App* cmd = app.add_subcommand(
       "render", "Render a glTF 2.0 scene (default: the built-in Cornell box) with depth of field.");
-  cmd->add_option("SCENE", o->scene_path, ".gltf or .glb file; omit for the built-in scene");
+  add_scene_options(cmd, o->scene_path, o->camera, o->scene_index);
   cmd->add_option("-o,--out", o->out,
                   "Output image: .png (sRGB) or .exr (linear, with Z, N and id channels)")
       ->capture_default_str();
-  cmd->add_option("--camera", o->camera, "Camera name (default: the scene's first camera)");
-  cmd->add_option("--scene-index", o->scene_index, "glTF scene to load (default: the file's default)");
-  cmd->add_option("--width", o->width, "Image width in pixels")->capture_default_str()
-      ->check(CLI::Range(1, 16384));
-  cmd->add_option("--height", o->height, "Image height (default: from the camera's aspect ratio)")
-      ->check(CLI::Range(1, 16384));
+  add_size_options(cmd, o->width, o->height);
   cmd->add_option("--spp", o->spp,
                   "Samples (lens rays) per pixel; pinhole samples in the preview modes")
       ->capture_default_str()
@@ -236,54 +232,16 @@ Runner add_render_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::IsMember({"pinhole", "drt", "accumulation", "preview", "preview-occlusion",
                              "preview-gather", "preview-scatter"}));
-  cmd->add_option("--fstop", o->fstop, "f-number n (aperture diameter = focal length / n)");
-  cmd->add_option("--focal-length", o->focal_length, "Focal length in metres (e.g. 0.05)");
-  cmd->add_option("--focus-distance", o->focus_distance, "Distance in focus, metres");
-  cmd->add_option("--seed", o->seed, "Random seed; a fixed seed gives the same image")
-      ->capture_default_str();
-  cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")->capture_default_str()
-      ->check(CLI::Range(0, 4096));
-  cmd->add_option("--light-samples", o->shading.light_samples,
-                  "Shadow rays to area lights per shading point")
-      ->capture_default_str()->check(CLI::Range(0, 4096));
-  cmd->add_option("--gather-rays", o->shading.gather_rays,
-                  "Final-gather rays for diffuse indirect light per shading point")
-      ->capture_default_str()->check(CLI::Range(0, 65536));
-  cmd->add_option("--bounces", o->shading.bounces, "Diffuse indirect bounces")
-      ->capture_default_str()->check(CLI::Range(0, 16));
-  cmd->add_option("--specular-depth", o->shading.specular_depth,
-                  "Maximum chain of glossy/mirror reflections")
-      ->capture_default_str()->check(CLI::Range(0, 16));
+  add_lens_options(cmd, o->fstop, o->focal_length, o->focus_distance);
+  add_seed_and_threads(cmd, o->seed, o->threads,
+                       "Random seed; a fixed seed gives the same image");
+  add_shading_options(cmd, o->shading);
   cmd->add_option("--cache", o->cache,
                   "Radiance cache: none (shade every lens ray), octree (the paper's) or vdb "
                   "(OpenVDB grids keyed by depth-dependent voxel size)")
       ->capture_default_str()
       ->check(CLI::IsMember(cache::radiance_cache_backends()));
-  cmd->add_option("--min-factor", o->cache_settings.min_factor,
-                  "Cache sample radius in focus, in pixel footprints (Algorithm 1's minFactor)")
-      ->capture_default_str()->check(CLI::Range(1e-3, 1e4));
-  cmd->add_option("--cache-radius", o->radius_rule,
-                  "How far a cache sample is reused: paper (eqs. 4.1-4.2: CoC out of focus, half "
-                  "a pixel in focus) or adaptive (also widened where the illumination is smooth, "
-                  "from the distances its gather rays measured)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"paper", "adaptive"}));
-  cmd->add_option("--cache-accuracy", o->cache_settings.accuracy,
-                  "Adaptive radius: fraction of the harmonic mean distance to nearby geometry")
-      ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
-  cmd->add_option("--cache-max-radius", o->cache_settings.max_radius_pixels,
-                  "Adaptive radius: cap in pixel footprints")
-      ->capture_default_str()->check(CLI::Range(0.0, 1e4));
-  cmd->add_option("--cache-normal-angle", o->cache_settings.lookup.max_normal_angle_deg,
-                  "Cache lookups reject samples whose normal differs by more (degrees)")
-      ->capture_default_str()->check(CLI::Range(0.1, 90.0));
-  cmd->add_option("--cache-min-samples", o->cache_settings.lookup.min_samples,
-                  "Samples a cache lookup must accept to succeed")
-      ->capture_default_str()->check(CLI::Range(1, 1024));
-  cmd->add_option("--cache-sample-quality", o->cache_settings.sample_quality,
-                  "A cache sample uses this many times the light and gather samples of a "
-                  "per-ray shade (it is reused by many lens rays)")
-      ->capture_default_str()->check(CLI::Range(1, 256));
+  add_cache_tuning_options(cmd, o->cache_settings, o->radius_rule);
   cmd->add_option("--cache-debug", o->cache_debug,
                   "Write PREFIX-hits.png (fraction of lookups served) and PREFIX-density.png "
                   "(samples created per pixel)");

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "common_options.h"
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/core/error.h"
 #include "dofcache/render/renderer.h"
@@ -173,7 +174,7 @@ Runner add_sequence_command(CLI::App& app) {
       "sequence",
       "Render the frames of a camera path (a glTF animation of the camera, or a keyframe file) "
       "in order; with --persistent the radiance cache is carried from frame to frame.");
-  cmd->add_option("SCENE", o->scene_path, ".gltf or .glb file; omit for the built-in scene");
+  add_scene_options(cmd, o->scene_path, o->camera, o->scene_index);
   cmd->add_option("--path", o->path,
                   "JSON keyframe file (docs/sequence.md); default: the glTF animation that moves "
                   "the camera");
@@ -185,37 +186,17 @@ Runner add_sequence_command(CLI::App& app) {
                   "Output pattern; a run of '#' becomes the zero-padded frame number. .png or "
                   ".exr (linear, with Z, N and id channels)")
       ->capture_default_str();
-  cmd->add_option("--camera", o->camera, "Camera name (default: the scene's first camera)");
-  cmd->add_option("--scene-index", o->scene_index,
-                  "glTF scene to load (default: the file's default)");
-  cmd->add_option("--width", o->width, "Image width in pixels")->capture_default_str()
-      ->check(CLI::Range(1, 16384));
-  cmd->add_option("--height", o->height, "Image height (default: from the camera's aspect ratio)")
-      ->check(CLI::Range(1, 16384));
+  add_size_options(cmd, o->width, o->height);
   cmd->add_option("--spp", o->spp, "Samples (lens rays) per pixel")->capture_default_str()
       ->check(CLI::Range(1, 1 << 20));
   cmd->add_option("--mode", o->mode, "drt, accumulation or pinhole")
       ->capture_default_str()
       ->check(CLI::IsMember({"pinhole", "drt", "accumulation"}));
-  cmd->add_option("--fstop", o->fstop, "f-number (the path's animated value wins)");
-  cmd->add_option("--focal-length", o->focal_length, "Focal length in metres");
-  cmd->add_option("--focus-distance", o->focus_distance, "Distance in focus, metres");
-  cmd->add_option("--seed", o->seed, "Random seed; each frame's seed is derived from it and the "
-                                     "frame number, so any subset of frames reproduces")
-      ->capture_default_str();
-  cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")->capture_default_str()
-      ->check(CLI::Range(0, 4096));
-  cmd->add_option("--light-samples", o->shading.light_samples,
-                  "Shadow rays to area lights per shading point")
-      ->capture_default_str()->check(CLI::Range(0, 4096));
-  cmd->add_option("--gather-rays", o->shading.gather_rays,
-                  "Final-gather rays for diffuse indirect light per shading point")
-      ->capture_default_str()->check(CLI::Range(0, 65536));
-  cmd->add_option("--bounces", o->shading.bounces, "Diffuse indirect bounces")
-      ->capture_default_str()->check(CLI::Range(0, 16));
-  cmd->add_option("--specular-depth", o->shading.specular_depth,
-                  "Maximum chain of glossy/mirror reflections")
-      ->capture_default_str()->check(CLI::Range(0, 16));
+  add_lens_options(cmd, o->fstop, o->focal_length, o->focus_distance);
+  add_seed_and_threads(cmd, o->seed, o->threads,
+                       "Random seed; each frame's seed is derived from it and the frame "
+                       "number, so any subset of frames reproduces");
+  add_shading_options(cmd, o->shading);
   cmd->add_option("--cache", o->cache,
                   "Radiance cache: none, octree or vdb (a fresh cache per frame unless "
                   "--persistent)")
@@ -224,30 +205,7 @@ Runner add_sequence_command(CLI::App& app) {
       ->each([o](const std::string&) { o->cache_given = true; });
   cmd->add_flag("--persistent", o->persistent,
                 "Carry the cache across frames (the vdb backend unless --cache says otherwise)");
-  cmd->add_option("--min-factor", o->cache_settings.min_factor,
-                  "Cache sample radius in focus, in pixel footprints (Algorithm 1's minFactor)")
-      ->capture_default_str()->check(CLI::Range(1e-3, 1e4));
-  cmd->add_option("--cache-radius", o->radius_rule,
-                  "How far a cache sample is reused: paper (eqs. 4.1-4.2) or adaptive (also "
-                  "widened where the illumination is smooth); see dofcache render --help")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"paper", "adaptive"}));
-  cmd->add_option("--cache-accuracy", o->cache_settings.accuracy,
-                  "Adaptive radius: fraction of the harmonic mean distance to nearby geometry")
-      ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
-  cmd->add_option("--cache-max-radius", o->cache_settings.max_radius_pixels,
-                  "Adaptive radius: cap in pixel footprints")
-      ->capture_default_str()->check(CLI::Range(0.0, 1e4));
-  cmd->add_option("--cache-normal-angle", o->cache_settings.lookup.max_normal_angle_deg,
-                  "Cache lookups reject samples whose normal differs by more (degrees)")
-      ->capture_default_str()->check(CLI::Range(0.1, 90.0));
-  cmd->add_option("--cache-min-samples", o->cache_settings.lookup.min_samples,
-                  "Samples a cache lookup must accept to succeed")
-      ->capture_default_str()->check(CLI::Range(1, 1024));
-  cmd->add_option("--cache-sample-quality", o->cache_settings.sample_quality,
-                  "A cache sample uses this many times the light and gather samples of a "
-                  "per-ray shade")
-      ->capture_default_str()->check(CLI::Range(1, 256));
+  add_cache_tuning_options(cmd, o->cache_settings, o->radius_rule);
   cmd->add_option("--cache-evict-after", o->evict_after,
                   "Evict cache samples no lookup used for this many frames (0: never)")
       ->capture_default_str()->check(CLI::Range(0, 1 << 30));

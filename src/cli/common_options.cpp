@@ -1,0 +1,76 @@
+#include "common_options.h"
+
+namespace dofcache::cli {
+
+void add_scene_options(CLI::App* cmd, std::string& scene_path, std::string& camera,
+                       int& scene_index) {
+  cmd->add_option("SCENE", scene_path, ".gltf or .glb file; omit for the built-in scene");
+  cmd->add_option("--camera", camera, "Camera name (default: the scene's first camera)");
+  cmd->add_option("--scene-index", scene_index, "glTF scene to load (default: the file's default)");
+}
+
+void add_size_options(CLI::App* cmd, int& width, int& height) {
+  cmd->add_option("--width", width, "Image width in pixels")->capture_default_str()
+      ->check(CLI::Range(1, 16384));
+  cmd->add_option("--height", height, "Image height (default: from the camera's aspect ratio)")
+      ->check(CLI::Range(1, 16384));
+}
+
+void add_lens_options(CLI::App* cmd, std::optional<double>& fstop,
+                      std::optional<double>& focal_length, std::optional<double>& focus_distance) {
+  cmd->add_option("--fstop", fstop, "f-number n (aperture diameter = focal length / n)");
+  cmd->add_option("--focal-length", focal_length, "Focal length in metres (e.g. 0.05)");
+  cmd->add_option("--focus-distance", focus_distance, "Distance in focus, metres");
+}
+
+void add_seed_and_threads(CLI::App* cmd, std::uint64_t& seed, int& threads,
+                          const std::string& seed_help) {
+  cmd->add_option("--seed", seed, seed_help)->capture_default_str();
+  cmd->add_option("--threads", threads, "Worker threads (0: all cores)")->capture_default_str()
+      ->check(CLI::Range(0, 4096));
+}
+
+void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading) {
+  cmd->add_option("--light-samples", shading.light_samples,
+                  "Shadow rays to area lights per shading point")
+      ->capture_default_str()->check(CLI::Range(0, 4096));
+  cmd->add_option("--gather-rays", shading.gather_rays,
+                  "Final-gather rays for diffuse indirect light per shading point")
+      ->capture_default_str()->check(CLI::Range(0, 65536));
+  cmd->add_option("--bounces", shading.bounces, "Diffuse indirect bounces")
+      ->capture_default_str()->check(CLI::Range(0, 16));
+  cmd->add_option("--specular-depth", shading.specular_depth,
+                  "Maximum chain of glossy/mirror reflections")
+      ->capture_default_str()->check(CLI::Range(0, 16));
+}
+
+void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
+                              std::string& radius_rule) {
+  cmd->add_option("--min-factor", cache.min_factor,
+                  "Cache sample radius in focus, in pixel footprints (Algorithm 1's minFactor)")
+      ->capture_default_str()->check(CLI::Range(1e-3, 1e4));
+  cmd->add_option("--cache-radius", radius_rule,
+                  "How far a cache sample is reused: paper (eqs. 4.1-4.2: CoC out of focus, half "
+                  "a pixel in focus) or adaptive (also widened where the illumination is smooth, "
+                  "from the distances its gather rays measured)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"paper", "adaptive"}));
+  cmd->add_option("--cache-accuracy", cache.accuracy,
+                  "Adaptive radius: fraction of the harmonic mean distance to nearby geometry")
+      ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
+  cmd->add_option("--cache-max-radius", cache.max_radius_pixels,
+                  "Adaptive radius: cap in pixel footprints")
+      ->capture_default_str()->check(CLI::Range(0.0, 1e4));
+  cmd->add_option("--cache-normal-angle", cache.lookup.max_normal_angle_deg,
+                  "Cache lookups reject samples whose normal differs by more (degrees)")
+      ->capture_default_str()->check(CLI::Range(0.1, 90.0));
+  cmd->add_option("--cache-min-samples", cache.lookup.min_samples,
+                  "Samples a cache lookup must accept to succeed")
+      ->capture_default_str()->check(CLI::Range(1, 1024));
+  cmd->add_option("--cache-sample-quality", cache.sample_quality,
+                  "A cache sample uses this many times the light and gather samples of a "
+                  "per-ray shade (it is reused by many lens rays)")
+      ->capture_default_str()->check(CLI::Range(1, 256));
+}
+
+}  // namespace dofcache::cli
