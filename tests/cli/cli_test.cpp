@@ -2,6 +2,8 @@
 // stderr, a non-zero exit and no output file.
 #include <gtest/gtest.h>
 
+#include "cli_harness.h"
+
 #include <sys/wait.h>
 
 #include <array>
@@ -18,45 +20,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int exit_code;
-  std::string out, err;
-};
+using dofcache::testing::slurp;
+namespace testing = dofcache::testing;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-class Cli : public ::testing::Test {
+class Cli : public testing::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  Result run(const std::string& args) {
-    std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " >" + (dir_ / "stdout").string() +
-                      " 2>" + (dir_ / "stderr").string();
-    int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "stdout"),
-            slurp(dir_ / "stderr")};
-  }
-
   // A bad run: non-zero exit, exactly one line on stderr starting with "dofcache: error:", and no
   // file left in the output directory other than the captured streams.
   void expect_clean_failure(const std::string& args, const std::string& needle) {
-    Result r = run(args);
-    EXPECT_NE(r.exit_code, 0) << args;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    EXPECT_EQ(r.err.rfind("dofcache: error:", 0), 0u) << r.err;
-    EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
+    expect_one_line_error(run(args), needle);
     for (const auto& e : fs::directory_iterator(dir_)) {
       std::string name = e.path().filename().string();
       bool allowed = name == "stdout" || name == "stderr" || e.path().extension() == ".gltf" ||
@@ -69,8 +41,6 @@ class Cli : public ::testing::Test {
     std::ofstream(dir_ / name) << text;
     return dir_ / name;
   }
-
-  fs::path dir_;
 };
 
 std::string base64(const std::vector<unsigned char>& bytes) {
@@ -108,7 +78,7 @@ const std::array<float, 9> kGood = {0, 0, 0, 1, 0, 0, 0, 1, 0};
 const std::string kTiny = " --width 24 --height 18 --spp 1 --gather-rays 2 --light-samples 1 -q";
 
 TEST_F(Cli, DefaultSceneRendersToPngAndExr) {
-  Result r = run("render --out " + (dir_ / "a.png").string() + kTiny);
+  testing::CliResult r = run("render --out " + (dir_ / "a.png").string() + kTiny);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir_ / "a.png"));
   EXPECT_NE(r.out.find("a.png"), std::string::npos);  // says where the image went
@@ -121,13 +91,13 @@ TEST_F(Cli, DefaultSceneRendersToPngAndExr) {
 
 TEST_F(Cli, CompareIdenticalImagesIsExact) {
   ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
-  Result r = run("compare --json " + (dir_ / "a.exr").string() + " " + (dir_ / "a.exr").string());
+  testing::CliResult r = run("compare --json " + (dir_ / "a.exr").string() + " " + (dir_ / "a.exr").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("\"rel_mse\": 0.0"), std::string::npos) << r.out;
 }
 
 TEST_F(Cli, HelpExplainsOptions) {
-  Result r = run("render --help");
+  testing::CliResult r = run("render --help");
   EXPECT_EQ(r.exit_code, 0);
   for (const char* opt : {"--fstop", "--focus-distance", "--focal-length", "--spp", "--mode",
                           "--seed", "--threads", "--stats-json"})
@@ -181,7 +151,7 @@ TEST_F(Cli, AbsurdParameters) {
 }
 
 TEST_F(Cli, CommandLineSyntaxErrorsExitWithTwo) {
-  Result r = run("render --width 10 --width 20");
+  testing::CliResult r = run("render --width 10 --width 20");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_EQ(run("render --no-such-option").exit_code, 2);
@@ -192,7 +162,7 @@ TEST_F(Cli, CompareMismatchedSizes) {
   ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
   ASSERT_EQ(run("render --out " + (dir_ / "b.exr").string() +
                 " --width 30 --height 18 --spp 1 --gather-rays 2 -q").exit_code, 0);
-  Result r = run("compare " + (dir_ / "a.exr").string() + " " + (dir_ / "b.exr").string());
+  testing::CliResult r = run("compare " + (dir_ / "a.exr").string() + " " + (dir_ / "b.exr").string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 }

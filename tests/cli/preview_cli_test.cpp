@@ -3,6 +3,8 @@
 // the new lens leaves what the saved revealed layers cover; bad input gives one error line, a
 // non-zero exit and no output file.
 #include <gtest/gtest.h>
+
+#include "cli_harness.h"
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,47 +18,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int exit_code;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-int lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+using dofcache::testing::count_lines;
+using dofcache::testing::slurp;
+int lines(const std::string& s) { return count_lines(s); }
 
 const std::string kScene = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/color_bars.gltf";
 const std::string kTiny = " --width 48 --height 36 --spp 1 --gather-rays 2 --light-samples 1 -q";
 
-class PreviewCli : public ::testing::Test {
+class PreviewCli : public dofcache::testing::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_preview_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  Result run(const std::string& args) {
-    std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " >" + (dir_ / "stdout").string() +
-                      " 2>" + (dir_ / "stderr").string();
-    int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "stdout"),
-            slurp(dir_ / "stderr")};
-  }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
   // Saved preview inputs (occlusion fix) of the tiny render, in.exr.
   void save_inputs() {
-    Result r = run("render " + kScene + " --mode preview-occlusion --out " + path("p.png") +
+    dofcache::testing::CliResult r = run("render " + kScene + " --mode preview-occlusion --out " + path("p.png") +
                    " --save-preview-inputs " + path("in.exr") + kTiny);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     ASSERT_TRUE(fs::exists(path("in.exr")));
@@ -64,7 +37,7 @@ class PreviewCli : public ::testing::Test {
 
   // Non-zero exit, one line on stderr starting "dofcache: error:", and `output` not written.
   void expect_clean_failure(const std::string& args, const std::string& output) {
-    Result r = run(args);
+    dofcache::testing::CliResult r = run(args);
     EXPECT_NE(r.exit_code, 0) << args;
     EXPECT_EQ(lines(r.err), 1) << r.err;
     EXPECT_EQ(r.err.rfind("dofcache: error:", 0), 0u) << r.err;
@@ -72,14 +45,12 @@ class PreviewCli : public ::testing::Test {
     for (const auto& e : fs::directory_iterator(dir_))  // no temporary left behind either
       EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
   }
-
-  fs::path dir_;
 };
 
 TEST_F(PreviewCli, EveryPreviewModeWritesAnImage) {
   for (const char* mode : {"preview", "preview-occlusion", "preview-gather", "preview-scatter"}) {
     const std::string out = path(std::string(mode) + ".png");
-    Result r = run("render " + kScene + " --mode " + mode + " --out " + out + kTiny +
+    dofcache::testing::CliResult r = run("render " + kScene + " --mode " + mode + " --out " + out + kTiny +
                    " --stats-json " + path(std::string(mode) + ".json"));
     ASSERT_EQ(r.exit_code, 0) << mode << ": " << r.err;
     EXPECT_TRUE(fs::exists(out)) << mode;
@@ -92,7 +63,7 @@ TEST_F(PreviewCli, EveryPreviewModeWritesAnImage) {
 TEST_F(PreviewCli, RefocusRerunsThePostProcessAndWarnsOutsideTheRange) {
   save_inputs();
   // The saved lens: nothing to warn about.
-  Result r = run("refocus " + path("in.exr") + " --out " + path("same.png") + " -q");
+  dofcache::testing::CliResult r = run("refocus " + path("in.exr") + " --out " + path("same.png") + " -q");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(fs::exists(path("same.png")));
   EXPECT_EQ(r.err, "");

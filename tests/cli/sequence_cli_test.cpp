@@ -3,6 +3,8 @@
 // made for something else, or damaged, are refused with one line.
 #include <gtest/gtest.h>
 
+#include "cli_harness.h"
+
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -22,6 +24,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
+using dofcache::testing::slurp;
+
 const std::string kScenes = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/";
 // Small and quick: every test here renders a handful of tiny frames.
 const std::string kDollyFrame0 =
@@ -29,51 +33,17 @@ const std::string kDollyFrame0 =
 const std::string kQuick = " --width 32 --spp 4 --light-samples 1 --gather-rays 4 "
                            "--cache-sample-quality 1 --threads 2";
 
-struct Result {
-  int exit_code;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-class SequenceCli : public ::testing::Test {
+class SequenceCli : public dofcache::testing::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_seqcli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  Result run(const std::string& args) {
-    std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " >" + (dir_ / "stdout").string() +
-                      " 2>" + (dir_ / "stderr").string();
-    int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "stdout"),
-            slurp(dir_ / "stderr")};
+  void expect_one_line_error(const dofcache::testing::CliResult& r, const std::string& needle) {
+    CliTest::expect_one_line_error(r, needle, 1);
   }
 
-  void expect_one_line_error(const Result& r, const std::string& needle) {
-    EXPECT_EQ(r.exit_code, 1) << r.err;
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    EXPECT_EQ(r.err.rfind("dofcache: error:", 0), 0u) << r.err;
-    EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
-  }
-
-  std::string at(const std::string& name) const { return (dir_ / name).string(); }
-
-  fs::path dir_;
+  std::string at(const std::string& name) const { return path(name); }
 };
 
 TEST_F(SequenceCli, ShippedPathsRender) {
-  Result dolly = run("sequence " + kScenes + "cornell_box_dolly.gltf --frames 0-2 --persistent " +
+  dofcache::testing::CliResult dolly = run("sequence " + kScenes + "cornell_box_dolly.gltf --frames 0-2 --persistent " +
                      "-o '" + at("dolly/####.png") + "'" + kQuick);
   ASSERT_EQ(dolly.exit_code, 0) << dolly.err;
   for (const char* f : {"0000.png", "0001.png", "0002.png"})
@@ -81,7 +51,7 @@ TEST_F(SequenceCli, ShippedPathsRender) {
   EXPECT_NE(dolly.out.find("animation 'dolly'"), std::string::npos) << dolly.out;
   EXPECT_NE(dolly.out.find("reuse"), std::string::npos) << dolly.out;
 
-  Result pull = run("sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
+  dofcache::testing::CliResult pull = run("sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
                     "paths/cornell_focus_pull.json --frames 34-35 --cache octree -o '" +
                     at("pull/f##.exr") + "' --stats-json " + at("pull.json") + kQuick);
   ASSERT_EQ(pull.exit_code, 0) << pull.err;
@@ -111,7 +81,7 @@ TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) {
   int status = 0;
   ::waitpid(pid, &status, 0);
 
-  Result resumed = run(args + " -o '" + cut + "'");
+  dofcache::testing::CliResult resumed = run(args + " -o '" + cut + "'");
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   for (int f = 0; f <= 9; ++f) {
     char name[16];
@@ -130,11 +100,11 @@ TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) {
 
 TEST_F(SequenceCli, RefusesForeignAndDamagedCacheFiles) {
   // A cache saved from one scene...
-  Result saved = run(kDollyFrame0 + "-o '" + at("a/####.png") + "' --cache-out " +
+  dofcache::testing::CliResult saved = run(kDollyFrame0 + "-o '" + at("a/####.png") + "' --cache-out " +
                      at("cornell.vdb") + kQuick);
   ASSERT_EQ(saved.exit_code, 0) << saved.err;
   // ... is accepted by the same scene (the dolly file holds the Cornell box's geometry) ...
-  Result same = run("sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
+  dofcache::testing::CliResult same = run("sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
                     "paths/cornell_focus_pull.json --frames 0 --persistent -o '" +
                     at("b/####.png") + "' --cache-in " + at("cornell.vdb") + kQuick);
   EXPECT_EQ(same.exit_code, 0) << same.err;
