@@ -318,4 +318,15 @@ json Table::to_json() const {
   return rows;
 }
 
+image::Image cached_reference(const std::string& key, const std::function<image::Image()>& render) {
+  std::filesystem::path dir = std::filesystem::path(results_dir()) / "references";
+  std::filesystem::create_directories(dir);
+  std::filesystem::path file = dir / (key + ".exr");
+  if (std::filesystem::exists(file)) return image::read_image(file.string());
+  std::fprintf(stderr, "rendering reference %s (once; kept in %s)\n", key.c_str(), dir.c_str());
+  image::Image img = render();
+  image::write_image(file.string(), img);
+  return img;
+}
+
 }  // namespace dofcache::bench

@@ -3,10 +3,13 @@
 // results go, writing them (JSON, plus CSV for tables of rows), and aligned tables on stdout.
 // See bench/README.md for the file format.
 #include <cstdio>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <type_traits>
 #include <vector>
+
+#include "dofcache/image/image.h"
 
 namespace dofcache::bench {
 
@@ -25,6 +28,11 @@ std::string results_dir();
 // keys it does not list follow in sorted order. Both files are written atomically. Returns the
 // JSON file's path. Throws dofcache::Error on failure.
 std::string write_results(const std::string& name, const nlohmann::json& results);
+
+// A converged reference image, rendered once per machine: <results_dir>/references/<key>.exr if it
+// exists, otherwise `render()` (announced on stderr), stored there and returned. `key` must
+// identify everything the image depends on (scene, size, samples, lens, frame).
+image::Image cached_reference(const std::string& key, const std::function<image::Image()>& render);
 
 // Rows as CSV text (RFC 4180 quoting; the format write_results uses), columns in `column_order`
 // first. Throws dofcache::Error unless `rows` is an array of flat objects.

@@ -64,22 +64,17 @@ SceneSetup load(const std::string& file, const Options& o) {
 }
 
 image::Image reference(const SceneSetup& s, const Options& o) {
-  fs::path dir = fs::path(bench::results_dir()) / "references";
-  fs::create_directories(dir);
-  fs::path file = dir / (s.name + "_" + std::to_string(s.base.width) + "x" +
-                         std::to_string(s.base.height) + "_" + std::to_string(o.ref_spp) + "spp_" +
-                         std::to_string(s.scene.content_hash % 100000) + ".exr");
-  if (fs::exists(file)) return image::read_image(file.string());
-  std::fprintf(stderr, "rendering the %d-spp reference of %s (once; kept in %s)\n", o.ref_spp,
-               s.name.c_str(), dir.c_str());
-  render::RenderSettings r = s.base;
-  r.spp = o.ref_spp;
-  r.seed = 1000003;  // independent of the measured renders' noise
-  r.progress = Progress::Display::Auto;
-  r.progress_label = "reference " + s.name;
-  render::RenderOutput out = render::render(s.scene, *s.accel, s.scene.cameras[0], r);
-  image::write_image(file.string(), out.color);
-  return out.color;
+  std::string key = s.name + "_" + std::to_string(s.base.width) + "x" +
+                    std::to_string(s.base.height) + "_" + std::to_string(o.ref_spp) + "spp_" +
+                    std::to_string(s.scene.content_hash % 100000);
+  return bench::cached_reference(key, [&] {
+    render::RenderSettings r = s.base;
+    r.spp = o.ref_spp;
+    r.seed = 1000003;  // independent of the measured renders' noise
+    r.progress = Progress::Display::Auto;
+    r.progress_label = "reference " + s.name;
+    return render::render(s.scene, *s.accel, s.scene.cameras[0], r).color;
+  });
 }
 
 Run run(const SceneSetup& s, const image::Image& ref, int spp, const std::string& backend,

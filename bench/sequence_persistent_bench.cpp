@@ -97,8 +97,6 @@ std::string hex(std::uint64_t v) {
 image::Image reference(const scene::Scene& scene, const scene::Accel& accel,
                        const sequence::FrameSpec& f, const render::RenderSettings& base,
                        const Options& o, const std::string& name) {
-  fs::path dir = fs::path(bench::results_dir()) / "references";
-  fs::create_directories(dir);
   std::uint64_t key = hash_combine(scene.content_hash, static_cast<std::uint64_t>(o.ref_spp));
   for (int c = 0; c < 4; ++c)
     for (int k = 0; k < 4; ++k) {
@@ -114,20 +112,17 @@ image::Image reference(const scene::Scene& scene, const scene::Accel& accel,
   }
   key = hash_combine(key, static_cast<std::uint64_t>(base.shading.light_samples) << 32 |
                               static_cast<std::uint64_t>(base.shading.gather_rays));
-  fs::path file = dir / ("sequence_" + name + "_" + std::to_string(base.width) + "x" +
+  std::string file_key = "sequence_" + name + "_" + std::to_string(base.width) + "x" +
                          std::to_string(base.height) + "_f" + std::to_string(f.number) + "_" +
-                         hex(key).substr(0, 8) + ".exr");
-  if (fs::exists(file)) return image::read_image(file.string());
-  std::fprintf(stderr, "rendering the %d-spp reference of %s frame %d (once; kept in %s)\n",
-               o.ref_spp, name.c_str(), f.number, dir.c_str());
-  render::RenderSettings r = base;
-  r.spp = o.ref_spp;
-  r.lens = f.lens;
-  r.seed = sequence::frame_seed(1000003, f.number);  // independent of the measured renders
-  r.cache.cache = nullptr;
-  render::RenderOutput out = render::render(scene, accel, f.camera, r);
-  image::write_image(file.string(), out.color);
-  return out.color;
+                         hex(key).substr(0, 8);
+  return bench::cached_reference(file_key, [&] {
+    render::RenderSettings r = base;
+    r.spp = o.ref_spp;
+    r.lens = f.lens;
+    r.seed = sequence::frame_seed(1000003, f.number);  // independent of the measured renders
+    r.cache.cache = nullptr;
+    return render::render(scene, accel, f.camera, r).color;
+  });
 }
 
 }  // namespace
