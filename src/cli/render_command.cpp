@@ -98,8 +98,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
 
 int run_render(const RenderOptions& o) {
   scene::Scene scene = render::load_scene(o.scene_path, o.scene_index);
-  std::size_t cam_index = o.camera.empty() ? 0 : scene.camera_index(o.camera);
-  const scene::Camera& camera = scene.cameras[cam_index];
+  const scene::Camera& camera = scene.camera_or_first(o.camera);
   scene::Accel accel(scene);
 
   render::RenderSettings s;

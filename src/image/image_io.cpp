@@ -49,18 +49,16 @@ Format format_of(const std::string& path) {
 }
 
 // OpenImageIO messages may span lines; our errors are one line.
-std::string one_line(std::string message) {
-  for (char& c : message)
-    if (c == '\n' || c == '\r') c = ' ';
-  while (!message.empty() && message.back() == ' ') message.pop_back();
-  return message.empty() ? std::string("unknown error") : message;
+std::string reason_line(const std::string& message) {
+  std::string line = dofcache::one_line(message);
+  return line.empty() ? std::string("unknown error") : line;
 }
 
 [[noreturn]] void fail_write(const std::string& path, const std::string& reason) {
-  throw Error("cannot write '" + path + "': " + one_line(reason));
+  throw Error("cannot write '" + path + "': " + reason_line(reason));
 }
 [[noreturn]] void fail_read(const std::string& path, const std::string& reason) {
-  throw Error("cannot read '" + path + "': " + one_line(reason));
+  throw Error("cannot read '" + path + "': " + reason_line(reason));
 }
 
 // The directory must exist before anything is attempted, so a typo gives a clear message.

@@ -37,20 +37,6 @@ bool understood_extension(const std::string& name) {
   return name == kLightsExt || name == kEmissiveStrengthExt || name == "KHR_mesh_quantization";
 }
 
-// tinygltf's messages span several lines ending in '\n'; ours are one line.
-std::string one_line(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '\n' || c == '\r') {
-      if (!out.empty() && out.back() != ' ') out += "; ";
-    } else {
-      out += c;
-    }
-  }
-  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
-  return out;
-}
-
 std::string quoted(const std::string& name) { return name.empty() ? "" : " '" + name + "'"; }
 
 const char* type_name(int type) {

@@ -128,6 +128,10 @@ struct Scene {
   MaterialPoint material_at(const SurfacePoint& sp) const;
   // Index into `cameras` by name; throws dofcache::Error listing the available names.
   std::size_t camera_index(const std::string& name) const;
+  // The camera called `name`, or the first camera if `name` is empty (throws like camera_index).
+  const Camera& camera_or_first(const std::string& name) const {
+    return cameras[name.empty() ? 0 : camera_index(name)];
+  }
   // Picks an emitter proportionally to power from u in [0,1); returns index and its probability.
   std::size_t sample_emitter(float u, float* probability) const;
 };
