@@ -98,6 +98,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
 
 int run_render(const RenderOptions& o) {
   scene::Scene scene = render::load_scene(o.scene_path, o.scene_index);
+  for (const std::string& w : scene.warnings) std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
   const scene::Camera& camera = scene.camera_or_first(o.camera);
   scene::Accel accel(scene);
 
