@@ -12,17 +12,9 @@ void reduce_box4(const RgbaView& fine, const RgbaView& coarse, ScratchRows& scra
       [&](int y0, int y1) {
         Rgba* tmp = scratch.get(0, fw + 3) + 1;  // tmp[-1], tmp[fw], tmp[fw+1] repeat the edges
         for (int y = y0; y < y1; ++y) {
-          const Rgba* r0 = fine.row(std::max(2 * y - 1, 0));
-          const Rgba* r1 = fine.row(std::min(2 * y, fh - 1));
-          const Rgba* r2 = fine.row(std::min(2 * y + 1, fh - 1));
-          const Rgba* r3 = fine.row(std::min(2 * y + 2, fh - 1));
-          for (int x = 0; x < fw; ++x) tmp[x] = (r0[x] + r1[x]) + (r2[x] + r3[x]);
-          tmp[-1] = tmp[0];
-          tmp[fw] = tmp[fw - 1];
-          tmp[fw + 1] = tmp[fw - 1];
-          Rgba* out = coarse.row(y);
-          for (int x = 0; x < cw; ++x)
-            out[x] = ((tmp[2 * x - 1] + tmp[2 * x]) + (tmp[2 * x + 1] + tmp[2 * x + 2])) * 0.0625f;
+          reduce_box4_row(fine.row(std::max(2 * y - 1, 0)), fine.row(std::min(2 * y, fh - 1)),
+                          fine.row(std::min(2 * y + 1, fh - 1)),
+                          fine.row(std::min(2 * y + 2, fh - 1)), tmp, fw, coarse.row(y), cw);
         }
       },
       2);

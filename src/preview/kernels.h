@@ -70,6 +70,19 @@ class ScratchRows {
   tbb::enumerable_thread_specific<std::vector<std::vector<Rgba>>> local_;
 };
 
+// One coarse row of the 4x4 box reduce from the four fine rows r0..r3 it covers: vertical sums
+// into tmp (fw pixels, with tmp[-1], tmp[fw], tmp[fw+1] writable for the repeated edges), then
+// horizontal sums into out (cw pixels). Shared by both reduce_box4 variants.
+inline void reduce_box4_row(const Rgba* r0, const Rgba* r1, const Rgba* r2, const Rgba* r3,
+                            Rgba* tmp, int fw, Rgba* out, int cw) {
+  for (int x = 0; x < fw; ++x) tmp[x] = (r0[x] + r1[x]) + (r2[x] + r3[x]);
+  tmp[-1] = tmp[0];
+  tmp[fw] = tmp[fw - 1];
+  tmp[fw + 1] = tmp[fw - 1];
+  for (int x = 0; x < cw; ++x)
+    out[x] = ((tmp[2 * x - 1] + tmp[2 * x]) + (tmp[2 * x + 1] + tmp[2 * x + 2])) * 0.0625f;
+}
+
 // 4x4 box reduce (Kraus & Strengert 2007): coarse pixel m covers fine pixels 2m-1 .. 2m+2 on each
 // axis (clamped to the edge). coarse must be ceil(fine/2) in each dimension.
 void reduce_box4(const RgbaView& fine, const RgbaView& coarse, ScratchRows& scratch);
@@ -169,13 +182,7 @@ void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, S
           const Rgba* r1 = fetch(std::min(2 * y, fh - 1));
           const Rgba* r2 = fetch(std::min(2 * y + 1, fh - 1));
           const Rgba* r3 = fetch(std::min(2 * y + 2, fh - 1));
-          for (int x = 0; x < fw; ++x) tmp[x] = (r0[x] + r1[x]) + (r2[x] + r3[x]);
-          tmp[-1] = tmp[0];
-          tmp[fw] = tmp[fw - 1];
-          tmp[fw + 1] = tmp[fw - 1];
-          Rgba* out = coarse.row(y);
-          for (int x = 0; x < cw; ++x)
-            out[x] = ((tmp[2 * x - 1] + tmp[2 * x]) + (tmp[2 * x + 1] + tmp[2 * x + 2])) * 0.0625f;
+          reduce_box4_row(r0, r1, r2, r3, tmp, fw, coarse.row(y), cw);
         }
       },
       4);
