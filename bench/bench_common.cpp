@@ -329,4 +329,21 @@ image::Image cached_reference(const std::string& key, const std::function<image:
   return img;
 }
 
+image::Image converged_reference(const std::string& scene_name, const scene::Scene& scene,
+                                 const scene::Accel& accel, const scene::Camera& camera,
+                                 const render::RenderSettings& base, int spp) {
+  std::string key = scene_name + "_" + std::to_string(base.width) + "x" +
+                    std::to_string(base.height) + "_" + std::to_string(spp) + "spp_" +
+                    std::to_string(scene.content_hash % 100000);
+  return cached_reference(key, [&] {
+    render::RenderSettings r = base;
+    r.spp = spp;
+    r.seed = 1000003;  // independent of the measured renders' noise
+    r.cache.cache = nullptr;
+    r.progress = Progress::Display::Auto;
+    r.progress_label = "reference " + scene_name;
+    return render::render(scene, accel, camera, r).color;
+  });
+}
+
 }  // namespace dofcache::bench

@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "dofcache/image/image.h"
+#include "dofcache/render/renderer.h"
+#include "dofcache/scene/accel.h"
 
 namespace dofcache::bench {
 
@@ -33,6 +35,13 @@ std::string write_results(const std::string& name, const nlohmann::json& results
 // exists, otherwise `render()` (announced on stderr), stored there and returned. `key` must
 // identify everything the image depends on (scene, size, samples, lens, frame).
 image::Image cached_reference(const std::string& key, const std::function<image::Image()>& render);
+
+// The converged reference of one scene view: uncached DRT of `base` (size, lens, shading) with
+// `spp` samples and a seed independent of the measured renders, through cached_reference keyed by
+// scene name, size, samples and scene identity.
+image::Image converged_reference(const std::string& scene_name, const scene::Scene& scene,
+                                 const scene::Accel& accel, const scene::Camera& camera,
+                                 const render::RenderSettings& base, int spp);
 
 // Rows as CSV text (RFC 4180 quoting; the format write_results uses), columns in `column_order`
 // first. Throws dofcache::Error unless `rows` is an array of flat objects.

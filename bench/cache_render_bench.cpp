@@ -64,17 +64,7 @@ SceneSetup load(const std::string& file, const Options& o) {
 }
 
 image::Image reference(const SceneSetup& s, const Options& o) {
-  std::string key = s.name + "_" + std::to_string(s.base.width) + "x" +
-                    std::to_string(s.base.height) + "_" + std::to_string(o.ref_spp) + "spp_" +
-                    std::to_string(s.scene.content_hash % 100000);
-  return bench::cached_reference(key, [&] {
-    render::RenderSettings r = s.base;
-    r.spp = o.ref_spp;
-    r.seed = 1000003;  // independent of the measured renders' noise
-    r.progress = Progress::Display::Auto;
-    r.progress_label = "reference " + s.name;
-    return render::render(s.scene, *s.accel, s.scene.cameras[0], r).color;
-  });
+  return bench::converged_reference(s.name, s.scene, *s.accel, s.scene.cameras[0], s.base, o.ref_spp);
 }
 
 Run run(const SceneSetup& s, const image::Image& ref, int spp, const std::string& backend,

@@ -92,17 +92,7 @@ SceneSetup load(const std::string& file, int width, const Options& o) {
 
 // The converged reference: uncached DRT, rendered once and kept as EXR.
 image::Image reference(const SceneSetup& s, const Options& o) {
-  std::string key = s.name + "_" + std::to_string(s.base.width) + "x" +
-                    std::to_string(s.base.height) + "_" + std::to_string(o.ref_spp) + "spp_" +
-                    std::to_string(s.scene.content_hash % 100000);
-  return bench::cached_reference(key, [&] {
-    render::RenderSettings r = s.base;
-    r.spp = o.ref_spp;
-    r.seed = 1000003;  // independent of the measured renders' noise
-    r.progress = Progress::Display::Auto;
-    r.progress_label = "reference " + s.name;
-    return render::render(s.scene, *s.accel, s.camera(), r).color;
-  });
+  return bench::converged_reference(s.name, s.scene, *s.accel, s.camera(), s.base, o.ref_spp);
 }
 
 // The edge band of the header comment (1 channel, 0/1).
