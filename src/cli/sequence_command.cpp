@@ -4,8 +4,7 @@
 #include <optional>
 
 #include "commands.h"
-#include "common_options.h"
-#include "dofcache/cache/radiance_cache.h"
+#include "sequence_options.h"
 #include "dofcache/core/error.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
@@ -16,72 +15,19 @@
 namespace dofcache::cli {
 namespace {
 
-struct SequenceOptions {
-  std::string scene_path, out = "frames/####.png", camera, mode = "drt", path, animation, frames;
-  std::string stats_json;
-  std::optional<double> fps;
-  int scene_index = -1, width = 320, height = 0, spp = 16, threads = 0;
-  std::uint64_t seed = 1;
-  std::optional<double> fstop, focal_length, focus_distance;
-  render::ShadingSettings shading;
-  std::string cache = "none", radius_rule = "paper";
-  bool persistent = false, cache_given = false, restart = false, quiet = false;
-  render::CacheSettings cache_settings;
-  int evict_after = 8;
-  double cache_memory_mb = 0.0;
-  std::string cache_in, cache_out, checkpoint;
-};
 
 int run_sequence(const SequenceOptions& o) {
-  scene::Scene scene = render::load_scene(o.scene_path, o.scene_index);
+  PreparedSequence p = prepare_sequence(o);
+  const scene::Scene& scene = *p.scene;
+  const scene::Camera& camera = *p.camera;
+  const sequence::CameraPath& path = p.path;
+  const double fps = p.fps;
+  const int first = p.first, last = p.last;
+  const sequence::SequenceSettings& s = p.settings;
+  const render::RenderSettings& r = s.render;
+  const std::vector<sequence::FrameSpec>& frames = p.frames;
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
-  const scene::Camera& camera = scene.camera_or_first(o.camera);
-  scene::Accel accel(scene);
-
-  sequence::CameraPath path;
-  if (!o.path.empty()) {
-    path = sequence::load_keyframe_path(o.path, camera);
-  } else if (o.scene_path.empty()) {
-    throw Error("the built-in scene has no animation: give a keyframe file with --path");
-  } else {
-    path = sequence::load_gltf_camera_path(o.scene_path, camera, o.animation);
-  }
-  const double fps = o.fps.value_or(path.fps.value_or(24.0));
-  auto [first, last] = o.frames.empty() ? sequence::path_frame_range(path, fps)
-                                        : sequence::parse_frame_range(o.frames);
-
-  sequence::SequenceSettings s;
-  render::RenderSettings& r = s.render;
-  r.width = o.width;
-  r.height = o.height > 0 ? o.height : render::height_for_width(camera, o.width);
-  r.spp = o.spp;
-  r.mode = render::parse_mode(o.mode);
-  r.seed = o.seed;
-  r.threads = o.threads;
-  r.shading = o.shading;
-  r.cache = o.cache_settings;
-  r.cache.radius_rule = render::parse_radius_rule(o.radius_rule);
-  r.progress = o.quiet ? Progress::Display::Never : Progress::Display::Auto;
-  // --persistent alone means the OpenVDB cache.
-  std::string backend = o.persistent && !o.cache_given ? std::string("vdb") : o.cache;
-  s.cache_mode = backend == "none"  ? sequence::CacheMode::None
-                 : o.persistent     ? sequence::CacheMode::Persistent
-                                    : sequence::CacheMode::Fresh;
-  if (o.persistent && backend == "none")
-    throw Error("--persistent needs a cache (--cache octree or vdb)");
-  s.cache_backend = backend == "none" ? "vdb" : backend;
-  s.evict_after = o.evict_after;
-  s.cache_memory_mb = o.cache_memory_mb;
-  s.output = o.out;
-  s.cache_in = o.cache_in;
-  s.cache_out = o.cache_out;
-  s.checkpoint = o.checkpoint;
-  s.resume = !o.restart;
-  s.validate();  // before planning frames (which may probe the scene for autofocus)
-
-  std::vector<sequence::FrameSpec> frames = sequence::plan_frames(
-      scene, accel, camera, path, fps, first, last, {o.focal_length, o.fstop, o.focus_distance});
-  sequence::SequenceRenderer renderer(scene, accel, frames, s);
+  sequence::SequenceRenderer renderer(scene, *p.accel, frames, s);
 
   if (!o.quiet) {
     std::printf("scene    %s: %zu triangles, camera '%s'\n", scene.source.c_str(),
@@ -174,54 +120,7 @@ Runner add_sequence_command(CLI::App& app) {
       "sequence",
       "Render the frames of a camera path (a glTF animation of the camera, or a keyframe file) "
       "in order; with --persistent the radiance cache is carried from frame to frame.");
-  add_scene_options(cmd, o->scene_path, o->camera, o->scene_index);
-  cmd->add_option("--path", o->path,
-                  "JSON keyframe file (docs/sequence.md); default: the glTF animation that moves "
-                  "the camera");
-  cmd->add_option("--animation", o->animation, "glTF animation to use, by name or index");
-  cmd->add_option("--frames", o->frames, "Frames A-B (default: every frame of the path)");
-  cmd->add_option("--fps", o->fps, "Frames per second (default: the keyframe file's, else 24)")
-      ->check(CLI::Range(1e-3, 1e4));
-  cmd->add_option("-o,--out", o->out,
-                  "Output pattern; a run of '#' becomes the zero-padded frame number. .png or "
-                  ".exr (linear, with Z, N and id channels)")
-      ->capture_default_str();
-  add_size_options(cmd, o->width, o->height);
-  cmd->add_option("--spp", o->spp, "Samples (lens rays) per pixel")->capture_default_str()
-      ->check(CLI::Range(1, 1 << 20));
-  cmd->add_option("--mode", o->mode, "drt, accumulation or pinhole")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"pinhole", "drt", "accumulation"}));
-  add_lens_options(cmd, o->fstop, o->focal_length, o->focus_distance);
-  add_seed_and_threads(cmd, o->seed, o->threads,
-                       "Random seed; each frame's seed is derived from it and the frame "
-                       "number, so any subset of frames reproduces");
-  add_shading_options(cmd, o->shading);
-  cmd->add_option("--cache", o->cache,
-                  "Radiance cache: none, octree or vdb (a fresh cache per frame unless "
-                  "--persistent)")
-      ->capture_default_str()
-      ->check(CLI::IsMember(cache::radiance_cache_backends()))
-      ->each([o](const std::string&) { o->cache_given = true; });
-  cmd->add_flag("--persistent", o->persistent,
-                "Carry the cache across frames (the vdb backend unless --cache says otherwise)");
-  add_cache_tuning_options(cmd, o->cache_settings, o->radius_rule);
-  cmd->add_option("--cache-evict-after", o->evict_after,
-                  "Evict cache samples no lookup used for this many frames (0: never)")
-      ->capture_default_str()->check(CLI::Range(0, 1 << 30));
-  cmd->add_option("--cache-memory", o->cache_memory_mb,
-                  "Cap the cache at this many MB, evicting the least recently used first "
-                  "(0: no cap)")
-      ->capture_default_str()->check(CLI::Range(0.0, 1e9));
-  cmd->add_option("--cache-in", o->cache_in, "Start from this cache file (.vdb)");
-  cmd->add_option("--cache-out", o->cache_out, "Save the cache to this file (.vdb) at the end");
-  cmd->add_option("--checkpoint", o->checkpoint,
-                  "Checkpoint of the persistent cache, written after every frame so an "
-                  "interrupted run resumes (default: .<pattern>.checkpoint.vdb beside the frames)");
-  cmd->add_flag("--restart", o->restart,
-                "Render every frame again, ignoring complete frames and the checkpoint");
-  cmd->add_option("--stats-json", o->stats_json, "Write per-frame statistics as JSON to this file");
-  cmd->add_flag("-q,--quiet", o->quiet, "Print only the first frame's path");
+  add_sequence_options(cmd, *o);
   return [o] { return run_sequence(*o); };
 }
 

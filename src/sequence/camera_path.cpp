@@ -126,4 +126,13 @@ std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel
   return frames;
 }
 
+std::vector<FrameSpec> keep_every(std::vector<FrameSpec> frames, int step) {
+  if (step < 1) throw Error("frame step must be >= 1, got " + std::to_string(step));
+  std::vector<FrameSpec> kept;
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    if (i % static_cast<std::size_t>(step) == 0 || i + 1 == frames.size())
+      kept.push_back(std::move(frames[i]));
+  return kept;
+}
+
 }  // namespace dofcache::sequence

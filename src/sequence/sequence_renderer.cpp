@@ -48,18 +48,6 @@ class Hasher {
   std::uint64_t h_ = 0x73657175656e6365ULL;  // "sequence"
 };
 
-// A frame file that exists, reads back and has the frame's size: complete.
-bool frame_complete(const std::string& path, int width, int height) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return false;
-  try {
-    image::Image im = image::read_image(path);
-    return im.width() == width && im.height() == height;
-  } catch (const Error&) {
-    return false;
-  }
-}
-
 // Temporary files (image::temporary_path_for: "<dir>/.<stem>.tmp-<pid>-<n><ext>") that a killed
 // run left behind for any of `targets`: removed, unless the process that made them still runs.
 void remove_stale_temporaries(const std::vector<std::string>& targets) {
@@ -125,6 +113,17 @@ std::string frame_path(const std::string& pattern, int frame) {
 std::string default_checkpoint_path(const std::string& pattern) {
   fs::path p(pattern);
   return (p.parent_path() / ("." + p.filename().string() + ".checkpoint.vdb")).string();
+}
+
+bool frame_complete(const std::string& path, int width, int height) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return false;
+  try {
+    image::Image im = image::read_image(path);
+    return im.width() == width && im.height() == height;
+  } catch (const Error&) {
+    return false;
+  }
 }
 
 std::pair<int, int> parse_frame_range(const std::string& text) {

@@ -319,4 +319,20 @@ TEST(KeyframePath, ShippedPathsLoad) {
   EXPECT_EQ(dolly_scene.content_hash, sc.content_hash);  // the same scene, plus an animation
 }
 
+TEST(KeepEvery, KeyframesFromTheFirstPlusTheLast) {
+  auto numbers = [](int count, int step) {
+    std::vector<FrameSpec> frames(count);
+    for (int i = 0; i < count; ++i) frames[i].number = 10 + i;
+    std::vector<int> out;
+    for (const FrameSpec& f : keep_every(frames, step)) out.push_back(f.number);
+    return out;
+  };
+  EXPECT_EQ(numbers(7, 3), (std::vector<int>{10, 13, 16}));      // the last is a keyframe
+  EXPECT_EQ(numbers(8, 3), (std::vector<int>{10, 13, 16, 17}));  // the last is added
+  EXPECT_EQ(numbers(3, 1), (std::vector<int>{10, 11, 12}));
+  EXPECT_EQ(numbers(3, 50), (std::vector<int>{10, 12}));
+  EXPECT_EQ(numbers(1, 4), (std::vector<int>{10}));
+  EXPECT_THROW(keep_every({}, 0), Error);
+}
+
 }  // namespace

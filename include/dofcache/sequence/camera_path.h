@@ -99,6 +99,10 @@ std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel
                                    const scene::Camera& base, const CameraPath& path, double fps,
                                    int first, int last, const render::LensOverrides& overrides);
 
+// Every `step`-th frame of `frames` from the first, plus the last (keyframes, e.g. to warm a
+// cache over a path); step 1 keeps all. Throws dofcache::Error if step < 1.
+std::vector<FrameSpec> keep_every(std::vector<FrameSpec> frames, int step);
+
 // The frames a path covers at `fps`: ceil(start * fps) .. floor(end * fps).
 std::pair<int, int> path_frame_range(const CameraPath& path, double fps);
 

@@ -111,6 +111,10 @@ std::string frame_path(const std::string& pattern, int frame);
 // "<dir>/.<file name of pattern>.checkpoint.vdb", beside the frames.
 std::string default_checkpoint_path(const std::string& pattern);
 
+// A frame file that exists, reads back and has the frame's size: complete (what resume and
+// `dofcache farm verify` count as done).
+bool frame_complete(const std::string& path, int width, int height);
+
 // "A-B" or "A" (frame numbers >= 0, A <= B). Throws dofcache::Error.
 std::pair<int, int> parse_frame_range(const std::string& text);
 

@@ -1,0 +1,128 @@
+#pragma once
+// A render-farm plan: a camera-path sequence split into chunks of frames, each chunk one plain
+// `dofcache sequence` command, preceded by a warm-cache pass and followed by a check that every
+// frame is complete. The plan is written as Slurm batch scripts (a job array, one task per
+// chunk) plus the same commands as a plain shell script, so any farm manager can run it.
+//
+// Cache sharing. The warm pass renders keyframes of the whole path (every warm_step-th frame, at
+// warm_spp lens samples) with a persistent cache and saves it as a .vdb file. Every chunk starts
+// from that file (--cache-in). With `carry` the chunk carries the cache on through its frames
+// (--persistent); its frames then depend on the chunk's first frame, and are bit-identical to a
+// `dofcache sequence` process run with the chunk's command. Without it every frame starts from the
+// warm cache alone, so frames do not depend on the chunking at all.
+//
+// Resume. Frames are written atomically, and chunks with persistent caches checkpoint after
+// every frame, so resubmitting a plan renders only the chunks that still miss frames, each from
+// its last checkpoint.
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace dofcache::farm {
+
+// Scheduler settings: nothing about the cluster is assumed; empty / 0 leaves the cluster's own
+// default.
+struct SlurmOptions {
+  std::string partition;
+  std::string time_limit;  // per task, Slurm's format, e.g. "2:00:00"
+  int cpus_per_task = 0;   // also the renderer's --threads (unless the sequence options set it)
+  std::string memory;      // per task, e.g. "8G"
+  std::string account;
+  std::string job_name = "dofcache";
+  int max_running = 0;              // at most this many array tasks at once (0: no limit)
+  std::vector<std::string> extra;   // further sbatch options, verbatim (e.g. "--qos=low")
+};
+
+struct FarmSettings {
+  std::string dofcache;  // the executable, as the compute nodes see it (absolute)
+  std::string work_dir;  // plan, scripts, logs, warm cache, checkpoints, stats (absolute)
+  std::string run_dir;   // where the commands run: relative paths in them resolve here (absolute)
+  // The `dofcache sequence` command line (scene and options) without --frames, which the plan
+  // sets per chunk. Must not contain the options the plan owns (see reserved_sequence_options).
+  std::vector<std::string> sequence_args;
+  int first = 0, last = 0;  // frame range
+  int chunk = 1;            // frames per chunk (array task)
+  std::string output;       // frame file pattern, absolute (for verification)
+  int width = 0, height = 0;  // frame size (for verification)
+  std::string cache = "none";  // "none", "octree" or "vdb": the sequence's cache backend
+  bool carry = false;          // the sequence options say --persistent
+  bool warm = true;            // run the warm-cache pass (only with a cache)
+  int warm_step = 0;           // keyframe step of the warm pass; 0: the chunk size
+  int warm_spp = 4;            // lens samples per pixel of the warm pass; 0: the frames'
+  SlurmOptions slurm;
+
+  void validate() const;  // throws dofcache::Error
+};
+
+// Options of `dofcache sequence` that the plan sets itself, so the sequence command line must not.
+const std::vector<std::string>& reserved_sequence_options();
+
+struct Chunk {
+  int index = 0;
+  int first = 0, last = 0;
+};
+
+// [first, last] cut into runs of `size` frames (the last may be shorter). Throws on size < 1.
+std::vector<Chunk> make_chunks(int first, int last, int size);
+
+class FarmPlan {
+ public:
+  explicit FarmPlan(FarmSettings settings);  // validates
+
+  const FarmSettings& settings() const { return settings_; }
+  const std::vector<Chunk>& chunks() const { return chunks_; }
+  bool has_warm_pass() const;
+
+  // Files in the work directory.
+  std::string plan_file() const;        // farm.json
+  std::string warm_cache_file() const;  // warm-cache.vdb
+  std::string script_file(const std::string& job) const;  // <job>.sbatch: warm, render, verify
+  std::string commands_file() const;    // commands.sh
+  std::string log_dir() const;          // logs/
+  std::string checkpoint_file(const Chunk& c) const;
+  std::string stats_file(const Chunk& c) const;
+
+  // The commands (argument vectors) that the jobs run.
+  std::vector<std::string> warm_command() const;
+  std::vector<std::string> chunk_command(const Chunk& c) const;
+  std::vector<std::string> verify_command() const;
+
+  // Script texts.
+  std::string warm_script() const;
+  std::string render_script() const;  // the job array
+  std::string verify_script() const;
+  std::string commands_script() const;  // every command in order, for one machine or another farm
+
+  // Writes farm.json, the three .sbatch scripts and commands.sh into the work directory (each
+  // atomically) and creates its logs/, checkpoints/ and stats/ directories.
+  void write() const;
+  // Reads <work_dir>/farm.json. Throws dofcache::Error (one line) if missing or not a plan.
+  static FarmPlan load(const std::string& work_dir);
+
+  nlohmann::json to_json() const;
+  static FarmPlan from_json(const nlohmann::json& j);  // throws dofcache::Error
+
+ private:
+  std::string sbatch_header(const std::string& job, bool array) const;
+  FarmSettings settings_;
+  std::vector<Chunk> chunks_;
+};
+
+// Which frames of the plan exist and are complete (sequence::frame_complete), and which not.
+struct FrameStatus {
+  std::vector<int> complete, missing;
+};
+FrameStatus check_frames(const FarmPlan& plan);
+
+// Indices of the chunks that contain a missing frame.
+std::vector<int> chunks_to_render(const FarmPlan& plan, const FrameStatus& status);
+
+// "0-3,7,9-10" for {0,1,2,3,7,9,10} (sorted input); "" for none.
+std::string format_ranges(const std::vector<int>& sorted);
+
+// POSIX shell quoting: the word unchanged if it is safe, else in single quotes.
+std::string shell_quote(const std::string& word);
+std::string shell_join(const std::vector<std::string>& argv);
+
+}  // namespace dofcache::farm

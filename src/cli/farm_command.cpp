@@ -1,0 +1,296 @@
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include "commands.h"
+#include "dofcache/core/error.h"
+#include "dofcache/farm/plan.h"
+#include "dofcache/farm/slurm.h"
+#include "sequence_options.h"
+
+namespace dofcache::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FarmOptions {
+  // plan
+  std::string work_dir;
+  int chunk = 8, warm_step = 0, warm_spp = 4;
+  bool no_warm = false, force = false;
+  farm::SlurmOptions slurm;
+  std::string dofcache;
+  // submit
+  std::string sbatch = "sbatch";
+  bool wait = false, dry_run = false;
+  // verify
+  std::string json;
+  CLI::App *plan = nullptr, *submit = nullptr, *verify = nullptr;
+};
+
+std::string absolute(const std::string& p) {
+  return fs::absolute(p).lexically_normal().string();
+}
+
+std::string self_executable() {
+  std::error_code ec;
+  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw Error("cannot find this executable's path; give it with --dofcache");
+  return exe.string();
+}
+
+// The sequence command line given to `farm plan`, parsed as `dofcache sequence` parses it.
+SequenceOptions parse_sequence_args(std::vector<std::string> args) {
+  SequenceOptions o;
+  CLI::App app{"sequence"};
+  add_sequence_options(&app, o);
+  std::reverse(args.begin(), args.end());  // CLI11 takes the vector last argument first
+  try {
+    app.parse(args);
+  } catch (const CLI::ParseError& e) {
+    throw Error(std::string("in the sequence options: ") + e.what());
+  }
+  return o;
+}
+
+std::vector<std::string> strip_frames(const std::vector<std::string>& args) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--frames") {
+      ++i;
+      continue;
+    }
+    if (args[i].rfind("--frames=", 0) == 0) continue;
+    out.push_back(args[i]);
+  }
+  return out;
+}
+
+int run_plan(FarmOptions& f) {
+  std::vector<std::string> args = f.plan->remaining();
+  for (const std::string& r : farm::reserved_sequence_options())
+    if (r != "--frames" && std::any_of(args.begin(), args.end(), [&](const std::string& a) {
+          return a == r || a.rfind(r + "=", 0) == 0;
+        }))
+      throw Error(r + " is set by the plan for each job; leave it out of the sequence options");
+  SequenceOptions so = parse_sequence_args(args);
+  PreparedSequence seq = prepare_sequence(so);  // validates scene, path, lens and settings
+
+  farm::FarmSettings s;
+  s.dofcache = f.dofcache.empty() ? self_executable() : absolute(f.dofcache);
+  s.work_dir = absolute(f.work_dir);
+  s.run_dir = fs::current_path().string();
+  s.sequence_args = strip_frames(args);
+  s.first = seq.first;
+  s.last = seq.last;
+  s.chunk = f.chunk;
+  s.output = absolute(so.out);
+  s.width = seq.settings.render.width;
+  s.height = seq.settings.render.height;
+  s.cache = seq.settings.cache_mode == sequence::CacheMode::None ? "none"
+                                                                  : seq.settings.cache_backend;
+  s.carry = seq.settings.cache_mode == sequence::CacheMode::Persistent;
+  s.warm = !f.no_warm;
+  s.warm_step = f.warm_step;
+  s.warm_spp = f.warm_spp;
+  s.slurm = f.slurm;
+  farm::FarmPlan plan(std::move(s));
+
+  // A work directory holds one plan: refuse to mix another plan's warm cache and checkpoints in.
+  std::error_code ec;
+  if (fs::exists(plan.plan_file(), ec)) {
+    bool same = false;
+    try {
+      same = farm::FarmPlan::load(plan.settings().work_dir).to_json() == plan.to_json();
+    } catch (const Error&) {
+    }
+    if (!same && !f.force)
+      throw Error(plan.settings().work_dir +
+                  " holds another farm plan; use a new --work-dir, or --force to replace it "
+                  "(its warm cache and checkpoints are removed)");
+    if (!same) {
+      fs::remove(plan.warm_cache_file(), ec);
+      fs::remove_all(fs::path(plan.settings().work_dir) / "checkpoints", ec);
+    }
+  }
+  plan.write();
+
+  const farm::FarmSettings& ps = plan.settings();
+  std::printf("plan     frames %d-%d in %zu chunks of up to %d (array tasks 0-%zu), %dx%d, "
+              "cache %s%s\n",
+              ps.first, ps.last, plan.chunks().size(), ps.chunk, plan.chunks().size() - 1,
+              ps.width, ps.height, ps.cache.c_str(),
+              ps.cache == "none" ? "" : ps.carry ? " carried through each chunk"
+                                                 : " (fresh per frame)");
+  if (plan.has_warm_pass())
+    std::printf("warm     keyframes every %d frames at %s spp -> %s\n",
+                ps.warm_step > 0 ? ps.warm_step : ps.chunk,
+                ps.warm_spp > 0 ? std::to_string(ps.warm_spp).c_str() : "full",
+                plan.warm_cache_file().c_str());
+  std::printf("frames   %s\n", ps.output.c_str());
+  std::printf("wrote    %s, %s, %s, %s, %s\n", plan.plan_file().c_str(),
+              plan.script_file("warm").c_str(), plan.script_file("render").c_str(),
+              plan.script_file("verify").c_str(), plan.commands_file().c_str());
+  std::printf("next     dofcache farm submit %s\n", farm::shell_quote(ps.work_dir).c_str());
+  return 0;
+}
+
+int run_submit(const FarmOptions& f) {
+  farm::FarmPlan plan = farm::FarmPlan::load(absolute(f.work_dir));
+  farm::SubmitOptions opts;
+  opts.sbatch = f.sbatch;
+  opts.wait = f.wait;
+  farm::CommandRunner runner = farm::run_command;
+  int fake_id = 1;  // a dry run numbers its jobs 1, 2, 3
+  if (f.dry_run)
+    runner = [&](const std::vector<std::string>& argv) {
+      std::printf("would run  %s\n", farm::shell_join(argv).c_str());
+      return farm::CommandResult{0, std::to_string(fake_id++) + "\n", ""};
+    };
+  farm::Submission sub = farm::submit(plan, opts, runner);
+  const farm::FrameStatus& st = sub.status;
+  std::printf("frames   %zu of %zu complete", st.complete.size(),
+              st.complete.size() + st.missing.size());
+  if (!st.missing.empty()) std::printf(", missing %s", farm::format_ranges(st.missing).c_str());
+  std::printf("\n");
+  if (sub.nothing_to_do()) {
+    std::printf("submit   nothing to do: every frame is complete\n");
+    return 0;
+  }
+  if (f.dry_run) return 0;
+  if (sub.warm_job) std::printf("submit   warm-cache job %s\n", sub.warm_job->c_str());
+  std::printf("submit   render job array %s, tasks %s%s\n", sub.render_job->c_str(),
+              farm::format_ranges(sub.chunks).c_str(),
+              sub.warm_job ? (" (after " + *sub.warm_job + ")").c_str() : "");
+  std::printf("submit   verify job %s (after %s)\n", sub.verify_job->c_str(),
+              sub.render_job->c_str());
+  std::printf("logs     %s\n", plan.log_dir().c_str());
+  if (!sub.verify_exit) return 0;
+  if (*sub.verify_exit != 0)
+    throw Error("the farm run left frames missing; see " + plan.log_dir() + "/verify-" +
+                *sub.verify_job + ".log");
+  std::printf("done     every frame is complete\n");
+  return 0;
+}
+
+int run_verify(const FarmOptions& f) {
+  farm::FarmPlan plan = farm::FarmPlan::load(absolute(f.work_dir));
+  farm::FrameStatus st = farm::check_frames(plan);
+  // Sum of the chunks' own timings (from their --stats-json), for the farm's cost.
+  double render_seconds = 0.0;
+  int chunks_with_stats = 0;
+  for (const farm::Chunk& c : plan.chunks()) {
+    std::ifstream in(plan.stats_file(c));
+    if (!in) continue;
+    try {
+      nlohmann::json j = nlohmann::json::parse(in);
+      render_seconds += j.at("seconds").get<double>();
+      ++chunks_with_stats;
+    } catch (const nlohmann::json::exception&) {
+    }
+  }
+  std::vector<int> chunks = farm::chunks_to_render(plan, st);
+  if (!f.json.empty())
+    write_json_file(f.json, {{"frames", {plan.settings().first, plan.settings().last}},
+                             {"complete", st.complete},
+                             {"missing", st.missing},
+                             {"chunks_to_render", chunks},
+                             {"chunk_seconds_sum", render_seconds},
+                             {"chunks_with_stats", chunks_with_stats}});
+  std::size_t total = st.complete.size() + st.missing.size();
+  std::printf("verify   %zu of %zu frames complete (%d-%d)", st.complete.size(), total,
+              plan.settings().first, plan.settings().last);
+  if (chunks_with_stats > 0)
+    std::printf("; chunks' own time %.2f s over %d chunks", render_seconds, chunks_with_stats);
+  std::printf("\n");
+  if (!st.missing.empty())
+    throw Error(std::to_string(st.missing.size()) + " of " + std::to_string(total) +
+                " frames missing or incomplete: " + farm::format_ranges(st.missing) +
+                " (chunks " + farm::format_ranges(chunks) + "); 'dofcache farm submit " +
+                plan.settings().work_dir + "' renders them");
+  return 0;
+}
+
+}  // namespace
+
+Runner add_farm_command(CLI::App& app) {
+  auto f = std::make_shared<FarmOptions>();
+  CLI::App* farm = app.add_subcommand(
+      "farm",
+      "Render a camera-path sequence on a Slurm cluster: plan writes batch scripts (a warm-cache "
+      "job, a job array of frame chunks, a verify job), submit submits what is missing, verify "
+      "checks the frames. See docs/farm.md.");
+  farm->require_subcommand(1);
+
+  CLI::App* plan = f->plan = farm->add_subcommand(
+      "plan",
+      "Write a farm plan. Every option it does not know is a `dofcache sequence` option (scene, "
+      "--frames, --out, size, spp, lens, --cache, --persistent, ...), passed to each job; e.g. "
+      "dofcache farm plan scene.gltf --frames 0-95 --chunk 8 --out /shared/f/####.exr --cache "
+      "vdb --persistent --work-dir /shared/farm --partition render --cpus-per-task 16");
+  plan->allow_extras();
+  plan->add_option("-w,--work-dir", f->work_dir,
+                   "Directory for the plan, scripts, logs, warm cache and checkpoints (on a "
+                   "filesystem every node sees)")
+      ->required();
+  plan->add_option("--chunk", f->chunk, "Frames per array task")->capture_default_str()
+      ->check(CLI::Range(1, 1 << 30));
+  plan->add_option("--warm-step", f->warm_step,
+                   "Warm-cache pass: render every Nth frame of the path (0: one per chunk)")
+      ->capture_default_str()->check(CLI::Range(0, 1 << 30));
+  plan->add_option("--warm-spp", f->warm_spp,
+                   "Lens samples per pixel of the warm-cache pass (0: the frames' own)")
+      ->capture_default_str()->check(CLI::Range(0, 1 << 20));
+  plan->add_flag("--no-warm", f->no_warm, "No warm-cache job: every chunk starts with an empty "
+                                          "cache");
+  plan->add_option("--partition", f->slurm.partition, "Slurm partition (default: the cluster's)");
+  plan->add_option("--time", f->slurm.time_limit, "Time limit per job, e.g. 2:00:00");
+  plan->add_option("--cpus-per-task", f->slurm.cpus_per_task,
+                   "CPUs per job, also the renderer's --threads (0: the cluster's default)")
+      ->check(CLI::Range(0, 4096));
+  plan->add_option("--mem", f->slurm.memory, "Memory per job, e.g. 8G");
+  plan->add_option("--account", f->slurm.account, "Slurm account to charge");
+  plan->add_option("--job-name", f->slurm.job_name, "Prefix of the job names")
+      ->capture_default_str();
+  plan->add_option("--max-running", f->slurm.max_running,
+                   "At most this many array tasks at once (0: no limit)")
+      ->check(CLI::Range(0, 1 << 20));
+  plan->add_option("--sbatch-option", f->slurm.extra,
+                   "Further sbatch option for every job, e.g. --sbatch-option=--qos=low "
+                   "(repeatable)");
+  plan->add_option("--dofcache", f->dofcache,
+                   "The dofcache executable as the nodes see it (default: this one)");
+  plan->add_flag("--force", f->force,
+                 "Replace another plan in the work directory (removes its warm cache and "
+                 "checkpoints; frames stay)");
+
+  CLI::App* submit = f->submit = farm->add_subcommand(
+      "submit",
+      "Submit a plan with sbatch: the warm-cache job (unless its cache is there), the chunks "
+      "that miss frames, and the verify job. Prints the job ids. Run it again to render only "
+      "what is missing.");
+  submit->add_option("WORK_DIR", f->work_dir, "The plan's work directory")->required();
+  submit->add_option("--sbatch", f->sbatch, "The sbatch program")->capture_default_str();
+  submit->add_flag("--wait", f->wait,
+                   "Wait until the verify job has finished; exit non-zero if frames are missing");
+  submit->add_flag("--dry-run", f->dry_run, "Print the sbatch commands instead of running them");
+
+  CLI::App* verify = f->verify = farm->add_subcommand(
+      "verify",
+      "Check that every frame of a plan exists and reads back at the right size; exit non-zero "
+      "and list the missing frames otherwise.");
+  verify->add_option("WORK_DIR", f->work_dir, "The plan's work directory")->required();
+  verify->add_option("--json", f->json, "Also write the result as JSON to this file");
+
+  return [f] {
+    if (f->plan->parsed()) return run_plan(*f);
+    if (f->submit->parsed()) return run_submit(*f);
+    return run_verify(*f);
+  };
+}
+
+}  // namespace dofcache::cli

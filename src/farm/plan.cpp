@@ -1,0 +1,388 @@
+#include "dofcache/farm/plan.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
+#include "dofcache/sequence/sequence_renderer.h"
+
+namespace dofcache::farm {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr int kPlanVersion = 1;
+
+// Is `arg` the option `name`, alone ("--spp") or with its value ("--spp=4")?
+bool is_option(const std::string& arg, const std::string& name) {
+  return arg == name || arg.rfind(name + "=", 0) == 0;
+}
+
+// argv without the option `name` and its value (which follows unless given as name=value).
+std::vector<std::string> without_option(const std::vector<std::string>& argv,
+                                        const std::string& name, bool takes_value) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < argv.size(); ++i) {
+    if (is_option(argv[i], name)) {
+      if (takes_value && argv[i] == name) ++i;
+      continue;
+    }
+    out.push_back(argv[i]);
+  }
+  return out;
+}
+
+bool has_option(const std::vector<std::string>& argv, const std::string& name) {
+  return std::any_of(argv.begin(), argv.end(),
+                     [&](const std::string& a) { return is_option(a, name); });
+}
+
+std::string pad(int index, int count) {
+  int digits = std::max(3, static_cast<int>(std::to_string(std::max(count - 1, 0)).size()));
+  return fmt::format("{:0{}d}", index, digits);
+}
+
+void write_text(const std::string& path, const std::string& text, bool executable) {
+  image::write_atomically(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.close();
+    if (!out) throw Error("cannot write '" + path + "'");
+    if (executable)
+      fs::permissions(tmp, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                      fs::perm_options::add);
+  });
+}
+
+}  // namespace
+
+const std::vector<std::string>& reserved_sequence_options() {
+  static const std::vector<std::string> names = {"--frames",     "--frame-step", "--cache-in",
+                                                 "--cache-out",  "--checkpoint", "--restart",
+                                                 "--stats-json", "-q",           "--quiet"};
+  return names;
+}
+
+void FarmSettings::validate() const {
+  auto absolute = [](const std::string& what, const std::string& p) {
+    if (p.empty() || !fs::path(p).is_absolute())
+      throw Error("farm plan: " + what + " must be an absolute path, got '" + p + "'");
+  };
+  absolute("the dofcache executable", dofcache);
+  absolute("the work directory", work_dir);
+  absolute("the run directory", run_dir);
+  absolute("the output pattern", output);
+  sequence::frame_path(output, first);  // a pattern with one run of '#'
+  if (first < 0 || last < first)
+    throw Error(fmt::format("farm plan: frame range {}-{} is empty or negative", first, last));
+  if (chunk < 1) throw Error(fmt::format("farm plan: --chunk must be >= 1, got {}", chunk));
+  if (width < 1 || height < 1)
+    throw Error(fmt::format("farm plan: frame size {}x{} is invalid", width, height));
+  if (cache != "none" && cache != "octree" && cache != "vdb")
+    throw Error("farm plan: cache backend '" + cache + "' is not one of none, octree, vdb");
+  if (carry && cache == "none") throw Error("farm plan: --persistent needs a cache");
+  if (warm_step < 0) throw Error("farm plan: --warm-step must be >= 0");
+  if (warm_spp < 0) throw Error("farm plan: --warm-spp must be >= 0");
+  if (slurm.cpus_per_task < 0) throw Error("farm plan: --cpus-per-task must be >= 0");
+  if (slurm.max_running < 0) throw Error("farm plan: --max-running must be >= 0");
+  if (slurm.job_name.empty() ||
+      slurm.job_name.find_first_of(" \t\n'\"\\$`") != std::string::npos)
+    throw Error("farm plan: job name '" + slurm.job_name + "' must be one plain word");
+  for (const std::string& r : reserved_sequence_options())
+    if (has_option(sequence_args, r))
+      throw Error("farm plan: the sequence options must not contain " + r +
+                  " (the plan sets it per job)");
+  for (const std::string& e : slurm.extra)
+    if (e.rfind("-", 0) != 0 || e.find('\n') != std::string::npos)
+      throw Error("farm plan: sbatch option '" + e + "' must be one option starting with '-'");
+}
+
+std::vector<Chunk> make_chunks(int first, int last, int size) {
+  if (size < 1) throw Error(fmt::format("chunk size must be >= 1, got {}", size));
+  if (last < first) throw Error(fmt::format("frame range {}-{} is empty", first, last));
+  std::vector<Chunk> chunks;
+  for (long long a = first; a <= last; a += size)
+    chunks.push_back({static_cast<int>(chunks.size()), static_cast<int>(a),
+                      static_cast<int>(std::min<long long>(last, a + size - 1))});
+  return chunks;
+}
+
+FarmPlan::FarmPlan(FarmSettings settings) : settings_(std::move(settings)) {
+  settings_.validate();
+  chunks_ = make_chunks(settings_.first, settings_.last, settings_.chunk);
+}
+
+bool FarmPlan::has_warm_pass() const { return settings_.warm && settings_.cache != "none"; }
+
+std::string FarmPlan::plan_file() const { return (fs::path(settings_.work_dir) / "farm.json").string(); }
+std::string FarmPlan::warm_cache_file() const {
+  return (fs::path(settings_.work_dir) / "warm-cache.vdb").string();
+}
+std::string FarmPlan::script_file(const std::string& job) const {
+  return (fs::path(settings_.work_dir) / (job + ".sbatch")).string();
+}
+std::string FarmPlan::commands_file() const {
+  return (fs::path(settings_.work_dir) / "commands.sh").string();
+}
+std::string FarmPlan::log_dir() const { return (fs::path(settings_.work_dir) / "logs").string(); }
+std::string FarmPlan::checkpoint_file(const Chunk& c) const {
+  return (fs::path(settings_.work_dir) / "checkpoints" /
+          ("chunk-" + pad(c.index, static_cast<int>(chunks_.size())) + ".vdb"))
+      .string();
+}
+std::string FarmPlan::stats_file(const Chunk& c) const {
+  return (fs::path(settings_.work_dir) / "stats" /
+          ("chunk-" + pad(c.index, static_cast<int>(chunks_.size())) + ".json"))
+      .string();
+}
+
+std::vector<std::string> FarmPlan::warm_command() const {
+  const FarmSettings& s = settings_;
+  std::vector<std::string> argv = {s.dofcache, "sequence"};
+  std::vector<std::string> args = without_option(s.sequence_args, "--out", true);
+  args = without_option(args, "-o", true);
+  if (s.warm_spp > 0) args = without_option(args, "--spp", true);
+  argv.insert(argv.end(), args.begin(), args.end());
+  if (s.warm_spp > 0) argv.insert(argv.end(), {"--spp", std::to_string(s.warm_spp)});
+  if (!s.carry) argv.push_back("--persistent");
+  if (s.slurm.cpus_per_task > 0 && !has_option(s.sequence_args, "--threads"))
+    argv.insert(argv.end(), {"--threads", std::to_string(s.slurm.cpus_per_task)});
+  const fs::path work(s.work_dir);
+  int step = s.warm_step > 0 ? s.warm_step : s.chunk;
+  argv.insert(argv.end(),
+              {"--frames", fmt::format("{}-{}", s.first, s.last), "--frame-step",
+               std::to_string(step), "--out", (work / "warm" / "####.png").string(),
+               "--cache-out", warm_cache_file(), "--stats-json",
+               (work / "stats" / "warm.json").string()});
+  return argv;
+}
+
+std::vector<std::string> FarmPlan::chunk_command(const Chunk& c) const {
+  const FarmSettings& s = settings_;
+  std::vector<std::string> argv = {s.dofcache, "sequence"};
+  argv.insert(argv.end(), s.sequence_args.begin(), s.sequence_args.end());
+  if (s.slurm.cpus_per_task > 0 && !has_option(s.sequence_args, "--threads"))
+    argv.insert(argv.end(), {"--threads", std::to_string(s.slurm.cpus_per_task)});
+  argv.insert(argv.end(), {"--frames", fmt::format("{}-{}", c.first, c.last)});
+  if (has_warm_pass()) argv.insert(argv.end(), {"--cache-in", warm_cache_file()});
+  if (s.carry) argv.insert(argv.end(), {"--checkpoint", checkpoint_file(c)});
+  argv.insert(argv.end(), {"--stats-json", stats_file(c)});
+  return argv;
+}
+
+std::vector<std::string> FarmPlan::verify_command() const {
+  return {settings_.dofcache, "farm", "verify", settings_.work_dir};
+}
+
+std::string FarmPlan::sbatch_header(const std::string& job, bool array) const {
+  const SlurmOptions& o = settings_.slurm;
+  std::ostringstream h;
+  h << "#!/bin/bash\n";
+  h << "#SBATCH --job-name=" << o.job_name << "-" << job << "\n";
+  if (array) {
+    h << "#SBATCH --array=0-" << chunks_.size() - 1;
+    if (o.max_running > 0) h << "%" << o.max_running;
+    h << "\n";
+  }
+  std::string log = (fs::path(log_dir()) / (array ? job + "-%A_%a.log" : job + "-%j.log")).string();
+  h << "#SBATCH --output=" << log << "\n";
+  h << "#SBATCH --chdir=" << settings_.run_dir << "\n";
+  if (!o.partition.empty()) h << "#SBATCH --partition=" << o.partition << "\n";
+  if (!o.time_limit.empty()) h << "#SBATCH --time=" << o.time_limit << "\n";
+  if (!o.account.empty()) h << "#SBATCH --account=" << o.account << "\n";
+  if (!o.memory.empty()) h << "#SBATCH --mem=" << o.memory << "\n";
+  if (o.cpus_per_task > 0) h << "#SBATCH --cpus-per-task=" << o.cpus_per_task << "\n";
+  h << "#SBATCH --ntasks=1\n";
+  // A task whose dependency can never be met (the warm job failed) is cancelled, not left
+  // pending forever; the verify job then reports the missing frames.
+  if (job != "verify") h << "#SBATCH --kill-on-invalid-dep=yes\n";
+  for (const std::string& e : o.extra) h << "#SBATCH " << e << "\n";
+  h << "set -euo pipefail\n";
+  return h.str();
+}
+
+std::string FarmPlan::warm_script() const {
+  return sbatch_header("warm", false) +
+         "# Warm cache: keyframes of the whole path, the cache saved for every chunk.\n"
+         "exec " + shell_join(warm_command()) + "\n";
+}
+
+std::string FarmPlan::render_script() const {
+  std::ostringstream s;
+  s << sbatch_header("render", true);
+  s << "# One array task per chunk of frames; each is a plain `dofcache sequence` call.\n";
+  s << "case \"${SLURM_ARRAY_TASK_ID:?run this script as a Slurm job array}\" in\n";
+  for (const Chunk& c : chunks_)
+    s << "  " << c.index << ")  # frames " << c.first << "-" << c.last << "\n    exec "
+      << shell_join(chunk_command(c)) << " ;;\n";
+  s << "  *) echo \"no chunk $SLURM_ARRAY_TASK_ID in this plan\" >&2; exit 2 ;;\n";
+  s << "esac\n";
+  return s.str();
+}
+
+std::string FarmPlan::verify_script() const {
+  return sbatch_header("verify", false) +
+         "# Checks that every frame exists and reads back; lists the missing ones.\n"
+         "exec " + shell_join(verify_command()) + "\n";
+}
+
+std::string FarmPlan::commands_script() const {
+  std::ostringstream s;
+  s << "#!/bin/bash\n"
+       "# The farm plan's commands in order, for one machine or another farm manager: the warm\n"
+       "# pass first, then the chunks (independent of each other), then the check.\n"
+       "set -euo pipefail\n";
+  s << "cd " << shell_quote(settings_.run_dir) << "\n";
+  if (has_warm_pass()) s << shell_join(warm_command()) << "\n";
+  for (const Chunk& c : chunks_) s << shell_join(chunk_command(c)) << "\n";
+  s << shell_join(verify_command()) << "\n";
+  return s.str();
+}
+
+void FarmPlan::write() const {
+  const fs::path work(settings_.work_dir);
+  std::error_code ec;
+  for (const char* sub : {"logs", "checkpoints", "stats", "warm"}) {
+    fs::create_directories(work / sub, ec);
+    if (ec) throw Error("cannot create '" + (work / sub).string() + "': " + ec.message());
+  }
+  write_text(script_file("warm"), warm_script(), true);
+  write_text(script_file("render"), render_script(), true);
+  write_text(script_file("verify"), verify_script(), true);
+  write_text(commands_file(), commands_script(), true);
+  write_text(plan_file(), to_json().dump(2) + "\n", false);  // last: a plan is complete
+}
+
+nlohmann::json FarmPlan::to_json() const {
+  const FarmSettings& s = settings_;
+  const SlurmOptions& o = s.slurm;
+  nlohmann::json chunks = nlohmann::json::array();
+  for (const Chunk& c : chunks_) chunks.push_back({c.first, c.last});
+  return {{"dofcache_farm_plan", kPlanVersion},
+          {"dofcache", s.dofcache},
+          {"work_dir", s.work_dir},
+          {"run_dir", s.run_dir},
+          {"sequence_args", s.sequence_args},
+          {"frames", {s.first, s.last}},
+          {"chunk", s.chunk},
+          {"output", s.output},
+          {"size", {s.width, s.height}},
+          {"cache", s.cache},
+          {"carry", s.carry},
+          {"warm", {{"enabled", s.warm}, {"step", s.warm_step}, {"spp", s.warm_spp}}},
+          {"slurm",
+           {{"partition", o.partition},
+            {"time", o.time_limit},
+            {"cpus_per_task", o.cpus_per_task},
+            {"mem", o.memory},
+            {"account", o.account},
+            {"job_name", o.job_name},
+            {"max_running", o.max_running},
+            {"extra", o.extra}}},
+          {"chunks", chunks}};
+}
+
+FarmPlan FarmPlan::from_json(const nlohmann::json& j) {
+  try {
+    if (!j.is_object() || j.value("dofcache_farm_plan", 0) != kPlanVersion)
+      throw Error("not a dofcache farm plan of version " + std::to_string(kPlanVersion));
+    FarmSettings s;
+    s.dofcache = j.at("dofcache").get<std::string>();
+    s.work_dir = j.at("work_dir").get<std::string>();
+    s.run_dir = j.at("run_dir").get<std::string>();
+    s.sequence_args = j.at("sequence_args").get<std::vector<std::string>>();
+    s.first = j.at("frames").at(0).get<int>();
+    s.last = j.at("frames").at(1).get<int>();
+    s.chunk = j.at("chunk").get<int>();
+    s.output = j.at("output").get<std::string>();
+    s.width = j.at("size").at(0).get<int>();
+    s.height = j.at("size").at(1).get<int>();
+    s.cache = j.at("cache").get<std::string>();
+    s.carry = j.at("carry").get<bool>();
+    const nlohmann::json& w = j.at("warm");
+    s.warm = w.at("enabled").get<bool>();
+    s.warm_step = w.at("step").get<int>();
+    s.warm_spp = w.at("spp").get<int>();
+    const nlohmann::json& o = j.at("slurm");
+    s.slurm.partition = o.at("partition").get<std::string>();
+    s.slurm.time_limit = o.at("time").get<std::string>();
+    s.slurm.cpus_per_task = o.at("cpus_per_task").get<int>();
+    s.slurm.memory = o.at("mem").get<std::string>();
+    s.slurm.account = o.at("account").get<std::string>();
+    s.slurm.job_name = o.at("job_name").get<std::string>();
+    s.slurm.max_running = o.at("max_running").get<int>();
+    s.slurm.extra = o.at("extra").get<std::vector<std::string>>();
+    return FarmPlan(std::move(s));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(std::string("not a valid dofcache farm plan (") + e.what() + ")");
+  }
+}
+
+FarmPlan FarmPlan::load(const std::string& work_dir) {
+  const std::string path = (fs::path(work_dir) / "farm.json").string();
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": no farm plan here (run 'dofcache farm plan' first)");
+  try {
+    return from_json(nlohmann::json::parse(in));
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path + ": not valid JSON (" + one_line(e.what()) + ")");
+  } catch (const Error& e) {
+    throw Error(path + ": " + e.what());
+  }
+}
+
+FrameStatus check_frames(const FarmPlan& plan) {
+  const FarmSettings& s = plan.settings();
+  FrameStatus st;
+  for (int f = s.first; f <= s.last; ++f)
+    (sequence::frame_complete(sequence::frame_path(s.output, f), s.width, s.height) ? st.complete
+                                                                                   : st.missing)
+        .push_back(f);
+  return st;
+}
+
+std::vector<int> chunks_to_render(const FarmPlan& plan, const FrameStatus& status) {
+  std::vector<int> out;
+  for (const Chunk& c : plan.chunks())
+    if (std::any_of(status.missing.begin(), status.missing.end(),
+                    [&](int f) { return f >= c.first && f <= c.last; }))
+      out.push_back(c.index);
+  return out;
+}
+
+std::string format_ranges(const std::vector<int>& sorted) {
+  std::string out;
+  for (std::size_t i = 0; i < sorted.size();) {
+    std::size_t j = i;
+    while (j + 1 < sorted.size() && sorted[j + 1] == sorted[j] + 1) ++j;
+    if (!out.empty()) out += ",";
+    out += j == i ? std::to_string(sorted[i])
+                  : std::to_string(sorted[i]) + "-" + std::to_string(sorted[j]);
+    i = j + 1;
+  }
+  return out;
+}
+
+std::string shell_quote(const std::string& word) {
+  if (!word.empty() &&
+      word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
+                             "@%_+=:,./-#") == std::string::npos &&
+      word[0] != '#')
+    return word;
+  std::string q = "'";
+  for (char c : word) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::string shell_join(const std::vector<std::string>& argv) {
+  std::string out;
+  for (const std::string& a : argv) out += (out.empty() ? "" : " ") + shell_quote(a);
+  return out;
+}
+
+}  // namespace dofcache::farm
