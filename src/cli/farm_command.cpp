@@ -120,7 +120,7 @@ int run_plan(FarmOptions& f) {
   plan.write();
 
   const farm::FarmSettings& ps = plan.settings();
-  std::printf("plan     frames %d-%d in %zu chunks of up to %d (array tasks 0-%zu), %dx%d, "
+  std::printf("plan     frames %d-%d in %zu chunk(s) of up to %d (array tasks 0-%zu), %dx%d, "
               "cache %s%s\n",
               ps.first, ps.last, plan.chunks().size(), ps.chunk, plan.chunks().size() - 1,
               ps.width, ps.height, ps.cache.c_str(),
@@ -260,8 +260,9 @@ Runner add_farm_command(CLI::App& app) {
                    "At most this many array tasks at once (0: no limit)")
       ->check(CLI::Range(0, 1 << 20));
   plan->add_option("--sbatch-option", f->slurm.extra,
-                   "Further sbatch option for every job, e.g. --sbatch-option=--qos=low "
-                   "(repeatable)");
+                   "Further sbatch option for every job, written with '=', e.g. "
+                   "--sbatch-option=--qos=low (repeatable)")
+      ->allow_extra_args(false);
   plan->add_option("--dofcache", f->dofcache,
                    "The dofcache executable as the nodes see it (default: this one)");
   plan->add_flag("--force", f->force,

@@ -32,7 +32,7 @@ class FarmCli : public dofcache::testing::CliTest {
 TEST_F(FarmCli, PlanRunLocallyEqualsPlainSequenceCallsAndVerifyFindsLostFrames) {
   auto p = plan("--cpus-per-task 2");
   ASSERT_EQ(p.exit_code, 0) << p.err;
-  EXPECT_NE(p.out.find("frames 0-2 in 2 chunks"), std::string::npos) << p.out;
+  EXPECT_NE(p.out.find("frames 0-2 in 2 chunk(s)"), std::string::npos) << p.out;
   for (const char* f : {"farm.json", "warm.sbatch", "render.sbatch", "verify.sbatch",
                         "commands.sh"})
     EXPECT_TRUE(fs::exists(dir_ / "work" / f)) << f;
