@@ -14,6 +14,8 @@
 #include <sstream>
 #include <string>
 
+#include "scratch_dir.h"
+
 namespace dofcache::testing {
 
 struct CliResult {
@@ -32,18 +34,8 @@ inline int count_lines(const std::string& s) {
   return static_cast<int>(std::count(s.begin(), s.end(), '\n'));
 }
 
-class CliTest : public ::testing::Test {
+class CliTest : public ScratchDirTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = std::filesystem::temp_directory_path() /
-           ("dofcache_" + std::string(info->test_suite_name()) + "_" + std::to_string(::getpid()) +
-            "_" + info->name());
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-
   // Runs `dofcache ARGS` with stdout and stderr captured in the test directory.
   CliResult run(const std::string& args) {
     std::string cmd = std::string(DOFCACHE_EXE) + " " + args + " >" + (dir_ / "stdout").string() +
@@ -52,8 +44,6 @@ class CliTest : public ::testing::Test {
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(dir_ / "stdout"),
             slurp(dir_ / "stderr")};
   }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
 
   // A failure: the expected exit code (any non-zero if 0 is given), exactly one line on stderr
   // starting "dofcache: error:", mentioning `needle`.
@@ -67,8 +57,6 @@ class CliTest : public ::testing::Test {
     EXPECT_EQ(r.err.rfind("dofcache: error:", 0), 0u) << r.err;
     EXPECT_NE(r.err.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.err;
   }
-
-  std::filesystem::path dir_;
 };
 
 }  // namespace dofcache::testing

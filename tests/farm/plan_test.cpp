@@ -3,6 +3,8 @@
 // and chunks are missing.
 #include <gtest/gtest.h>
 
+#include "scratch_dir.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -48,17 +50,8 @@ int index_of(const std::vector<std::string>& argv, const std::string& value) {
   return -1;
 }
 
-class FarmPlanTest : public ::testing::Test {
+class FarmPlanTest : public dofcache::testing::ScratchDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_farm_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   FarmSettings settings() const {
     FarmSettings s;
     s.dofcache = "/opt/dofcache/bin/dofcache";
@@ -76,8 +69,6 @@ class FarmPlanTest : public ::testing::Test {
     s.carry = true;
     return s;
   }
-
-  fs::path dir_;
 };
 
 TEST(FarmChunks, CutTheRangeIntoRunsWithAShorterLast) {

@@ -2,6 +2,8 @@
 // resubmission of only what is missing; running commands and reading job ids.
 #include <gtest/gtest.h>
 
+#include "scratch_dir.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -37,16 +39,12 @@ bool has(const std::vector<std::string>& argv, const std::string& arg) {
   return std::find(argv.begin(), argv.end(), arg) != argv.end();
 }
 
-class SubmitTest : public ::testing::Test {
+class SubmitTest : public dofcache::testing::ScratchDirTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_submit_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
+    ScratchDirTest::SetUp();
     fs::create_directories(dir_ / "f");
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   FarmPlan plan(int max_running = 0) const {
     FarmSettings s;
@@ -73,7 +71,6 @@ class SubmitTest : public ::testing::Test {
                        image::Image(8, 6, 3, 0.5f));
   }
 
-  fs::path dir_;
 };
 
 TEST(JobId, FromParsableOutput) {

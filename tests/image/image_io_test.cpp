@@ -1,6 +1,7 @@
 // Image files: exact EXR round trips (single- and multi-part), PNG through sRGB, atomic writes
 // that leave nothing behind on failure, and one-line errors for bad input.
 #include "dofcache/image/image_io.h"
+#include "scratch_dir.h"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -50,19 +51,8 @@ std::string error_of(Fn&& fn) {
   return {};
 }
 
-class ImageIo : public ::testing::Test {
+class ImageIo : public dofcache::testing::ScratchDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_image_io_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
   std::vector<std::string> listing() const {
     std::vector<std::string> names;
     for (const auto& entry : fs::directory_iterator(dir_))
@@ -70,8 +60,6 @@ class ImageIo : public ::testing::Test {
     std::sort(names.begin(), names.end());
     return names;
   }
-
-  fs::path dir_;
 };
 
 TEST(Srgb, TransferFunctions) {

@@ -2,6 +2,8 @@
 // another scene or other shading settings are refused; damaged files are refused, never crash.
 #include <gtest/gtest.h>
 
+#include "scratch_dir.h"
+
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -20,20 +22,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class CacheFileTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_cachefile_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
-  fs::path dir_;
-};
+class CacheFileTest : public dofcache::testing::ScratchDirTest {};
 
 std::vector<SampleRecord> random_records(std::size_t n, std::uint32_t seed) {
   std::mt19937 rng(seed);

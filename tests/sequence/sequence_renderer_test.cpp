@@ -12,6 +12,7 @@
 #include "dofcache/scene/accel.h"
 #include "dofcache/sequence/cache_file.h"
 #include "dofcache/sequence/sequence_renderer.h"
+#include "scratch_dir.h"
 
 using namespace dofcache;
 using namespace dofcache::sequence;
@@ -23,7 +24,7 @@ struct Interrupted : std::runtime_error {
   Interrupted() : std::runtime_error("interrupted") {}
 };
 
-class SequenceTest : public ::testing::Test {
+class SequenceTest : public dofcache::testing::ScratchDirTest {
  protected:
   static void SetUpTestSuite() {
     scene_ = new scene::Scene(render::load_scene(""));  // the built-in Cornell box
@@ -33,15 +34,6 @@ class SequenceTest : public ::testing::Test {
     delete accel_;
     delete scene_;
   }
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("dofcache_seq_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   // Six frames of a slow truck to the right with a focus pull.
   std::vector<FrameSpec> frames(int first = 0, int last = 5) const {
     const scene::Camera& cam = scene_->cameras[0];
@@ -74,7 +66,6 @@ class SequenceTest : public ::testing::Test {
 
   static scene::Scene* scene_;
   static scene::Accel* accel_;
-  fs::path dir_;
 };
 scene::Scene* SequenceTest::scene_ = nullptr;
 scene::Accel* SequenceTest::accel_ = nullptr;
