@@ -4,8 +4,12 @@
 //   2. equal-quality speed-up: the time uncached DRT needs to reach the cached render's error
 //      (uncached runs at doubling spp, interpolated in log-log), divided by the cached time;
 //   3. the minFactor sweep 0.5, 1, 2, 4 on the Cornell box.
+// The equal-quality table has the fixed --sample-quality variants, the same with the sample
+// quality render::recommended_sample_quality(spp) ("auto"), and the regime of --hi-spp lens
+// samples per pixel (default 256; 0 skips it), where a cached lens ray's low cost counts more.
 // All variants run side by side in one process. Writes bench/results/cache_render.{json,csv}.
-//   cache_render_bench [--width W] [--spp N] [--ref-spp N] [--threads T] [--scene NAME]...
+//   cache_render_bench [--width W] [--spp N] [--hi-spp N] [--ref-spp N] [--threads T]
+//                      [--sample-quality Q|auto] [--accuracy A] [--max-radius-px R] [--scene NAME]...
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -29,7 +33,8 @@ namespace fs = std::filesystem;
 namespace {
 
 struct Options {
-  int width = 128, spp = 16, ref_spp = 512, threads = 0, sample_quality = 4;
+  int width = 128, spp = 16, hi_spp = 256, ref_spp = 512, threads = 0;
+  int sample_quality = 4;  // 0: render::recommended_sample_quality(spp) of each render
   double accuracy = 0.1, max_radius_px = 8.0;
   std::vector<std::string> scenes;
 };
@@ -38,6 +43,7 @@ struct Run {
   double seconds;
   image::ErrorMetrics error;
   render::RenderStats stats;
+  int sample_quality = 0;
 };
 
 struct SceneSetup {
@@ -67,19 +73,30 @@ image::Image reference(const SceneSetup& s, const Options& o) {
   return bench::converged_reference(s.name, s.scene, *s.accel, s.scene.cameras[0], s.base, o.ref_spp);
 }
 
+// A cached render's variant: radius rule, sample quality (0: recommended for the spp) and, for
+// the adaptive rule, the radius cap in pixel footprints (0: --max-radius-px).
+struct Variant {
+  const char* name;
+  render::RadiusRule rule;
+  int quality;
+  double max_radius_px = 0.0;
+};
+
 Run run(const SceneSetup& s, const image::Image& ref, int spp, const std::string& backend,
-        double min_factor = 0.5, render::RadiusRule rule = render::RadiusRule::Paper) {
+        double min_factor = 0.5, render::RadiusRule rule = render::RadiusRule::Paper,
+        int quality = -1, double max_radius_px = 0.0) {
   render::RenderSettings r = s.base;
   r.spp = spp;
   auto cache = cache::make_radiance_cache(backend);
   r.cache.cache = cache.get();
   r.cache.min_factor = min_factor;
   r.cache.radius_rule = rule;
-  r.cache.sample_quality = g_options->sample_quality;
+  if (quality < 0) quality = g_options->sample_quality;
+  r.cache.sample_quality = quality > 0 ? quality : render::recommended_sample_quality(spp);
   r.cache.accuracy = g_options->accuracy;
-  r.cache.max_radius_pixels = g_options->max_radius_px;
+  r.cache.max_radius_pixels = max_radius_px > 0.0 ? max_radius_px : g_options->max_radius_px;
   render::RenderOutput out = render::render(s.scene, *s.accel, s.scene.cameras[0], r);
-  return {out.stats.seconds, image::compare(out.color, ref), out.stats};
+  return {out.stats.seconds, image::compare(out.color, ref), out.stats, r.cache.sample_quality};
 }
 
 // Time uncached DRT needs to reach `target` relMSE: doubling spp until below it, then log-log
@@ -114,7 +131,9 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--spp")) o.spp = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--ref-spp")) o.ref_spp = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--threads")) o.threads = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--sample-quality")) o.sample_quality = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--hi-spp")) o.hi_spp = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--sample-quality"))
+      o.sample_quality = std::strcmp(argv[i + 1], "auto") ? std::atoi(argv[i + 1]) : 0;
     else if (!std::strcmp(argv[i], "--accuracy")) o.accuracy = std::atof(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--max-radius-px")) o.max_radius_px = std::atof(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--scene")) o.scenes.push_back(argv[i + 1]);
@@ -125,8 +144,8 @@ int main(int argc, char** argv) {
 
   bench::Table t41({"scene", "cache", "spp", "time [s]", "speed-up", "relMSE", "PSNR [dB]",
                     "SSIM", "hit rate", "samples", "cache MB"});
-  bench::Table teq({"scene", "cache", "cached time [s]", "cached relMSE", "uncached time to match [s]",
-                    "equal-quality speed-up"});
+  bench::Table teq({"scene", "cache", "spp", "sample quality", "cached time [s]", "cached relMSE",
+                    "uncached time to match [s]", "equal-quality speed-up"});
   bench::Table t42({"scene", "min factor", "time [s]", "relMSE", "PSNR [dB]", "samples"});
   nlohmann::json curves = nlohmann::json::array();
 
@@ -136,6 +155,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "measuring %s\n", s.name.c_str());
     Run none = run(s, ref, o.spp, "none");
     std::map<int, Run> uncached{{o.spp, none}};
+    auto equal_quality = [&](const std::string& label, int spp, const Run& r) {
+      std::vector<std::pair<int, Run>> curve;
+      double t_eq = equal_quality_time(s, ref, r.error.rel_mse, 4 * o.ref_spp, &uncached, &curve);
+      teq.add_row({s.name, label, spp, r.sample_quality, bench::Table::Cell(r.seconds, 2),
+                   bench::Table::Cell(r.error.rel_mse, 5),
+                   t_eq > 0 ? bench::Table::Cell(t_eq, 2) : bench::Table::Cell("not reached"),
+                   t_eq > 0 ? bench::Table::Cell(t_eq / r.seconds, 1) : bench::Table::Cell("-")});
+      nlohmann::json c = nlohmann::json::array();
+      for (auto& [n, u] : curve)
+        c.push_back({{"spp", n}, {"seconds", u.seconds}, {"rel_mse", u.error.rel_mse}});
+      curves.push_back({{"scene", s.name}, {"cache", label}, {"spp", spp}, {"uncached", c}});
+    };
     for (const char* backend : {"none", "octree", "vdb", "vdb adaptive"}) {
       bool adaptive = !std::strcmp(backend, "vdb adaptive");
       Run r = !std::strcmp(backend, "none") ? none
@@ -147,18 +178,18 @@ int main(int argc, char** argv) {
                    bench::Table::Cell(r.error.ssim, 4), bench::Table::Cell(r.stats.cache_hit_rate(), 3),
                    static_cast<long>(r.stats.cache_samples),
                    bench::Table::Cell(r.stats.cache_memory_bytes / 1e6, 2)});
-      if (!std::strcmp(backend, "vdb") || adaptive) {
-        std::vector<std::pair<int, Run>> curve;
-        double t_eq =
-            equal_quality_time(s, ref, r.error.rel_mse, 4 * o.ref_spp, &uncached, &curve);
-        teq.add_row({s.name, backend, bench::Table::Cell(r.seconds, 2), bench::Table::Cell(r.error.rel_mse, 5),
-                     t_eq > 0 ? bench::Table::Cell(t_eq, 2) : bench::Table::Cell("not reached"),
-                     t_eq > 0 ? bench::Table::Cell(t_eq / r.seconds, 1) : bench::Table::Cell("-")});
-        nlohmann::json c = nlohmann::json::array();
-        for (auto& [spp, u] : curve)
-          c.push_back({{"spp", spp}, {"seconds", u.seconds}, {"rel_mse", u.error.rel_mse}});
-        curves.push_back({{"scene", s.name}, {"cache", backend}, {"uncached", c}});
-      }
+      if (!std::strcmp(backend, "vdb") || adaptive) equal_quality(backend, o.spp, r);
+    }
+    // The same with the recommended sample quality, then the many-lens-samples regime.
+    const render::RadiusRule paper = render::RadiusRule::Paper;
+    const render::RadiusRule wide = render::RadiusRule::Adaptive;
+    for (const Variant& v : {Variant{"vdb", paper, 0}, Variant{"vdb adaptive", wide, 0}})
+      equal_quality(v.name, o.spp, run(s, ref, o.spp, "vdb", 0.5, v.rule, v.quality));
+    if (o.hi_spp > 0) {
+      for (const Variant& v : {Variant{"vdb", paper, 0}, Variant{"vdb adaptive", wide, 0},
+                               Variant{"vdb adaptive, max 1 px", wide, 0, 1.0}})
+        equal_quality(v.name, o.hi_spp,
+                      run(s, ref, o.hi_spp, "vdb", 0.5, v.rule, v.quality, v.max_radius_px));
     }
     if (s.name == "cornell_box") {
       for (double mf : {0.5, 1.0, 2.0, 4.0}) {
@@ -178,7 +209,8 @@ int main(int argc, char** argv) {
   t42.print();
 
   nlohmann::json results;
-  results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"reference_spp", o.ref_spp},
+  results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"hi_spp", o.hi_spp},
+                         {"reference_spp", o.ref_spp},
                          {"threads", o.threads}, {"sample_quality", o.sample_quality},
                          {"accuracy", o.accuracy}, {"max_radius_px", o.max_radius_px}};
   results["rows"] = t41.to_json();

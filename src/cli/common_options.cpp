@@ -69,8 +69,9 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
       ->capture_default_str()->check(CLI::Range(1, 1024));
   cmd->add_option("--cache-sample-quality", cache.sample_quality,
                   "A cache sample uses this many times the light and gather samples of a "
-                  "per-ray shade (it is reused by many lens rays)")
-      ->capture_default_str()->check(CLI::Range(1, 256));
+                  "per-ray shade (it is reused by many lens rays); 0: chosen from --spp, "
+                  "round(spp / 32), at least 1 (docs/cache.md)")
+      ->capture_default_str()->check(CLI::Range(0, 256));
 }
 
 }  // namespace dofcache::cli

@@ -57,14 +57,16 @@ SequenceOptions parse_sequence_args(std::vector<std::string> args) {
   return o;
 }
 
-std::vector<std::string> strip_frames(const std::vector<std::string>& args) {
+// `args` without the option `name` and its value ("--name V" or "--name=V").
+std::vector<std::string> strip_option(const std::vector<std::string>& args,
+                                      const std::string& name) {
   std::vector<std::string> out;
   for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--frames") {
+    if (args[i] == name) {
       ++i;
       continue;
     }
-    if (args[i].rfind("--frames=", 0) == 0) continue;
+    if (args[i].rfind(name + "=", 0) == 0) continue;
     out.push_back(args[i]);
   }
   return out;
@@ -84,7 +86,15 @@ int run_plan(FarmOptions& f) {
   s.dofcache = f.dofcache.empty() ? self_executable() : absolute(f.dofcache);
   s.work_dir = absolute(f.work_dir);
   s.run_dir = fs::current_path().string();
-  s.sequence_args = strip_frames(args);
+  s.sequence_args = strip_option(args, "--frames");
+  if (seq.settings.cache_mode != sequence::CacheMode::None) {
+    // The warm pass renders fewer lens samples than the frames, but its cache must have the
+    // frames' sample quality (cache files record it), so every job gets it explicitly.
+    s.sequence_args = strip_option(s.sequence_args, "--cache-sample-quality");
+    s.sequence_args.insert(s.sequence_args.end(),
+                           {"--cache-sample-quality",
+                            std::to_string(seq.settings.render.cache.sample_quality)});
+  }
   s.first = seq.first;
   s.last = seq.last;
   s.chunk = f.chunk;

@@ -118,6 +118,8 @@ int run_render(const RenderOptions& o) {
   std::unique_ptr<cache::RadianceCache> radiance_cache = cache::make_radiance_cache(o.cache);
   std::unique_ptr<cache::TraceWriter> trace;
   s.cache = o.cache_settings;
+  if (s.cache.sample_quality == 0)
+    s.cache.sample_quality = render::recommended_sample_quality(s.spp);
   s.cache.cache = radiance_cache.get();
   s.cache.radius_rule = render::parse_radius_rule(o.radius_rule);
 
@@ -241,6 +243,9 @@ Runner add_render_command(CLI::App& app) {
                   "(OpenVDB grids keyed by depth-dependent voxel size)")
       ->capture_default_str()
       ->check(CLI::IsMember(cache::radiance_cache_backends()));
+  // A single image chooses the cache sample quality from its lens samples by default (measured
+  // best at equal quality); sequences keep a fixed default, since cache files record it.
+  o->cache_settings.sample_quality = 0;
   add_cache_tuning_options(cmd, o->cache_settings, o->radius_rule);
   cmd->add_option("--cache-debug", o->cache_debug,
                   "Write PREFIX-hits.png (fraction of lookups served) and PREFIX-density.png "

@@ -94,6 +94,8 @@ PreparedSequence prepare_sequence(const SequenceOptions& o) {
   r.threads = o.threads;
   r.shading = o.shading;
   r.cache = o.cache_settings;
+  if (r.cache.sample_quality == 0)
+    r.cache.sample_quality = render::recommended_sample_quality(r.spp);
   r.cache.radius_rule = render::parse_radius_rule(o.radius_rule);
   r.progress = o.quiet ? Progress::Display::Never : Progress::Display::Auto;
   // --persistent alone means the OpenVDB cache.

@@ -214,6 +214,10 @@ void render_samples(const Context& c, const Tile& t, std::uint32_t s0, std::uint
 
 }  // namespace
 
+int recommended_sample_quality(int spp) {
+  return std::clamp((std::max(spp, 0) + 16) / 32, 1, 256);
+}
+
 RadiusRule parse_radius_rule(const std::string& name) {
   if (name == "paper") return RadiusRule::Paper;
   if (name == "adaptive") return RadiusRule::Adaptive;

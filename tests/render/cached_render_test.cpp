@@ -93,6 +93,17 @@ TEST(CachedRender, LargerMinFactorStoresFewerSamples) {
   EXPECT_LT(large->size(), small->size());
 }
 
+TEST(CachedRender, RecommendedSampleQualityIsSppOver32) {
+  // round(spp / 32), at least 1, at most 256 (the settings' valid range).
+  EXPECT_EQ(recommended_sample_quality(1), 1);
+  EXPECT_EQ(recommended_sample_quality(16), 1);   // 0.5 rounds down to 0, clamped to 1
+  EXPECT_EQ(recommended_sample_quality(48), 2);   // 1.5 rounds up
+  EXPECT_EQ(recommended_sample_quality(64), 2);
+  EXPECT_EQ(recommended_sample_quality(256), 8);
+  EXPECT_EQ(recommended_sample_quality(1000), 31);  // 31.25
+  EXPECT_EQ(recommended_sample_quality(1 << 20), 256);
+}
+
 TEST(CachedRender, PinholeWithCacheIsRefused) {
   scene::Scene s = diffuse_scene();
   scene::Accel accel(s);

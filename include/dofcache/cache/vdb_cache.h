@@ -9,7 +9,7 @@
 // sample, so a run of voxels along z is one contiguous range read from two values of one leaf.
 // A lookup visits only the non-empty levels (a 64-bit mask) whose sample bounds contain the point;
 // on each it scans the voxel runs that the ball of the level's largest radius around the point
-// touches (2 voxels per axis at most with cell_scale >= 2), four samples at a time.
+// touches (2 voxels per axis at most with cell_scale >= 2), eight samples at a time.
 #include <memory>
 
 #include "dofcache/cache/radiance_cache.h"
@@ -18,8 +18,8 @@ namespace dofcache::cache {
 
 struct VdbCacheOptions {
   // Voxel size over sample radius, at least: 1, 2, 4 or 8. Smaller voxels mean fewer candidates
-  // per lookup but more voxel runs and more leaf nodes; 4 and 2 measured equally fast, 4 with less
-  // memory (docs/cache.md).
+  // per lookup but more voxel runs and more leaf nodes; 4 measured fastest, with the least memory
+  // (docs/cache.md).
   float cell_scale = 4.0f;
 };
 
