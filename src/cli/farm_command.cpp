@@ -161,6 +161,9 @@ int run_submit(const FarmOptions& f) {
       std::printf("would run  %s\n", farm::shell_join(argv).c_str());
       return farm::CommandResult{0, std::to_string(fake_id++) + "\n", ""};
     };
+  if (f.wait && !f.dry_run)
+    std::printf("submit   submitting; then waiting until the verify job has finished\n");
+  std::fflush(stdout);
   farm::Submission sub = farm::submit(plan, opts, runner);
   const farm::FrameStatus& st = sub.status;
   std::printf("frames   %zu of %zu complete", st.complete.size(),
