@@ -162,7 +162,7 @@ int run_submit(const FarmOptions& f) {
       return farm::CommandResult{0, std::to_string(fake_id++) + "\n", ""};
     };
   if (f.wait && !f.dry_run)
-    std::printf("submit   submitting; then waiting until the verify job has finished\n");
+    std::printf("submit   --wait: once submitted, waits until the verify job has finished\n");
   std::fflush(stdout);
   farm::Submission sub = farm::submit(plan, opts, runner);
   const farm::FrameStatus& st = sub.status;
