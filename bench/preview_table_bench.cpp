@@ -22,7 +22,8 @@
 //
 //   preview_table_bench [--width W] [--spp N] [--drt-spp N] [--ref-spp N] [--threads T]
 //                       [--repeats K] [--refocus-width W] [--scene FILE]... [--figures DIR]
-//                       [--refocus-only 1]
+//                       [--refocus-only 1] [--skip-refocus 1] [--results NAME]
+//                       [--direct-blur-radius R]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -61,6 +62,9 @@ struct Options {
   int refocus_width = 640, refocus_repeats = 15;
   int refocus_only = 0;  // 1: only the refocus timings (section 4)
   std::string figures;
+  std::string results = "preview_table";  // results file name (bench/results/<results>.json)
+  int skip_refocus = 0;                   // 1: no section 4 (refocus at 640x480)
+  double direct_blur_radius = -1;         // >= 0: overrides PreviewOptions::direct_blur_radius
   std::vector<std::string> scenes;
 };
 
@@ -196,16 +200,20 @@ int main(int argc, char** argv) {
                                       {"--threads", &o.threads},
                                       {"--repeats", &o.repeats},
                                       {"--refocus-width", &o.refocus_width},
-                                      {"--refocus-only", &o.refocus_only}};
+                                      {"--refocus-only", &o.refocus_only},
+                                      {"--skip-refocus", &o.skip_refocus}};
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (ints.count(a)) *ints[a] = std::atoi(argv[i + 1]);
     if (a == "--scene") o.scenes.push_back(argv[i + 1]);
     if (a == "--figures") o.figures = argv[i + 1];
+    if (a == "--results") o.results = argv[i + 1];
+    if (a == "--direct-blur-radius") o.direct_blur_radius = std::atof(argv[i + 1]);
   }
   o.repeats = std::max(1, o.repeats);
   if (o.scenes.empty()) o.scenes = {"color_bars.gltf", "color_spheres.gltf", "cornell_box.gltf"};
-  const preview::PreviewOptions options;  // the defaults, as the CLI uses them (all threads)
+  preview::PreviewOptions options;  // the defaults, as the CLI uses them (all threads)
+  if (o.direct_blur_radius >= 0) options.direct_blur_radius = o.direct_blur_radius;
 
   bench::Table t31({"scene", "size", "pinhole spp", "layers", "revealed layers", "revealed px [%]",
                     "pinhole render [ms]", "extra-region mask [ms]", "(id renders [ms])",
@@ -350,7 +358,9 @@ int main(int argc, char** argv) {
            image::false_color(image::relative_error_map(f, ref), max_err), band_view(ref, band)},
           3);
       fs::create_directories(o.figures);
-      std::string path = (fs::path(o.figures) / ("preview_" + s.name + ".png")).string();
+      const std::string suffix = o.width != 160 ? "_" + std::to_string(o.width) : "";
+      std::string path =
+          (fs::path(o.figures) / ("preview_" + s.name + suffix + ".png")).string();
       image::write_image(path, fig);
       std::fprintf(stderr, "wrote %s\n", path.c_str());
     }
@@ -361,7 +371,7 @@ int main(int argc, char** argv) {
   // with the saved lens and with another one; and the post-process alone on 2 threads.
   bench::Table tref({"what", "size", "threads", "load [ms]", "post-process [ms]", "total [ms]",
                      "target [ms]", "met"});
-  {
+  if (!o.skip_refocus) {
     SceneSetup s = load("color_bars.gltf", o.refocus_width, o);
     render::RenderSettings r = s.base;
     r.spp = 1;
@@ -410,7 +420,7 @@ int main(int argc, char** argv) {
       tref.add_row({label, size, 2, Cell(0.0, 1), Cell(best, 1), Cell(best, 1), 20, best < 20.0});
     }
     // The same post-process on the synthetic demo scene of preview_postprocess_bench, in the same
-    // conditions: docs/preview.md lists 13.2 ms (layered) and 14.0 ms (occlusion fix) for it on
+    // conditions: docs/preview.md lists 10.7 ms (layered) and 12.1 ms (occlusion fix) for it on
     // two uncontended cores, so this row tells how much the machine was contended.
     {
       preview::SyntheticScene demo = preview::make_demo_scene(r.width, r.height);
@@ -462,6 +472,7 @@ int main(int argc, char** argv) {
                          {"threads", o.threads},
                          {"repeats", o.repeats},
                          {"refocus_width", o.refocus_width},
+                         {"direct_blur_radius", options.direct_blur_radius},
                          {"edge_band",
                           "pixels within max(R_p, R_q) (>= 1 px) of 4-neighbours "
                           "whose signed CoC diameters differ by more than 1 px"}};
@@ -472,6 +483,6 @@ int main(int argc, char** argv) {
   results["table_4_3"] = t43.to_json();
   results["edge_target"] = ttarget.to_json();
   results["refocus"] = tref.to_json();
-  std::printf("\nwrote %s\n", bench::write_results("preview_table", results).c_str());
+  std::printf("\nwrote %s\n", bench::write_results(o.results, results).c_str());
   return 0;
 }

@@ -22,6 +22,7 @@ namespace dofcache::preview::detail {
 namespace {
 
 constexpr int kTile = 16;
+constexpr int kMaxDirectBlurRadius = 24;  // the direct blur's reach is at most this many pixels
 using Block = PreviewWorkspace::Impl::Block;
 using Tile = PreviewWorkspace::Impl::Tile;
 
@@ -214,6 +215,13 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : std::numeric_limits<float>::infinity();
     const int lowest = std::max(i - 1, 1);
     const std::uint64_t usable = occlusion && lowest < 64 ? ~((std::uint64_t{1} << lowest) - 1) : 0;
+    // With revealed layers, a pixel on layer i's rising ramp (c_{i-2} <= c < c_{i-1}) whose
+    // hidden surface is known shows that surface in layer i, not the ramp copy of its pinhole
+    // surface: inside the foreground the nearer layers cover layer i anyway (the foreground's
+    // plateau copy is opaque), and where their blurred silhouette lets layer i through, a lens
+    // ray passes the foreground and sees what lies behind it.
+    const float reveal_cut = usable && i >= 1 ? static_cast<float>(plan.anchor(i - 1))
+                                              : -std::numeric_limits<float>::infinity();
 
     // ------------------------------------------------------- culling + disocclusion (pull)
     auto t1 = clock::now();
@@ -296,7 +304,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
               if (tile.cmin >= behind) {
                 cls = kSkip;
                 nonzero = false;
-              } else if (tile.cmin >= cull) {
+              } else if (tile.cmin >= cull && !(tile.cmin < reveal_cut && (tile.bits & usable))) {
                 cls = kKept;
                 nonzero = tile.cmax > lo;  // some c in (lo, behind)
               } else if (tile.cmax < cull && !(tile.bits & usable)) {
@@ -370,10 +378,10 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
             for (int k = x; k < xe; ++k) {
               Rgba v = src[k];
               float alpha;
-              if (v.a >= cull) {
+              const size_t p = static_cast<size_t>(y) * W + k;
+              if (v.a >= cull && !(v.a < reveal_cut && (ws.revealed_bits[p] & usable))) {
                 alpha = m.weight(v.a);
               } else {
-                const size_t p = static_cast<size_t>(y) * W + k;
                 std::uint64_t all = usable ? ws.revealed_bits[p] : 0, b = all & usable;
                 if (b) {
                   v = ws.revealed[ws.revealed_first[p] + popcount64(all & ((b & (~b + 1)) - 1))];
@@ -402,7 +410,49 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         level_blend_for_radius(plan.layers[i].blur_radius, max_level, options.blend_pyramid_levels);
     const int top = lb.t > 0 ? lb.level + 1 : lb.level;
     auto over = [](Rgba& dst, const Rgba& src) { dst = src + dst * (1.0f - src.a); };
-    if (top == 0) {  // sharp layer: matte straight into the composite
+    const double radius = plan.layers[i].blur_radius;
+    if (top > 0 && radius < std::min(options.direct_blur_radius, double{kMaxDirectBlurRadius})) {
+      // Small radius: the separable disk-profile kernel (pyramid.h), horizontal pass into
+      // ws.direct, vertical pass fused with the "over". The crop grows the box by the kernel's
+      // reach; beyond the box the matte is zero, so cropping changes nothing.
+      const std::vector<float> taps = disk_profile_taps(radius);
+      const int R = static_cast<int>(taps.size() / 2);
+      const Box crop = options.crop_layers ? Box{std::max(box.x0 - R, 0), std::max(box.y0 - R, 0),
+                                                 std::min(box.x1 + R, W), std::min(box.y1 + R, H)}
+                                           : Box{0, 0, W, H};
+      const int cw = crop.x1 - crop.x0, ch = crop.y1 - crop.y0;
+      ensure_size(ws.direct, static_cast<size_t>(cw) * ch);
+      Rgba* hbuf = ws.direct.data();
+      parallel_rows(ch, [&](int r0, int r1) {
+        Rgba* row = ws.scratch.get(2, cw + 2 * R) + R;
+        for (int y = r0; y < r1; ++y) {
+          matte_row(crop.y0 + y, crop.x0, crop.x1, row);
+          for (int k = 1; k <= R; ++k) {  // clamp to edge
+            row[-k] = row[0];
+            row[cw - 1 + k] = row[cw - 1];
+          }
+          Rgba* h = hbuf + static_cast<size_t>(y) * cw;
+          for (int x = 0; x < cw; ++x) {
+            Float4 sum = as_vec(row[x - R]) * taps[0];
+            for (int k = 1; k <= 2 * R; ++k) sum += as_vec(row[x - R + k]) * taps[k];
+            h[x] = as_rgba(sum);
+          }
+        }
+      });
+      parallel_rows(ch, [&](int r0, int r1) {
+        for (int y = r0; y < r1; ++y) {
+          Rgba* d = acc + static_cast<size_t>(crop.y0 + y) * W + crop.x0;
+          const Rgba* rows[2 * kMaxDirectBlurRadius + 1];
+          for (int k = 0; k <= 2 * R; ++k)
+            rows[k] = hbuf + static_cast<size_t>(std::clamp(y - R + k, 0, ch - 1)) * cw;
+          for (int x = 0; x < cw; ++x) {
+            Float4 sum = as_vec(rows[0][x]) * taps[0];
+            for (int k = 1; k <= 2 * R; ++k) sum += as_vec(rows[k][x]) * taps[k];
+            over(d[x], as_rgba(sum));
+          }
+        }
+      });
+    } else if (top == 0) {  // sharp layer: matte straight into the composite
       parallel_rows(box.y1 - box.y0, [&](int r0, int r1) {
         Rgba* tmp = ws.scratch.get(2, box.x1 - box.x0);
         for (int y = box.y0 + r0; y < box.y0 + r1; ++y) {

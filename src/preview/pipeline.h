@@ -33,6 +33,7 @@ struct PreviewWorkspace::Impl {
   std::vector<detail::PullPushLevel> pull_push;
   std::vector<detail::Rgba> acc;
   std::vector<std::vector<detail::Rgba>> pyramid;
+  std::vector<detail::Rgba> direct;  // horizontal pass of the direct (small-radius) blur
 
   // gather / scatter
   std::vector<float> radius, inv_area, plane_r, plane_g, plane_b;

@@ -44,6 +44,46 @@ LevelBlend level_blend_for_radius(double radius, int max_level, bool blend) {
   return b;
 }
 
+std::vector<float> disk_profile_taps(double radius) {
+  if (!(radius > 0.5)) return {1.0f};
+  const double r = radius;
+  // Integral of sqrt(r^2 - t^2) from -r to x, over the half disk's area pi r^2 / 2.
+  auto cdf = [r](double x) {
+    x = std::clamp(x, -r, r);
+    return (x * std::sqrt(r * r - x * x) + r * r * std::asin(x / r)) / (M_PI * r * r) + 0.5;
+  };
+  const int R = static_cast<int>(std::ceil(r - 0.5));
+  std::vector<double> w(2 * R + 1);
+  double sum = 0;
+  for (int k = -R; k <= R; ++k) sum += w[k + R] = cdf(k + 0.5) - cdf(k - 0.5);
+  std::vector<float> taps(w.size());
+  for (size_t k = 0; k < w.size(); ++k) taps[k] = static_cast<float>(w[k] / sum);
+  return taps;
+}
+
+image::Image disk_profile_blur(const image::Image& image, double radius) {
+  const std::vector<float> taps = disk_profile_taps(radius);
+  const int R = static_cast<int>(taps.size() / 2), w = image.width(), h = image.height(),
+            nc = image.channels();
+  image::Image tmp(w, h, nc, 0.0f), out(w, h, nc, 0.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < nc; ++c) {
+        float s = 0;
+        for (int k = -R; k <= R; ++k)
+          s += taps[k + R] * image.at(std::clamp(x + k, 0, w - 1), y, c);
+        tmp.at(x, y, c) = s;
+      }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < nc; ++c) {
+        float s = 0;
+        for (int k = -R; k <= R; ++k) s += taps[k + R] * tmp.at(x, std::clamp(y + k, 0, h - 1), c);
+        out.at(x, y, c) = s;
+      }
+  return out;
+}
+
 namespace {
 
 std::vector<detail::Rgba> to_rgba(const image::Image& img) {

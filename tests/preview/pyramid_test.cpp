@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace dofcache::preview {
 namespace {
@@ -85,6 +87,57 @@ TEST(Pyramid, ConstantStaysConstant) {
     image::Image b = pyramid_blur(img, r);
     for (float v : b.data()) ASSERT_NEAR(v, 0.3f, 1e-6f) << r;
   }
+}
+
+}  // namespace
+}  // namespace dofcache::preview
+
+namespace dofcache::preview {
+namespace {
+
+// The small-radius kernel: its 1-D taps are the disk's marginal integrated over each pixel, so
+// they sum to one, are symmetric, reach ceil(r - 1/2) pixels, and have the disk's variance r^2/4
+// plus about the 1/12 of integrating over a pixel.
+TEST(DiskProfile, TapsAreTheDiskMarginal) {
+  EXPECT_EQ(disk_profile_taps(0.4).size(), 1u);
+  for (double r : {0.75, 1.5, 2.13, 3.0, 4.5, 6.6}) {
+    std::vector<float> t = disk_profile_taps(r);
+    const int R = static_cast<int>(t.size() / 2);
+    EXPECT_EQ(R, static_cast<int>(std::ceil(r - 0.5))) << r;
+    double sum = 0, var = 0;
+    for (int k = -R; k <= R; ++k) {
+      sum += t[k + R];
+      var += t[k + R] * k * k;
+      EXPECT_FLOAT_EQ(t[k + R], t[R - k]);
+      EXPECT_GT(t[k + R], 0.0f);
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-6) << r;
+    EXPECT_GT(var, r * r / 4 - 0.01) << r;
+    EXPECT_LT(var, r * r / 4 + 1.0 / 12 + 0.05) << r;
+  }
+}
+
+// A vertical step edge blurred with the disk-profile kernel gives at each pixel the fraction of
+// the disk around the pixel's centre that lies beyond the edge (for a scene constant over each
+// pixel, as the anti-aliased pinhole image is), as a lens does; the pyramid blend of levels 0 and
+// 1 for the same radius keeps 3/4 of the weight on the pixel itself.
+TEST(DiskProfile, StepEdgeFollowsTheDisk) {
+  const double r = 2.0;
+  const int w = 32, h = 8, edge = 16;  // pixels x >= edge are 1
+  image::Image step(w, h, 1, 0.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = edge; x < w; ++x) step.at(x, y, 0) = 1.0f;
+  image::Image direct = disk_profile_blur(step, r);
+  image::Image pyramid = pyramid_blur(step, r);
+  double err_direct = 0, err_pyramid = 0;
+  for (int x = edge - 4; x < edge + 4; ++x) {
+    const double c = std::clamp((edge - (x + 0.5)) / r, -1.0, 1.0);  // the edge from the centre
+    const double frac = 1.0 - (c * std::sqrt(1 - c * c) + std::asin(c) + M_PI / 2) / M_PI;
+    err_direct = std::max(err_direct, std::abs(direct.at(x, h / 2, 0) - frac));
+    err_pyramid = std::max(err_pyramid, std::abs(pyramid.at(x, h / 2, 0) - frac));
+  }
+  EXPECT_LT(err_direct, 0.01);
+  EXPECT_GT(err_pyramid, 0.1);  // the spike-and-halo kernel the direct blur replaces
 }
 
 }  // namespace

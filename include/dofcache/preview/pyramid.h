@@ -16,6 +16,17 @@
 // one extra reduce and expand at a quarter of the resolution of level l.
 //
 // Borders: samples outside the image repeat the edge pixel (clamp to edge).
+//
+// Small radii. Below R(1) = 3 px the blend mixes the unblurred layer with level 1: a kernel that
+// is a spike with a wide halo (at r = 1.5 px, 75 % of the weight stays on the pixel), so a small
+// defocused silhouette stays almost sharp and opaque on its inner side and gets a faint halo
+// outside. The layered preview blurs such layers directly instead, with the separable kernel whose
+// 1-D profile is the disk's marginal (disk_profile_taps): it has the disk's variance r^2 / 4 and
+// support, and blurs a straight axis-aligned edge exactly as the disk does. (Between R(1) and R(2)
+// the level-1/level-2 blend is milder but still a narrow core with a wide skirt; the default
+// PreviewOptions::direct_blur_radius covers both ranges.)
+#include <vector>
+
 #include "dofcache/image/image.h"
 
 namespace dofcache::preview {
@@ -32,6 +43,14 @@ struct LevelBlend {
 // The level(s) that blur like a disk of radius `radius` px (radii below 0.5 px are sharp).
 // blend = false: the smallest level with V(l) >= r^2/4 (Kraus & Strengert).
 LevelBlend level_blend_for_radius(double radius, int max_level, bool blend);
+
+// The 1-D taps k = -R..R (R = ceil(r - 1/2)) of the disk's marginal density
+// (2 / (pi r^2)) sqrt(r^2 - x^2), integrated over each pixel [k - 1/2, k + 1/2]; they sum to one.
+// Radii at most 1/2 give the single tap {1}.
+std::vector<float> disk_profile_taps(double radius);
+// Blur every channel (at most 4) with disk_profile_taps horizontally, then vertically (clamp to
+// edge), as the layered preview blurs layers of radius below PreviewOptions::direct_blur_radius.
+image::Image disk_profile_blur(const image::Image& image, double radius);
 
 // One reduce step: coarse is ceil(w/2) x ceil(h/2), same channels (at most 4).
 void pyramid_reduce(const image::Image& fine, image::Image& coarse);

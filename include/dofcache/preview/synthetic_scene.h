@@ -21,6 +21,17 @@ struct SyntheticRect {
   int checker = 0;              // checker cell size in pixels; 0 = flat color
 };
 
+// A rectangle of one colour.
+inline SyntheticRect flat_rect(int x0, int y0, int x1, int y1, double depth, float id, float r,
+                               float g, float b) {
+  SyntheticRect q;
+  q.x0 = x0, q.y0 = y0, q.x1 = x1, q.y1 = y1;
+  q.depth = depth;
+  q.id = id;
+  q.color[0] = r, q.color[1] = g, q.color[2] = b;
+  return q;
+}
+
 struct SyntheticScene {
   int width = 0, height = 0;
   std::vector<SyntheticRect> rects;          // where rectangles overlap, the nearest one is seen
