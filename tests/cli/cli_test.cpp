@@ -89,6 +89,22 @@ TEST_F(Cli, DefaultSceneRendersToPngAndExr) {
   EXPECT_NE(slurp(dir_ / "s.json").find("rays_per_second"), std::string::npos);
 }
 
+// render picks the cache sample quality from --spp unless told: round(spp / 32), at least 1.
+TEST_F(Cli, CacheSampleQualityFollowsSppUnlessGiven) {
+  auto quality = [&](const std::string& extra) {
+    testing::CliResult r = run("render --out " + (dir_ / "c.png").string() +
+                               " --width 8 --height 6 --gather-rays 1 --light-samples 1 -q "
+                               "--cache vdb --stats-json " + (dir_ / "q.json").string() + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    std::string j = slurp(dir_ / "q.json");
+    std::size_t at = j.find("\"sample_quality\": ");
+    return at == std::string::npos ? -1 : std::atoi(j.c_str() + at + 18);
+  };
+  EXPECT_EQ(quality(" --spp 16"), 1);
+  EXPECT_EQ(quality(" --spp 96"), 3);
+  EXPECT_EQ(quality(" --spp 96 --cache-sample-quality 5"), 5);
+}
+
 TEST_F(Cli, CompareIdenticalImagesIsExact) {
   ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
   testing::CliResult r = run("compare --json " + (dir_ / "a.exr").string() + " " + (dir_ / "a.exr").string());

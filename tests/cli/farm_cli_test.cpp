@@ -36,6 +36,19 @@ TEST_F(FarmCli, PlanRunLocallyEqualsPlainSequenceCallsAndVerifyFindsLostFrames) 
   for (const char* f : {"farm.json", "warm.sbatch", "render.sbatch", "verify.sbatch",
                         "commands.sh"})
     EXPECT_TRUE(fs::exists(dir_ / "work" / f)) << f;
+  // The warm pass renders 1 lens sample, the frames 2, but both must make cache samples of the
+  // same quality (the cache file records it): every job gets it explicitly, once.
+  std::string commands = slurp(dir_ / "work" / "commands.sh");
+  std::size_t lines = 0, with_quality = 0;
+  for (std::size_t at = 0; (at = commands.find(" sequence ", at)) != std::string::npos; ++at) {
+    std::string line = commands.substr(at, commands.find('\n', at) - at);
+    ++lines;
+    if (line.find("--cache-sample-quality 1") != std::string::npos &&
+        line.find("--cache-sample-quality") == line.rfind("--cache-sample-quality"))
+      ++with_quality;
+  }
+  EXPECT_EQ(lines, 3u) << commands;  // warm + 2 chunks
+  EXPECT_EQ(with_quality, lines) << commands;
 
   auto before = run("farm verify " + path("work"));
   expect_one_line_error(before, "3 of 3 frames missing or incomplete: 0-2 (chunks 0-1)", 1);
