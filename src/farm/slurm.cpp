@@ -125,6 +125,10 @@ Submission submit(const FarmPlan& plan, const SubmitOptions& options,
     sub.sbatch_calls.push_back(argv);
     CommandResult r = runner(argv);
     // With --wait, sbatch exits with the job's exit code once it has printed the id.
+    if (r.exit_code == 127 && r.out.empty())
+      throw Error("sbatch failed: " + one_line(r.err) +
+                  " (is Slurm's client installed here? --sbatch names the program; without "
+                  "Slurm, " + plan.commands_file() + " runs the same jobs in order)");
     if (r.exit_code != 0 && !(waits && !r.out.empty()))
       throw Error("sbatch failed (exit " + std::to_string(r.exit_code) + "): " +
                   one_line(r.err.empty() ? r.out : r.err));
