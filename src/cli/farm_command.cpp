@@ -57,27 +57,10 @@ SequenceOptions parse_sequence_args(std::vector<std::string> args) {
   return o;
 }
 
-// `args` without the option `name` and its value ("--name V" or "--name=V").
-std::vector<std::string> strip_option(const std::vector<std::string>& args,
-                                      const std::string& name) {
-  std::vector<std::string> out;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == name) {
-      ++i;
-      continue;
-    }
-    if (args[i].rfind(name + "=", 0) == 0) continue;
-    out.push_back(args[i]);
-  }
-  return out;
-}
-
 int run_plan(FarmOptions& f) {
   std::vector<std::string> args = f.plan->remaining();
   for (const std::string& r : farm::reserved_sequence_options())
-    if (r != "--frames" && std::any_of(args.begin(), args.end(), [&](const std::string& a) {
-          return a == r || a.rfind(r + "=", 0) == 0;
-        }))
+    if (r != "--frames" && farm::has_option(args, r))
       throw Error(r + " is set by the plan for each job; leave it out of the sequence options");
   SequenceOptions so = parse_sequence_args(args);
   PreparedSequence seq = prepare_sequence(so);  // validates scene, path, lens and settings
@@ -86,11 +69,11 @@ int run_plan(FarmOptions& f) {
   s.dofcache = f.dofcache.empty() ? self_executable() : absolute(f.dofcache);
   s.work_dir = absolute(f.work_dir);
   s.run_dir = fs::current_path().string();
-  s.sequence_args = strip_option(args, "--frames");
+  s.sequence_args = farm::without_option(args, "--frames", true);
   if (seq.settings.cache_mode != sequence::CacheMode::None) {
     // The warm pass renders fewer lens samples than the frames, but its cache must have the
     // frames' sample quality (cache files record it), so every job gets it explicitly.
-    s.sequence_args = strip_option(s.sequence_args, "--cache-sample-quality");
+    s.sequence_args = farm::without_option(s.sequence_args, "--cache-sample-quality", true);
     s.sequence_args.insert(s.sequence_args.end(),
                            {"--cache-sample-quality",
                             std::to_string(seq.settings.render.cache.sample_quality)});

@@ -23,7 +23,26 @@ bool is_option(const std::string& arg, const std::string& name) {
   return arg == name || arg.rfind(name + "=", 0) == 0;
 }
 
-// argv without the option `name` and its value (which follows unless given as name=value).
+// "chunk-007.vdb": the index zero-padded to 3 digits, or as many as the last chunk's needs.
+std::string chunk_file_name(int index, int count, const char* ext) {
+  int digits = std::max(3, static_cast<int>(std::to_string(std::max(count - 1, 0)).size()));
+  return fmt::format("chunk-{:0{}d}{}", index, digits, ext);
+}
+
+void write_text(const std::string& path, const std::string& text, bool executable) {
+  image::write_atomically(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.close();
+    if (!out) throw Error("cannot write '" + path + "'");
+    if (executable)
+      fs::permissions(tmp, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                      fs::perm_options::add);
+  });
+}
+
+}  // namespace
+
 std::vector<std::string> without_option(const std::vector<std::string>& argv,
                                         const std::string& name, bool takes_value) {
   std::vector<std::string> out;
@@ -41,25 +60,6 @@ bool has_option(const std::vector<std::string>& argv, const std::string& name) {
   return std::any_of(argv.begin(), argv.end(),
                      [&](const std::string& a) { return is_option(a, name); });
 }
-
-std::string pad(int index, int count) {
-  int digits = std::max(3, static_cast<int>(std::to_string(std::max(count - 1, 0)).size()));
-  return fmt::format("{:0{}d}", index, digits);
-}
-
-void write_text(const std::string& path, const std::string& text, bool executable) {
-  image::write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) throw Error("cannot write '" + path + "'");
-    if (executable)
-      fs::permissions(tmp, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
-                      fs::perm_options::add);
-  });
-}
-
-}  // namespace
 
 const std::vector<std::string>& reserved_sequence_options() {
   static const std::vector<std::string> names = {"--frames",     "--frame-step", "--cache-in",
@@ -131,14 +131,13 @@ std::string FarmPlan::commands_file() const {
 }
 std::string FarmPlan::log_dir() const { return (fs::path(settings_.work_dir) / "logs").string(); }
 std::string FarmPlan::checkpoint_file(const Chunk& c) const {
-  return (fs::path(settings_.work_dir) / "checkpoints" /
-          ("chunk-" + pad(c.index, static_cast<int>(chunks_.size())) + ".vdb"))
+  const int n = static_cast<int>(chunks_.size());
+  return (fs::path(settings_.work_dir) / "checkpoints" / chunk_file_name(c.index, n, ".vdb"))
       .string();
 }
 std::string FarmPlan::stats_file(const Chunk& c) const {
-  return (fs::path(settings_.work_dir) / "stats" /
-          ("chunk-" + pad(c.index, static_cast<int>(chunks_.size())) + ".json"))
-      .string();
+  const int n = static_cast<int>(chunks_.size());
+  return (fs::path(settings_.work_dir) / "stats" / chunk_file_name(c.index, n, ".json")).string();
 }
 
 std::vector<std::string> FarmPlan::warm_command() const {

@@ -55,6 +55,12 @@ struct FarmSettings {
   void validate() const;  // throws dofcache::Error
 };
 
+// Command lines as argument vectors: `argv` without the option `name` (and, if `takes_value`, its
+// value, the next argument unless written "name=value"); whether `argv` holds the option.
+std::vector<std::string> without_option(const std::vector<std::string>& argv,
+                                        const std::string& name, bool takes_value);
+bool has_option(const std::vector<std::string>& argv, const std::string& name);
+
 // Options of `dofcache sequence` that the plan sets itself, so the sequence command line must not.
 const std::vector<std::string>& reserved_sequence_options();
 
