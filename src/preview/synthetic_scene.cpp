@@ -67,13 +67,19 @@ std::vector<RevealedLayer> SyntheticScene::revealed_layers(
   return out;
 }
 
+lens::LensImaging demo_imaging(int y_resolution) {
+  lens::LensImaging im;
+  im.lens = lens::ThinLens{0.05, 1.4, 3.0};
+  im.yfov = 0.6;
+  im.y_resolution = y_resolution;
+  return im;
+}
+
 SyntheticScene make_demo_scene(int width, int height) {
   SyntheticScene s;
   s.width = width;
   s.height = height;
-  s.imaging.lens = lens::ThinLens{0.05, 1.4, 3.0};
-  s.imaging.yfov = 0.6;
-  s.imaging.y_resolution = height;
+  s.imaging = demo_imaging(height);
   auto X = [&](double f) { return static_cast<int>(std::lround(f * width)); };
   auto Y = [&](double f) { return static_cast<int>(std::lround(f * height)); };
   const int cell = std::max(2, height / 30);

@@ -1,5 +1,6 @@
 // The single-layer baselines (baselines.h): gather's bleeding guard, scatter's depth order.
 #include "dofcache/preview/baselines.h"
+#include "dofcache/preview/synthetic_scene.h"
 
 #include <gtest/gtest.h>
 
@@ -11,13 +12,7 @@ namespace {
 
 constexpr int kW = 96, kH = 80;
 
-lens::LensImaging test_imaging() {
-  lens::LensImaging im;
-  im.lens = lens::ThinLens{0.05, 1.4, 3.0};
-  im.yfov = 0.6;
-  im.y_resolution = 480;
-  return im;
-}
+lens::LensImaging test_imaging() { return demo_imaging(480); }
 
 bool in_square(int x, int y) { return x >= 36 && x < 60 && y >= 28 && y < 52; }
 

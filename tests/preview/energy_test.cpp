@@ -57,10 +57,7 @@ TEST(Energy, BlurredConstantImageStaysConstant) {
 
 TEST(Energy, TinyAndOddSizes) {
   const float rgb[3] = {0.25f, 0.5f, 1.5f};
-  lens::LensImaging im;
-  im.lens = lens::ThinLens{0.05, 1.4, 3.0};
-  im.yfov = 0.6;
-  im.y_resolution = 480;
+  const lens::LensImaging im = demo_imaging(480);
   const float depths[] = {0.6f, 1.1f, 3.0f, 7.0f, std::numeric_limits<float>::infinity()};
   for (auto [w, h] : {std::pair{1, 1}, {1, 7}, {7, 1}, {2, 2}, {3, 5}, {17, 9}, {33, 31}}) {
     PreviewInputs in;

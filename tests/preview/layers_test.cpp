@@ -1,6 +1,7 @@
 // Layer planning and matting (layers.h): the CoC map, the layer rule, and the partition of unity
 // of the composited mattes.
 #include "dofcache/preview/layers.h"
+#include "dofcache/preview/synthetic_scene.h"
 
 #include <gtest/gtest.h>
 
@@ -10,13 +11,7 @@
 namespace dofcache::preview {
 namespace {
 
-lens::LensImaging test_imaging() {
-  lens::LensImaging im;
-  im.lens = lens::ThinLens{0.05, 1.4, 3.0};
-  im.yfov = 0.6;
-  im.y_resolution = 480;
-  return im;
-}
+lens::LensImaging test_imaging() { return demo_imaging(480); }
 
 TEST(CocMap, MatchesTheThinLensInPixels) {
   lens::LensImaging im = test_imaging();

@@ -22,9 +22,7 @@ bool in_square(int x, int y) { return x >= kLo && x < kHi && y >= kLo && y < kHi
 SyntheticScene make_scene() {
   SyntheticScene s;
   s.width = s.height = kSize;
-  s.imaging.lens = lens::ThinLens{0.05, 1.4, 3.0};
-  s.imaging.yfov = 0.6;
-  s.imaging.y_resolution = 480;
+  s.imaging = demo_imaging(480);
   const double square_depth = s.imaging.depth_for_signed_coc(-2.0 * kRadius);
   // A red square, a green patch hidden behind it, a grey background.
   s.rects.push_back(flat_rect(kLo, kLo, kHi, kHi, square_depth, 2, 1.0f, 0.0f, 0.0f));

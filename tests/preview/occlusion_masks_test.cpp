@@ -7,6 +7,7 @@
 
 #include "dofcache/core/error.h"
 #include "dofcache/preview/occlusion.h"
+#include "dofcache/preview/synthetic_scene.h"
 
 namespace dofcache::preview {
 namespace {
@@ -19,9 +20,7 @@ bool in_square(int x, int y, int lo, int hi) { return x >= lo && x < hi && y >= 
 class OcclusionMasks : public ::testing::Test {
  protected:
   void SetUp() override {
-    imaging.lens = lens::ThinLens{0.05, 1.4, 3.0};
-    imaging.yfov = 0.6;
-    imaging.y_resolution = 480;  // k = c(inf) is about 9.3 px ...
+    imaging = demo_imaging(480);  // k = c(inf) is about 9.3 px ...
     options.max_coc_radius = 4;  // ... clamped to 8: the background's CoC is 8
     options.layer_count = 5;
     plan = plan_layers_for_range(-8.0, 8.0, imaging, options);  // anchors -8, -4, 0, 4, 8

@@ -23,9 +23,7 @@ constexpr double kRadius = 2.5;                // its CoC radius
 SyntheticScene make_scene(float square, float background, float patch) {
   SyntheticScene s;
   s.width = s.height = kSize;
-  s.imaging.lens = lens::ThinLens{0.05, 1.4, 3.0};
-  s.imaging.yfov = 0.6;
-  s.imaging.y_resolution = 480;
+  s.imaging = demo_imaging(480);
   const double depth = s.imaging.depth_for_signed_coc(-2.0 * kRadius);
   s.rects.push_back(flat_rect(kLo, kLo, kHi, kHi, depth, 2, square, 0.0f, 0.0f));
   s.rects.push_back(flat_rect(kLo, kLo, kHi, kHi, 3.01, 1, 0.0f, patch, 0.0f));

@@ -1,5 +1,6 @@
 #pragma once
 // Small scenes built in code for render tests (independent of the glTF loader).
+#include <array>
 #include <cmath>
 
 #include <glm/geometric.hpp>
@@ -9,14 +10,13 @@
 
 namespace dofcache::testing {
 
-// Adds an axis-aligned quad in the plane z = `z` (world), facing +Z (towards a camera at +Z).
-inline void add_quad_z(scene::Scene& s, float x0, float x1, float y0, float y1, float z,
-                       std::uint32_t material, std::uint32_t object) {
+// Adds the quad with these corners, in order, as two triangles (0 1 2, 0 2 3) with one normal.
+inline void add_quad(scene::Scene& s, const std::array<glm::vec3, 4>& corners, glm::vec3 normal,
+                     std::uint32_t material, std::uint32_t object) {
   auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
-  for (glm::vec3 p : {glm::vec3(x0, y0, z), glm::vec3(x1, y0, z), glm::vec3(x1, y1, z),
-                      glm::vec3(x0, y1, z)}) {
+  for (glm::vec3 p : corners) {
     s.mesh.positions.push_back(p);
-    s.mesh.normals.push_back({0.0f, 0.0f, 1.0f});
+    s.mesh.normals.push_back(normal);
     s.bounds.extend(p);
   }
   s.mesh.triangles.push_back({base, base + 1, base + 2});
@@ -27,23 +27,21 @@ inline void add_quad_z(scene::Scene& s, float x0, float x1, float y0, float y1, 
   }
 }
 
+// Adds an axis-aligned quad in the plane z = `z` (world), facing +Z (towards a camera at +Z).
+inline void add_quad_z(scene::Scene& s, float x0, float x1, float y0, float y1, float z,
+                       std::uint32_t material, std::uint32_t object) {
+  add_quad(s, {glm::vec3(x0, y0, z), glm::vec3(x1, y0, z), glm::vec3(x1, y1, z),
+               glm::vec3(x0, y1, z)},
+           {0.0f, 0.0f, 1.0f}, material, object);
+}
+
 // Adds a horizontal-ish light panel at height y0..y1, x in [-1, 1], plane z = `z`, facing -Z
 // (away from a camera at the origin, towards the scene behind it).
 inline void add_light_facing_away(scene::Scene& s, float y0, float y1, float z,
                                   std::uint32_t material, std::uint32_t object) {
-  auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
-  for (glm::vec3 p : {glm::vec3(-1, y0, z), glm::vec3(-1, y1, z), glm::vec3(1, y1, z),
-                      glm::vec3(1, y0, z)}) {
-    s.mesh.positions.push_back(p);
-    s.mesh.normals.push_back({0, 0, -1});
-    s.bounds.extend(p);
-  }
-  s.mesh.triangles.push_back({base, base + 1, base + 2});
-  s.mesh.triangles.push_back({base, base + 2, base + 3});
-  for (int i = 0; i < 2; ++i) {
-    s.mesh.triangle_material.push_back(material);
-    s.mesh.triangle_object.push_back(object);
-  }
+  add_quad(s, {glm::vec3(-1, y0, z), glm::vec3(-1, y1, z), glm::vec3(1, y1, z),
+               glm::vec3(1, y0, z)},
+           {0.0f, 0.0f, -1.0f}, material, object);
 }
 
 inline scene::Material emissive_material(glm::vec3 radiance) {

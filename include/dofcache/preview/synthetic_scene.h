@@ -50,8 +50,12 @@ struct SyntheticScene {
                                              const std::vector<image::Image>& masks) const;
 };
 
+// The synthetic scenes' camera: a 50 mm f/1.4 lens focused at 3 m, vertical field of view 0.6 rad,
+// `y_resolution` pixels high.
+lens::LensImaging demo_imaging(int y_resolution);
+
 // The benchmark scene: a textured backdrop behind the focal plane, a floor of strips receding in
-// depth, objects at and in front of the focal plane. Lens: 50 mm f/2 focused at 4 m, yfov 0.6.
+// depth, objects at and in front of the focal plane, seen through demo_imaging(height).
 SyntheticScene make_demo_scene(int width, int height);
 
 }  // namespace dofcache::preview
