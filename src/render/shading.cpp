@@ -58,7 +58,7 @@ float smith_g1(float n_x, float alpha) {
   return 2.0f * n_x / (n_x + std::sqrt(a2 + (1.0f - a2) * n_x * n_x));
 }
 
-float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
+using scene::luminance;
 
 // KHR_lights_punctual attenuation: inverse square, windowed by `range`, spot cone falloff.
 float punctual_attenuation(const scene::PunctualLight& light, glm::vec3 to_light, float distance) {
@@ -95,7 +95,7 @@ void ShadingSettings::validate() const {
 
 Shader::Shader(const scene::Scene& scene, const scene::Accel& accel,
                const ShadingSettings& settings)
-    : scene_(scene), accel_(accel), settings_(settings) {
+    : scene_(scene), accel_(accel), settings_(settings), light_sampler_(scene) {
   float extent = std::max(glm::length(scene.bounds.lower), glm::length(scene.bounds.upper));
   epsilon_ = 1e-4f * std::max(1.0f, extent);
   triangle_emitter_.assign(scene.mesh.triangles.size(), -1);
@@ -117,11 +117,12 @@ bool Shader::direction_to(const scene::PunctualLight& light, glm::vec3 x, glm::v
   return true;
 }
 
-float Shader::emitter_pdf(std::uint32_t triangle, glm::vec3 wi, float distance) const {
+float Shader::emitter_pdf(const ShadingPoint& p, std::uint32_t triangle, glm::vec3 wi,
+                          float distance) const {
   int e = triangle_emitter_[triangle];
   if (e < 0) return 0.0f;
   const scene::Emitter& em = scene_.emitters[static_cast<std::size_t>(e)];
-  float pick = scene_.emitter_cdf[e] - (e > 0 ? scene_.emitter_cdf[e - 1] : 0.0f);
+  float pick = light_sampler_.probability(p.surface.position, p.n, static_cast<std::size_t>(e));
   const glm::uvec3 tri = scene_.mesh.triangles[triangle];
   const auto& P = scene_.mesh.positions;
   glm::vec3 nl = glm::normalize(glm::cross(P[tri.y] - P[tri.x], P[tri.z] - P[tri.x]));
@@ -163,9 +164,15 @@ bool Shader::visible(glm::vec3 from, glm::vec3 normal, glm::vec3 to_dir, float d
   ++counters.rays;
   scene::Ray shadow;
   shadow.origin = from + normal * epsilon_;
-  shadow.direction = to_dir;
+  // Aim from the offset origin at the light point itself. Along to_dir the ray would end
+  // epsilon (1 / cos - 1) beyond the light's surface for a light seen at angle acos(cos) off the
+  // normal, so near or grazing area lights shadowed themselves.
+  const glm::vec3 d = from + to_dir * distance - shadow.origin;
+  const float length = glm::length(d);
+  if (!(length > 0.0f)) return true;
+  shadow.direction = d / length;
   shadow.tnear = 0.0f;
-  shadow.tfar = distance * (1.0f - 1e-4f) - epsilon_;
+  shadow.tfar = length * (1.0f - 1e-4f) - epsilon_;
   if (shadow.tfar <= 0.0f) return true;
   return !accel_.occluded(shadow);
 }
@@ -174,12 +181,13 @@ glm::vec3 Shader::direct_light(const ShadingPoint& p, int samples, std::uint64_t
                                RayCounters& counters) const {
   glm::vec3 sum(0.0f);
   const glm::vec3 x = p.surface.position;
-  // Area lights: stratified points on power-sampled emissive triangles.
+  // Area lights: stratified points on emissive triangles chosen by the light sampler.
   if (!scene_.emitters.empty() && samples > 0) {
     glm::vec3 area_sum(0.0f);
     for (int k = 0; k < samples; ++k) {
       float pick;
-      std::size_t e = scene_.sample_emitter(rng.uniform(), &pick);
+      std::size_t e;
+      if (!light_sampler_.sample(x, p.n, rng.uniform(), &e, &pick)) continue;
       const scene::Emitter& em = scene_.emitters[e];
       glm::vec2 u = sobol_2d(static_cast<std::uint32_t>(k), key);
       float su = std::sqrt(u.x);
@@ -300,29 +308,31 @@ glm::vec3 Shader::specular(const ShadingPoint& p, Rng& rng, RayCounters& counter
   auto brdf_pdf = [&](float n_h, float v_h) { return ggx_d(n_h, alpha) * n_h / (4.0f * v_h); };
   auto power = [](float a, float b) { return a * a / (a * a + b * b); };
   if (!scene_.emitters.empty()) {
-    float pick;
-    std::size_t e = scene_.sample_emitter(rng.uniform(), &pick);
-    const scene::Emitter& em = scene_.emitters[e];
+    float pick, u_light = rng.uniform();
     float su = std::sqrt(rng.uniform()), v = rng.uniform();
-    float b1 = 1.0f - su, b2 = v * su;
-    const glm::uvec3 tri = scene_.mesh.triangles[em.triangle];
-    const auto& P = scene_.mesh.positions;
-    glm::vec3 q = b1 * P[tri.x] + b2 * P[tri.y] + (1.0f - b1 - b2) * P[tri.z];
-    glm::vec3 d = q - p.surface.position;
-    float dist = glm::length(d);
-    glm::vec3 wi = d / std::max(dist, 1e-20f);
-    float n_l = glm::dot(p.n, wi);
-    float pdf_light = dist > 0.0f ? emitter_pdf(em.triangle, wi, dist) : 0.0f;
-    bool faces = scene_.materials[scene_.mesh.triangle_material[em.triangle]].double_sided ||
-                 glm::dot(glm::cross(P[tri.y] - P[tri.x], P[tri.z] - P[tri.x]), wi) < 0.0f;
-    if (n_l > 0.0f && pdf_light > 0.0f && faces && glm::dot(p.ng, wi) > 0.0f) {
-      glm::vec3 h = glm::normalize(wi + p.wo);
-      float n_h = std::max(glm::dot(p.n, h), 1e-6f), v_h = std::max(glm::dot(p.wo, h), 1e-6f);
-      float d_h = ggx_d(n_h, alpha);
-      glm::vec3 f = fresnel_schlick(f0, v_h) *
-                    (d_h * smith_g1(n_v, alpha) * smith_g1(n_l, alpha) / (4.0f * n_v * n_l));
-      if (luminance(f) > 0.0f && visible(p.surface.position, p.ng, wi, dist, counters))
-        result += f * em.radiance * (n_l / pdf_light) * power(pdf_light, brdf_pdf(n_h, v_h));
+    std::size_t e;
+    if (light_sampler_.sample(p.surface.position, p.n, u_light, &e, &pick)) {
+      const scene::Emitter& em = scene_.emitters[e];
+      float b1 = 1.0f - su, b2 = v * su;
+      const glm::uvec3 tri = scene_.mesh.triangles[em.triangle];
+      const auto& P = scene_.mesh.positions;
+      glm::vec3 q = b1 * P[tri.x] + b2 * P[tri.y] + (1.0f - b1 - b2) * P[tri.z];
+      glm::vec3 d = q - p.surface.position;
+      float dist = glm::length(d);
+      glm::vec3 wi = d / std::max(dist, 1e-20f);
+      float n_l = glm::dot(p.n, wi);
+      float pdf_light = dist > 0.0f ? emitter_pdf(p, em.triangle, wi, dist) : 0.0f;
+      bool faces = scene_.materials[scene_.mesh.triangle_material[em.triangle]].double_sided ||
+                   glm::dot(glm::cross(P[tri.y] - P[tri.x], P[tri.z] - P[tri.x]), wi) < 0.0f;
+      if (n_l > 0.0f && pdf_light > 0.0f && faces && glm::dot(p.ng, wi) > 0.0f) {
+        glm::vec3 h = glm::normalize(wi + p.wo);
+        float n_h = std::max(glm::dot(p.n, h), 1e-6f), v_h = std::max(glm::dot(p.wo, h), 1e-6f);
+        float d_h = ggx_d(n_h, alpha);
+        glm::vec3 f = fresnel_schlick(f0, v_h) *
+                      (d_h * smith_g1(n_v, alpha) * smith_g1(n_l, alpha) / (4.0f * n_v * n_l));
+        if (luminance(f) > 0.0f && visible(p.surface.position, p.ng, wi, dist, counters))
+          result += f * em.radiance * (n_l / pdf_light) * power(pdf_light, brdf_pdf(n_h, v_h));
+      }
     }
   }
 
@@ -353,7 +363,7 @@ glm::vec3 Shader::specular(const ShadingPoint& p, Rng& rng, RayCounters& counter
   ShadingPoint q = prepare(ray, hit);
   glm::vec3 le = emitted(q);
   if (le.x + le.y + le.z > 0.0f) {
-    float pdf_light = emitter_pdf(hit.triangle, wi, hit.t);
+    float pdf_light = emitter_pdf(p, hit.triangle, wi, hit.t);
     le *= power(brdf_pdf(cos_h, v_h), pdf_light);
   }
   // Seen in a reflection, diffuse light comes from the cache if it has it, else from an estimate

@@ -22,6 +22,11 @@
 
 namespace dofcache::render {
 
+// Revision of the estimators: raised whenever a change makes images differ for the same seed, so
+// that images kept between runs (the benchmarks' converged references) are recomputed. 2: light
+// choice by distance (LightSampler) and shadow rays aimed at the light point.
+constexpr int kEstimatorRevision = 2;
+
 enum class Mode { Pinhole, Drt, Accumulation };
 Mode parse_mode(const std::string& name);  // throws dofcache::Error listing the valid names
 const char* mode_name(Mode mode);

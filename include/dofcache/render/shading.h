@@ -12,6 +12,7 @@
 #include <glm/vec3.hpp>
 
 #include "dofcache/core/rng.h"
+#include "dofcache/render/light_sampler.h"
 #include "dofcache/scene/accel.h"
 #include "dofcache/scene/scene.h"
 
@@ -90,15 +91,17 @@ class Shader {
   // Unit direction from x towards a punctual light and its distance (false if x is on it).
   bool direction_to(const scene::PunctualLight& light, glm::vec3 x, glm::vec3* wi,
                     float* distance) const;
-  // Solid-angle density with which direct_light's emitter sampling picks direction `wi` reaching
-  // emitter triangle `triangle` at distance `distance` (for multiple importance sampling).
-  float emitter_pdf(std::uint32_t triangle, glm::vec3 wi, float distance) const;
+  // Solid-angle density with which light sampling at `p` picks direction `wi` reaching emitter
+  // triangle `triangle` at distance `distance` (for multiple importance sampling).
+  float emitter_pdf(const ShadingPoint& p, std::uint32_t triangle, glm::vec3 wi,
+                    float distance) const;
 
   std::vector<int> triangle_emitter_;  // emitter index of each triangle, -1 if it emits nothing
 
   const scene::Scene& scene_;
   const scene::Accel& accel_;
   ShadingSettings settings_;
+  LightSampler light_sampler_;
   float epsilon_;  // ray offset, relative to the scene size
 };
 

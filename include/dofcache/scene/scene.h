@@ -82,6 +82,9 @@ struct PunctualLight {  // KHR_lights_punctual, in world space
   float inner_cone = 0.0f, outer_cone = 0.78539816f;
 };
 
+// Rec. 709 luminance of a linear RGB colour: the power weight of emitters.
+inline float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
+
 struct Emitter {  // one emissive triangle, an area light
   std::uint32_t triangle = 0;
   float area = 0.0f;
