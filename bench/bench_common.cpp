@@ -1,11 +1,13 @@
 #include "bench_common.h"
 
+#include <benchmark/benchmark.h>
 #include <fmt/format.h>
 #include <sys/utsname.h>
 #include <tbb/info.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -14,6 +16,7 @@
 #include <fstream>
 #include <iostream>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -212,9 +215,20 @@ std::string rows_to_csv(const json& rows, const std::vector<std::string>& column
   return csv;
 }
 
+std::string results_name_problem(const std::string& name) {
+  if (name.empty()) return "the results name is empty";
+  if (name.size() > 100) return "the results name is longer than 100 characters";
+  // A leading '.' would hide the files (or be "." / ".."); a leading '-' reads as a flag.
+  if (name[0] == '.' || name[0] == '-')
+    return "the results name '" + name + "' starts with '" + name[0] + "'";
+  for (char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '.' && c != '-')
+      return "the results name '" + name + "' has a character other than A-Z a-z 0-9 _ . -";
+  return {};
+}
+
 std::string write_results(const std::string& name, const json& results) {
-  if (name.empty() || name.find('/') != std::string::npos)
-    throw Error("invalid results name '" + name + "'");
+  if (std::string problem = results_name_problem(name); !problem.empty()) throw Error(problem);
   const fs::path dir = results_dir();
   const std::string json_path = (dir / (name + ".json")).string();
   json doc = {{"machine", machine_description()}, {"results", results}};
@@ -232,6 +246,169 @@ std::string write_results(const std::string& name, const json& results) {
       std::cerr << name << ": results[\"rows\"] is not an array of flat objects; no CSV written\n";
   }
   return json_path;
+}
+
+namespace {
+
+// Parses as the widest type of its kind, so that an int too large to store reads as out of range.
+template <class Wide>
+CLI::Validator range_validator(Wide min, Wide max, const char* kind, const char* what) {
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        Wide value{};
+        if (!CLI::detail::lexical_cast(text, value))
+          return fmt::format("'{}' is not {} (expected {} to {})", text, what, min, max);
+        if (value < min || value > max)
+          return fmt::format("{} is out of range (expected {} to {})", text, min, max);
+        return {};
+      },
+      fmt::format("{} in [{} - {}]", kind, min, max), "range");
+}
+
+// One line for every parse error, as the dofcache CLI prints them.
+void set_failure_message(CLI::App& app) {
+  app.failure_message([](const CLI::App* a, const CLI::Error& e) {
+    return a->get_name() + ": error: " + e.what() + " (see --help)\n";
+  });
+}
+
+// Shows each option's default in --help: what its variable holds before parsing.
+void capture_defaults(CLI::App& app) {
+  for (CLI::Option* opt : app.get_options())
+    if (opt->get_default_str().empty()) opt->capture_default_str();
+}
+
+[[noreturn]] void usage_error(const std::string& program, const std::string& message) {
+  std::fprintf(stderr, "%s: error: %s (see --help)\n", program.c_str(), message.c_str());
+  std::exit(2);
+}
+
+// What Google Benchmark was given; it keeps pointers into these for the whole run.
+std::string g_program;
+std::vector<std::string> g_benchmark_args;
+std::vector<char*> g_benchmark_argv;
+
+// Google Benchmark calls this, then exit(0), for a flag value it rejects (e.g.
+// --benchmark_format=xml): made a usage error like the others.
+void benchmark_rejected() {
+  std::string given;
+  for (size_t i = 1; i < g_benchmark_args.size(); ++i) given += " " + g_benchmark_args[i];
+  usage_error(g_program, "Google Benchmark rejected a flag value, given:" + given);
+}
+
+}  // namespace
+
+CLI::Validator in_range(int min, int max) {
+  return range_validator<long long>(min, max, "INT", "an integer");
+}
+
+CLI::Validator in_range(double min, double max) {
+  return range_validator(min, max, "FLOAT", "a number");
+}
+
+void add_common_options(CLI::App& app, int& width, int& threads, std::string& results) {
+  app.add_option("--width", width, "Image width in pixels (the height follows the camera)")
+      ->check(in_range(1, 16384));
+  app.add_option("--threads", threads, "Render threads (0: all cores)")->check(in_range(0, 4096));
+  add_results_option(app, results);
+}
+
+CLI::Option* add_results_option(CLI::App& app, std::string& results) {
+  return app
+      .add_option("--results", results,
+                  "Results name: writes NAME.json and NAME.csv to bench/results/ (or to "
+                  "$DOFCACHE_BENCH_RESULTS); letters, digits, '_', '.', '-'")
+      ->type_name("NAME")
+      ->check(CLI::Validator([](std::string& name) { return results_name_problem(name); }, "",
+                             "results name"));
+}
+
+CLI::Option* add_count_option(CLI::App& app, const std::string& name, int& value,
+                              const std::string& help, int minimum) {
+  return app.add_option(name, value, help)->check(in_range(minimum, 1 << 20));
+}
+
+std::string scene_path(const std::string& file) {
+  return std::string(DOFCACHE_SOURCE_DIR) + "/scenes/" + file;
+}
+
+CLI::Option* add_scene_option(CLI::App& app, std::vector<std::string>& scenes) {
+  auto in_scenes_dir = [](std::string& file) -> std::string {
+    if (fs::is_regular_file(scene_path(file))) return {};
+    return "no scene file '" + file + "' in " + DOFCACHE_SOURCE_DIR + "/scenes";
+  };
+  return app
+      .add_option("--scene", scenes,
+                  "A scene file in scenes/ (repeat for several); replaces the default list")
+      ->type_name("FILE")
+      ->check(CLI::Validator(in_scenes_dir, "", "scene file"));
+}
+
+void parse_command_line(CLI::App& app, int argc, char** argv) {
+  set_failure_message(app);
+  capture_defaults(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    std::exit(app.exit(e) == 0 ? 0 : 2);  // help, or the one-line error
+  }
+}
+
+void parse_benchmark_command_line(CLI::App& app, int argc, char** argv) {
+  set_failure_message(app);
+  capture_defaults(app);
+  // Google Benchmark reads its own flags; CLI11 only has to let them through.
+  app.allow_extras();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    app.exit(e);
+    std::printf("Google Benchmark flags (--benchmark_NAME=VALUE, passed through):\n");
+    benchmark::PrintDefaultHelp();
+    std::exit(0);
+  } catch (const CLI::ParseError& e) {
+    std::exit(app.exit(e) == 0 ? 0 : 2);
+  }
+  g_program = app.get_name();
+  g_benchmark_args = {argv[0]};
+  for (const std::string& extra : app.remaining()) {
+    if (extra.rfind("--benchmark_", 0) != 0 && extra.rfind("--v=", 0) != 0) {
+      // "--benchmark_filter lookup": Google Benchmark reads no value after a space.
+      const std::string& previous = g_benchmark_args.back();
+      const bool value_of_previous = g_benchmark_args.size() > 1 &&
+                                     previous.find('=') == std::string::npos;
+      usage_error(g_program, "unknown argument '" + extra + "'" +
+                                 (value_of_previous ? " (write " + previous + "=" + extra + ")"
+                                                    : ""));
+    }
+    g_benchmark_args.push_back(extra);
+  }
+  for (std::string& a : g_benchmark_args) g_benchmark_argv.push_back(a.data());
+  g_benchmark_argv.push_back(nullptr);
+  int count = static_cast<int>(g_benchmark_args.size());
+  // Google Benchmark explains a malformed value on std::cerr; caught to make it the one line.
+  std::ostringstream complaint;
+  std::streambuf* cerr_buffer = std::cerr.rdbuf(complaint.rdbuf());
+  benchmark::Initialize(&count, g_benchmark_argv.data(), benchmark_rejected);
+  std::cerr.rdbuf(cerr_buffer);
+  std::string said = trim(complaint.str());
+  // What it left in argv is what it did not accept: an unknown flag or a malformed value.
+  if (count > 1) {
+    if (said.empty() || said.find('\n') != std::string::npos)
+      said = "Google Benchmark did not accept '" + std::string(g_benchmark_argv[1]) + "'";
+    usage_error(g_program, said);
+  }
+  if (!said.empty()) std::cerr << said << '\n';
+}
+
+int run_guarded(const CLI::App& app, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const std::exception& e) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "%s: error: %s\n", app.get_name().c_str(), e.what());
+    return 1;
+  }
 }
 
 Table::Table(std::vector<std::string> header, int default_precision)
@@ -321,7 +498,9 @@ json Table::to_json() const {
 image::Image cached_reference(const std::string& key, const std::function<image::Image()>& render) {
   std::filesystem::path dir = std::filesystem::path(results_dir()) / "references";
   std::filesystem::create_directories(dir);
-  std::filesystem::path file = dir / (key + ".exr");
+  // The estimator revision is part of the name: a reference from older code is never reused.
+  std::filesystem::path file =
+      dir / (key + "_r" + std::to_string(render::kEstimatorRevision) + ".exr");
   if (std::filesystem::exists(file)) return image::read_image(file.string());
   std::fprintf(stderr, "rendering reference %s (once; kept in %s)\n", key.c_str(), dir.c_str());
   image::Image img = render();

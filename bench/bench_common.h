@@ -1,7 +1,8 @@
 #pragma once
-// What every benchmark program in bench/ shares: a description of the machine it ran on, where
-// results go, writing them (JSON, plus CSV for tables of rows), and aligned tables on stdout.
-// See bench/README.md for the file format.
+// What every benchmark program in bench/ shares: its command line, a description of the machine it
+// ran on, where results go, writing them (JSON, plus CSV for tables of rows), and aligned tables
+// on stdout. See bench/README.md for the file format.
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -23,12 +24,17 @@ nlohmann::json machine_description();
 // Throws dofcache::Error if it cannot be created.
 std::string results_dir();
 
+// "" if `name` can name a results file, otherwise what is wrong with it. <name>.json and <name>.csv
+// must be plain files inside results_dir(), so a name is 1 to 100 of [A-Za-z0-9_.-] and does not
+// start with '.' or '-'.
+std::string results_name_problem(const std::string& name);
+
 // Writes <results_dir>/<name>.json as {"machine": machine_description(), "results": results}.
 // If results["rows"] is an array of flat objects (values are strings, numbers, booleans or null),
 // also writes <name>.csv with one column per key. nlohmann::json sorts object keys, so the column
 // order comes from results["columns"] (an array of key names, e.g. Table::header()) when present;
 // keys it does not list follow in sorted order. Both files are written atomically. Returns the
-// JSON file's path. Throws dofcache::Error on failure.
+// JSON file's path. Throws dofcache::Error on failure, or if results_name_problem(name) is not "".
 std::string write_results(const std::string& name, const nlohmann::json& results);
 
 // A converged reference image, rendered once per machine: <results_dir>/references/<key>.exr if it
@@ -47,6 +53,51 @@ image::Image converged_reference(const std::string& scene_name, const scene::Sce
 // first. Throws dofcache::Error unless `rows` is an array of flat objects.
 std::string rows_to_csv(const nlohmann::json& rows,
                         const std::vector<std::string>& column_order = {});
+
+// --- Command line ----------------------------------------------------------------------------
+// Each program declares its options on a CLI::App, the shared ones through these helpers (one
+// name, range and help text everywhere), then calls parse_command_line or, for Google Benchmark
+// programs, parse_benchmark_command_line. --help shows every option with its default: the value
+// its variable holds before parsing.
+
+// A numeric option's check: min <= value <= max, with an error that says whether the value was
+// out of range or not a number at all (CLI::Range calls both "not in range").
+CLI::Validator in_range(int min, int max);
+CLI::Validator in_range(double min, double max);
+
+// --width W (image width in pixels, 1..16384), --threads T (render threads, 0: all cores) and
+// --results NAME (add_results_option).
+void add_common_options(CLI::App& app, int& width, int& threads, std::string& results);
+
+// --results NAME: write <results_dir>/NAME.{json,csv}; `results` holds the default name. Checked
+// with results_name_problem while parsing, not after the measurements.
+CLI::Option* add_results_option(CLI::App& app, std::string& results);
+
+// An integer option (sample counts, repeats) in minimum..2^20, the range the dofcache CLI allows
+// for --spp.
+CLI::Option* add_count_option(CLI::App& app, const std::string& name, int& value,
+                              const std::string& help, int minimum = 1);
+
+// --scene FILE, repeatable: a file in the source tree's scenes/ directory; `scenes` holds the
+// default list, which the given files replace.
+CLI::Option* add_scene_option(CLI::App& app, std::vector<std::string>& scenes);
+
+// <DOFCACHE_SOURCE_DIR>/scenes/<file>.
+std::string scene_path(const std::string& file);
+
+// Parses argv into the options declared on `app` (named after the program). --help prints the
+// help and exits with status 0; an unknown flag, a value that is not a number, out of range or
+// otherwise invalid prints one line, "<program>: error: ... (see --help)", and exits with 2.
+void parse_command_line(CLI::App& app, int argc, char** argv);
+
+// The same for Google Benchmark programs: its flags (--benchmark_NAME=VALUE, --v=N) go to
+// benchmark::Initialize (--help lists them too); any other unknown argument is an error as above.
+void parse_benchmark_command_line(CLI::App& app, int argc, char** argv);
+
+// Runs a program's work: an exception (a scene that fails to load, a results directory that cannot
+// be written) ends the program with one line, "<program>: error: ...", and exit status 1, instead
+// of std::terminate's abort. Returns body()'s status otherwise.
+int run_guarded(const CLI::App& app, const std::function<int()>& body);
 
 // A table printed with aligned columns: text left-aligned, numbers right-aligned.
 //   Table t({"cache", "time [ms]", "relMSE"}, 3);

@@ -10,9 +10,9 @@
 // All variants run side by side in one process. Writes bench/results/cache_render.{json,csv}.
 //   cache_render_bench [--width W] [--spp N] [--hi-spp N] [--ref-spp N] [--threads T]
 //                      [--sample-quality Q|auto] [--accuracy A] [--max-radius-px R] [--scene NAME]...
+//                      [--results NAME]   (--help for more)
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -36,7 +36,9 @@ struct Options {
   int width = 128, spp = 16, hi_spp = 256, ref_spp = 512, threads = 0;
   int sample_quality = 4;  // 0: render::recommended_sample_quality(spp) of each render
   double accuracy = 0.1, max_radius_px = 8.0;
-  std::vector<std::string> scenes;
+  std::vector<std::string> scenes = {"cornell_box.gltf", "color_bars.gltf", "color_spheres.gltf",
+                                     "glossy_closeup.glb"};
+  std::string results = "cache_render";
 };
 
 struct Run {
@@ -58,7 +60,7 @@ const Options* g_options = nullptr;  // the bench's settings, for run()
 SceneSetup load(const std::string& file, const Options& o) {
   SceneSetup s;
   s.name = fs::path(file).stem().string();
-  s.scene = render::load_scene(std::string(DOFCACHE_SOURCE_DIR) + "/scenes/" + file);
+  s.scene = render::load_scene(bench::scene_path(file));
   s.accel = std::make_unique<scene::Accel>(s.scene);
   const scene::Camera& cam = s.scene.cameras[0];
   s.base.width = o.width;
@@ -122,26 +124,8 @@ double equal_quality_time(const SceneSetup& s, const image::Image& ref, double t
   return -1.0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--width")) o.width = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--spp")) o.spp = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--ref-spp")) o.ref_spp = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--threads")) o.threads = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--hi-spp")) o.hi_spp = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--sample-quality"))
-      o.sample_quality = std::strcmp(argv[i + 1], "auto") ? std::atoi(argv[i + 1]) : 0;
-    else if (!std::strcmp(argv[i], "--accuracy")) o.accuracy = std::atof(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--max-radius-px")) o.max_radius_px = std::atof(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--scene")) o.scenes.push_back(argv[i + 1]);
-  }
+int run_bench(const Options& o) {
   g_options = &o;
-  if (o.scenes.empty())
-    o.scenes = {"cornell_box.gltf", "color_bars.gltf", "color_spheres.gltf", "glossy_closeup.glb"};
-
   bench::Table t41({"scene", "cache", "spp", "time [s]", "speed-up", "relMSE", "PSNR [dB]",
                     "SSIM", "hit rate", "samples", "cache MB"});
   bench::Table teq({"scene", "cache", "spp", "sample quality", "cached time [s]", "cached relMSE",
@@ -218,6 +202,37 @@ int main(int argc, char** argv) {
   results["equal_quality"] = teq.to_json();
   results["min_factor_sweep"] = t42.to_json();
   results["uncached_curves"] = curves;
-  std::printf("\nwrote %s\n", bench::write_results("cache_render", results).c_str());
+  std::printf("\nwrote %s\n", bench::write_results(o.results, results).c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"Radiance cache against uncached DRT on the shipped scenes: the paper's Tables 4.1 "
+               "and 4.2, and the equal-quality speed-up.",
+               "cache_render_bench"};
+  bench::add_common_options(app, o.width, o.threads, o.results);
+  bench::add_count_option(app, "--spp", o.spp, "Lens samples per pixel of the measured renders");
+  bench::add_count_option(app, "--hi-spp", o.hi_spp,
+                          "Lens samples per pixel of the many-samples regime (0: skip it)", 0);
+  bench::add_count_option(app, "--ref-spp", o.ref_spp,
+                          "Lens samples per pixel of the converged uncached reference");
+  // "auto" is stored as 0: render::recommended_sample_quality(spp) of each render.
+  app.add_option("--sample-quality", o.sample_quality,
+                 "A cache sample uses this many times the light and gather samples of a per-ray "
+                 "shade, 1..256; auto (or 0): chosen from each render's spp")
+      ->type_name("Q|auto")
+      ->transform(CLI::Transformer({{"auto", "0"}}).description(""))
+      ->check(bench::in_range(0, 256).description(""));
+  app.add_option("--accuracy", o.accuracy,
+                 "Adaptive radius: fraction of the harmonic mean distance to nearby geometry")
+      ->check(bench::in_range(1e-3, 10.0));
+  app.add_option("--max-radius-px", o.max_radius_px,
+                 "Adaptive radius: cap in pixel footprints (the 'max 1 px' rows use 1)")
+      ->check(bench::in_range(0.0, 1e4));
+  bench::add_scene_option(app, o.scenes);
+  bench::parse_command_line(app, argc, argv);
+  return bench::run_guarded(app, [&] { return run_bench(o); });
 }

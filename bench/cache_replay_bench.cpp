@@ -7,7 +7,8 @@
 // the radius of eqs. (4.1)/(4.2). Only the cache lookups and the merged batches are recorded,
 // which is what the renderer's --cache-trace writes.
 //
-//   cache_replay_bench [--trace FILE] [--write-trace FILE] [Google Benchmark flags]
+//   cache_replay_bench [--trace FILE] [--write-trace FILE] [--results NAME]
+//                      [--benchmark_NAME=VALUE...]   (--help for more)
 //
 // Prints a summary table and writes bench/results/cache_replay.{json,csv} (see bench/README.md).
 #include <malloc.h>
@@ -326,27 +327,16 @@ std::size_t verify_backends() {
   return checked;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
+struct Options {
   std::string trace_path, write_path;
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i];
-    if (a == "--trace" && i + 1 < argc)
-      trace_path = argv[++i];
-    else if (a == "--write-trace" && i + 1 < argc)
-      write_path = argv[++i];
-    else {
-      std::fprintf(stderr, "usage: cache_replay_bench [--trace FILE] [--write-trace FILE] "
-                           "[benchmark flags]\n");
-      return 2;
-    }
-  }
-  g_trace = trace_path.empty() ? synthetic_trace() : read_trace(trace_path);
-  if (!write_path.empty()) write_trace(write_path, g_trace);
+  std::string results = "cache_replay";
+};
+
+int run(const Options& o) {
+  g_trace = o.trace_path.empty() ? synthetic_trace() : read_trace(o.trace_path);
+  if (!o.write_path.empty()) write_trace(o.write_path, g_trace);
   std::printf("trace: %s, %zu passes, %zu lookups, %zu inserts\n",
-              trace_path.empty() ? "synthetic" : trace_path.c_str(), g_trace.passes.size(),
+              o.trace_path.empty() ? "synthetic" : o.trace_path.c_str(), g_trace.passes.size(),
               g_trace.lookup_count(), g_trace.insert_count());
   std::printf("verified: %zu lookups bit-identical on every backend\n", verify_backends());
 
@@ -388,12 +378,29 @@ int main(int argc, char** argv) {
   }
   table.print();
   nlohmann::json results = {
-      {"trace", trace_path.empty() ? "synthetic" : trace_path},
+      {"trace", o.trace_path.empty() ? "synthetic" : o.trace_path},
       {"lookups", g_trace.lookup_count()},
       {"inserts", g_trace.insert_count()},
       {"passes", g_trace.passes.size()},
       {"columns", table.header()},
       {"rows", table.to_json()}};
-  std::printf("wrote %s\n", bench::write_results("cache_replay", results).c_str());
+  std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"Replays a radiance-cache trace against the cache backends: insert and lookup "
+               "rates at 1 and 2 threads, memory.",
+               "cache_replay_bench"};
+  app.add_option("--trace", o.trace_path,
+                 "A trace written by the renderer's --cache-trace (default: render the synthetic "
+                 "trace)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--write-trace", o.write_path, "Also save the replayed trace to this file");
+  bench::add_results_option(app, o.results);
+  bench::parse_benchmark_command_line(app, argc, argv);
+  return bench::run_guarded(app, [&] { return run(o); });
 }

@@ -6,7 +6,7 @@
 // which the paper counts separately ("extra-region mask"). Inputs, near-plane id layers and
 // revealed layers are made once per resolution, outside the timing.
 //
-//   preview_postprocess_bench [Google Benchmark flags]
+//   preview_postprocess_bench [--results NAME] [--benchmark_NAME=VALUE...]   (--help for more)
 //
 // Prints a summary table (wall time per call: the mean over the benchmark's iterations and the
 // fastest call, and the mean per-stage split from PreviewTimings) and writes
@@ -150,12 +150,8 @@ double load_average() {
   return load;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
+int run(const std::string& results_name) {
   const double load_before = load_average();
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
   for (PreviewMethod m : {PreviewMethod::Gather, PreviewMethod::Scatter, PreviewMethod::Layered,
                           PreviewMethod::LayeredOcclusion}) {
     benchmark::RegisterBenchmark(to_string(m), BM_Preview, m)
@@ -194,6 +190,18 @@ int main(int argc, char** argv) {
                             {"load_average_after", load_after},
                             {"columns", table.header()},
                             {"rows", table.to_json()}};
-  std::printf("wrote %s\n", bench::write_results("preview_postprocess", results).c_str());
+  std::printf("wrote %s\n", bench::write_results(results_name, results).c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string results = "preview_postprocess";
+  CLI::App app{"Post-process cost of the depth-of-field preview methods on the synthetic demo "
+               "scene, at 640x480 and 1280x720 with 1 and 2 threads.",
+               "preview_postprocess_bench"};
+  bench::add_results_option(app, results);
+  bench::parse_benchmark_command_line(app, argc, argv);
+  return bench::run_guarded(app, [&] { return run(results); });
 }

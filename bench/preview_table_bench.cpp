@@ -23,13 +23,11 @@
 //   preview_table_bench [--width W] [--spp N] [--drt-spp N] [--ref-spp N] [--threads T]
 //                       [--repeats K] [--refocus-width W] [--scene FILE]... [--figures DIR]
 //                       [--refocus-only 1] [--skip-refocus 1] [--results NAME]
-//                       [--direct-blur-radius R]
+//                       [--direct-blur-radius R]   (--help for more)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -65,7 +63,7 @@ struct Options {
   std::string results = "preview_table";  // results file name (bench/results/<results>.json)
   int skip_refocus = 0;                   // 1: no section 4 (refocus at 640x480)
   double direct_blur_radius = -1;         // >= 0: overrides PreviewOptions::direct_blur_radius
-  std::vector<std::string> scenes;
+  std::vector<std::string> scenes = {"color_bars.gltf", "color_spheres.gltf", "cornell_box.gltf"};
 };
 
 using clock_type = std::chrono::steady_clock;
@@ -84,7 +82,7 @@ struct SceneSetup {
 SceneSetup load(const std::string& file, int width, const Options& o) {
   SceneSetup s;
   s.name = fs::path(file).stem().string();
-  s.scene = render::load_scene(std::string(DOFCACHE_SOURCE_DIR) + "/scenes/" + file);
+  s.scene = render::load_scene(bench::scene_path(file));
   s.accel = std::make_unique<scene::Accel>(s.scene);
   s.base.width = width;
   s.base.height = render::height_for_width(s.camera(), width);
@@ -189,29 +187,7 @@ image::Image band_view(const image::Image& ref, const image::Image& band) {
   return out;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options o;
-  std::map<std::string, int*> ints = {{"--width", &o.width},
-                                      {"--spp", &o.spp},
-                                      {"--drt-spp", &o.drt_spp},
-                                      {"--ref-spp", &o.ref_spp},
-                                      {"--threads", &o.threads},
-                                      {"--repeats", &o.repeats},
-                                      {"--refocus-width", &o.refocus_width},
-                                      {"--refocus-only", &o.refocus_only},
-                                      {"--skip-refocus", &o.skip_refocus}};
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i];
-    if (ints.count(a)) *ints[a] = std::atoi(argv[i + 1]);
-    if (a == "--scene") o.scenes.push_back(argv[i + 1]);
-    if (a == "--figures") o.figures = argv[i + 1];
-    if (a == "--results") o.results = argv[i + 1];
-    if (a == "--direct-blur-radius") o.direct_blur_radius = std::atof(argv[i + 1]);
-  }
-  o.repeats = std::max(1, o.repeats);
-  if (o.scenes.empty()) o.scenes = {"color_bars.gltf", "color_spheres.gltf", "cornell_box.gltf"};
+int run(const Options& o) {
   preview::PreviewOptions options;  // the defaults, as the CLI uses them (all threads)
   if (o.direct_blur_radius >= 0) options.direct_blur_radius = o.direct_blur_radius;
 
@@ -475,4 +451,38 @@ int main(int argc, char** argv) {
   results["refocus"] = tref.to_json();
   std::printf("\nwrote %s\n", bench::write_results(o.results, results).c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"The preview on the shipped scenes: the paper's Tables 3.1 and 4.3 again, the error "
+               "of every post-process against a converged reference, and refocus timings.",
+               "preview_table_bench"};
+  bench::add_common_options(app, o.width, o.threads, o.results);
+  bench::add_count_option(app, "--spp", o.spp, "Pinhole samples per pixel of the previews");
+  bench::add_count_option(app, "--drt-spp", o.drt_spp,
+                          "Lens samples per pixel of the DRT rows of Table 4.3");
+  bench::add_count_option(app, "--ref-spp", o.ref_spp,
+                          "Lens samples per pixel of the converged uncached reference");
+  bench::add_count_option(app, "--repeats", o.repeats,
+                          "Runs of every stage; the fastest is kept");
+  app.add_option("--refocus-width", o.refocus_width,
+                 "Image width of the refocus timings (section 4; the height is 3/4 of it)")
+      ->check(bench::in_range(1, 16384));
+  bench::add_scene_option(app, o.scenes);
+  app.add_option("--figures", o.figures,
+                 "Also write one comparison image per scene as DIR/preview_<scene>.png")
+      ->type_name("DIR");
+  app.add_option("--refocus-only", o.refocus_only, "1: only the refocus timings (section 4)")
+      ->check(bench::in_range(0, 1));
+  app.add_option("--skip-refocus", o.skip_refocus, "1: skip the refocus timings (section 4)")
+      ->check(bench::in_range(0, 1));
+  app.add_option("--direct-blur-radius", o.direct_blur_radius,
+                 "Override PreviewOptions::direct_blur_radius (pixels; 0: always the pyramid); "
+                 "negative: keep the preview's default")
+      ->check(bench::in_range(-1.0, 1e3));
+  bench::parse_command_line(app, argc, argv);
+  return bench::run_guarded(app, [&] { return run(o); });
 }

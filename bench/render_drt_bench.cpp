@@ -1,9 +1,7 @@
 // Reference renderer throughput: each shipped scene rendered with distributed ray tracing at a
 // fixed small size. Prints a table and writes bench/results/render_drt.{json,csv}.
-//   render_drt_bench [--width W] [--spp N] [--threads T]
+//   render_drt_bench [--width W] [--spp N] [--threads T] [--results NAME]   (--help for more)
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <string>
 
 #include "bench_common.h"
@@ -13,35 +11,35 @@
 
 using namespace dofcache;
 
-int main(int argc, char** argv) {
+namespace {
+
+struct Options {
   int width = 160, spp = 16, threads = 0;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--width")) width = std::atoi(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--spp")) spp = std::atoi(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--threads")) threads = std::atoi(argv[i + 1]);
-  }
+  std::string results = "render_drt";
+};
+
+int run(const Options& o) {
   const char* scenes[] = {"cornell_box.gltf", "color_bars.gltf", "color_spheres.gltf",
                           "glossy_closeup.glb"};
   bench::Table table({"scene", "triangles", "size", "spp", "threads", "time [s]", "Mrays/s",
                       "rays/camera ray", "shading points"});
   render::ShadingSettings shading;  // the defaults: what a user gets
   for (const char* name : scenes) {
-    std::string path = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/" + name;
-    scene::Scene scene = render::load_scene(path);
+    scene::Scene scene = render::load_scene(bench::scene_path(name));
     scene::Accel accel(scene);
     const scene::Camera& camera = scene.cameras[0];
     render::RenderSettings s;
-    s.width = width;
-    s.height = render::height_for_width(camera, width);
-    s.spp = spp;
-    s.threads = threads;
+    s.width = o.width;
+    s.height = render::height_for_width(camera, o.width);
+    s.spp = o.spp;
+    s.threads = o.threads;
     s.shading = shading;
     s.lens = render::resolve_lens(scene, accel, camera, {}).lens;
     s.progress = Progress::Display::Never;
     render::RenderOutput out = render::render(scene, accel, camera, s);
     const render::RenderStats& st = out.stats;
     table.add_row({name, static_cast<long>(scene.mesh.triangles.size()),
-                   std::to_string(s.width) + "x" + std::to_string(s.height), spp, st.threads,
+                   std::to_string(s.width) + "x" + std::to_string(s.height), o.spp, st.threads,
                    bench::Table::Cell(st.seconds, 2), bench::Table::Cell(st.rays_per_second() * 1e-6, 2),
                    bench::Table::Cell(double(st.rays) / double(st.camera_rays), 1),
                    static_cast<long>(st.shading_points)});
@@ -55,6 +53,18 @@ int main(int argc, char** argv) {
                         {"gather_rays", shading.gather_rays}, {"bounces", shading.bounces}};
   results["rows"] = table.to_json();
   results["columns"] = table.header();
-  std::printf("wrote %s\n", bench::write_results("render_drt", results).c_str());
+  std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"Distributed ray tracing throughput on each shipped scene (default shading).",
+               "render_drt_bench"};
+  bench::add_common_options(app, o.width, o.threads, o.results);
+  bench::add_count_option(app, "--spp", o.spp, "Lens samples per pixel");
+  bench::parse_command_line(app, argc, argv);
+  return bench::run_guarded(app, [&] { return run(o); });
 }

@@ -11,14 +11,13 @@
 // difference to the previous frame; the reference's own figure is what the scene's change
 // explains, the rest is error). Writes bench/results/sequence_persistent.{json,csv}.
 //   sequence_persistent_bench [--width W] [--spp N] [--ref-spp N] [--threads T] [--frames N]
-//                             [--path dolly|focus_pull]...
+//                             [--path dolly|focus_pull]... [--results NAME]   (--help for more)
 #include <time.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -43,7 +42,8 @@ namespace {
 
 struct Options {
   int width = 96, spp = 16, ref_spp = 256, threads = 0, max_frames = 0;
-  std::vector<std::string> paths;
+  std::vector<std::string> paths;  // names of kCases to run
+  std::string results = "sequence_persistent";
 };
 
 struct PathCase {
@@ -125,38 +125,24 @@ image::Image reference(const scene::Scene& scene, const scene::Accel& accel,
   });
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--width")) o.width = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--spp")) o.spp = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--ref-spp")) o.ref_spp = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--threads")) o.threads = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--frames")) o.max_frames = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--path")) o.paths.push_back(argv[i + 1]);
-  }
-
+int run(const Options& o) {
   bench::Table summary({"path", "frames", "method", "total wall [s]", "total CPU [s]",
                         "speed-up vs fresh (CPU)", "rays [M]", "shading points",
                         "mean relMSE", "relMSE / fresh (mean)", "relMSE / fresh (max)",
                         "mean reuse", "flicker", "reference flicker", "error flicker"},
                        4);
   nlohmann::json per_frame_json = nlohmann::json::object();
-  const std::string scenes = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/";
   sequence::ReusePolicy policy;  // the defaults a user gets
 
   for (const PathCase& pc : kCases) {
-    if (!o.paths.empty() && std::find(o.paths.begin(), o.paths.end(), pc.name) == o.paths.end())
-      continue;
-    scene::Scene scene = render::load_scene(scenes + pc.scene_file);
+    if (std::find(o.paths.begin(), o.paths.end(), pc.name) == o.paths.end()) continue;
+    scene::Scene scene = render::load_scene(bench::scene_path(pc.scene_file));
     scene::Accel accel(scene);
     const scene::Camera& cam = scene.cameras[0];
     sequence::CameraPath path =
         pc.keyframe_file.empty()
-            ? sequence::load_gltf_camera_path(scenes + pc.scene_file, cam)
-            : sequence::load_keyframe_path(scenes + pc.keyframe_file, cam);
+            ? sequence::load_gltf_camera_path(bench::scene_path(pc.scene_file), cam)
+            : sequence::load_keyframe_path(bench::scene_path(pc.keyframe_file), cam);
     auto [first, last] = sequence::path_frame_range(path, pc.fps);
     if (o.max_frames > 0) last = std::min(last, first + o.max_frames - 1);
     std::vector<sequence::FrameSpec> frames =
@@ -295,6 +281,29 @@ int main(int argc, char** argv) {
   results["columns"] = summary.header();
   results["rows"] = summary.to_json();
   results["per_frame"] = per_frame_json;
-  std::printf("wrote %s\n", bench::write_results("sequence_persistent", results).c_str());
+  std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{"Camera-path sequences with a persistent radiance cache against a fresh cache and "
+               "no cache, frame by frame.",
+               "sequence_persistent_bench"};
+  bench::add_common_options(app, o.width, o.threads, o.results);
+  bench::add_count_option(app, "--spp", o.spp, "Lens samples per pixel of the measured frames");
+  bench::add_count_option(app, "--ref-spp", o.ref_spp,
+                          "Lens samples per pixel of each frame's converged uncached reference");
+  bench::add_count_option(app, "--frames", o.max_frames,
+                          "Render at most this many frames of each path (0: all)", 0);
+  std::vector<std::string> names;
+  for (const PathCase& pc : kCases) names.push_back(pc.name);
+  o.paths = names;  // all of them unless --path picks some
+  app.add_option("--path", o.paths, "Camera path to run (repeat for several)")
+      ->type_name(CLI::detail::join(names, "|"))
+      ->check(CLI::IsMember(names).description(""));
+  bench::parse_command_line(app, argc, argv);
+  return bench::run_guarded(app, [&] { return run(o); });
 }
