@@ -118,6 +118,14 @@ float revealed_matting_weight(const LayerPlan& plan, int i, double c) {
   return matte_of(plan, i).revealed_weight(static_cast<float>(c));
 }
 
+float hat_weight(const LayerPlan& plan, int i, double c) {
+  detail::Matte m = matte_of(plan, i);
+  m.part = detail::MattePart::kNearHalf;
+  const float near = m.weight(static_cast<float>(c));
+  m.part = detail::MattePart::kFarHalf;
+  return near + m.weight(static_cast<float>(c));
+}
+
 double composite_coverage(const LayerPlan& plan, double c) {
   double covered = 0, transmitted = 1;
   for (int i = 0; i < plan.size(); ++i) {

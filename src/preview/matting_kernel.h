@@ -1,26 +1,55 @@
 #pragma once
-// The matting trapezoid of layers.h in the form the per-pixel loops use.
+// The matting functions of layers.h in the form the per-pixel loops use.
 #include <algorithm>
 
 namespace dofcache::preview::detail {
 
+// Which matte of layer i a pass produces.
+enum class MattePart {
+  kTrapezoid,  // Kraus & Strengert: the trapezoid over c_{i-2} .. c_{i+1} ("over" composite)
+  kNearHalf,   // slab composite: the hat's rising half, c_{i-1} < c <= c_i (layer 0: c <= c_0)
+  kFarHalf,    // slab composite: the hat's falling half, c_i < c < c_{i+1} (last layer: c > c_i)
+};
+
 struct Matte {
   float c0 = 0, inv_step = 0;  // anchor 0 and 1 / spacing
   int i = 0, n = 1;            // this layer, layer count
+  MattePart part = MattePart::kTrapezoid;
 
   // Position of c relative to anchor i, in anchor steps.
   float u(float c) const { return (c - c0) * inv_step - static_cast<float>(i); }
 
-  // The trapezoid without branches: min(rising ramp, falling ramp), each switched off on the end
-  // layer that has no such ramp. (The plateau is where both ramps are saturated at 1.)
   float weight(float c) const {
-    float t = u(c);
+    if (n <= 1) return part == MattePart::kFarHalf ? 0.0f : 1.0f;
+    const float t = u(c);
+    switch (part) {
+      case MattePart::kNearHalf:
+        return t > 0.0f ? 0.0f : i == 0 ? 1.0f : std::max(1.0f + t, 0.0f);
+      case MattePart::kFarHalf:
+        return t <= 0.0f ? 0.0f : i == n - 1 ? 1.0f : std::max(1.0f - t, 0.0f);
+      case MattePart::kTrapezoid:
+        break;
+    }
+    // min(rising ramp, falling ramp), each switched off on the end layer that has no such ramp.
+    // (The plateau is where both ramps are saturated at 1.)
     float rise = std::max(std::clamp(t + 2.0f, 0.0f, 1.0f), i == 0 ? 1.0f : 0.0f);
     float fall = std::max(std::clamp(1.0f - t, 0.0f, 1.0f), i == n - 1 ? 1.0f : 0.0f);
-    return n <= 1 ? 1.0f : std::min(rise, fall);
+    return std::min(rise, fall);
   }
-  // Hard front cut for revealed fragments: nothing on the rising ramp.
+  // Culled pixels filled by pull-push (what the layer extrapolates behind nearer content). On the
+  // trapezoid the matte itself. On the hat's near half a fill is opaque wherever it lies in front
+  // of c_i: it backs the nearer slabs where their blur lets them through, also where the nearer
+  // slab holds the same surface (its share in layer i-1 is missing there, because layer i-1 keeps
+  // its own pixels), so a surface that crosses an anchor shows no seam.
+  float fill_weight(float c) const {
+    if (part == MattePart::kNearHalf) return n <= 1 || u(c) <= 0.0f ? 1.0f : 0.0f;
+    return weight(c);
+  }
+  // Revealed fragments: on the trapezoid a hard front cut, nothing on the rising ramp. On the
+  // hat's halves as fills: a fragment is used only where the pinhole surface lies in a nearer
+  // slab, so it never composites over it.
   float revealed_weight(float c) const {
+    if (part != MattePart::kTrapezoid) return fill_weight(c);
     if (n <= 1) return 1.0f;
     float t = u(c);
     if (t < -1.0f) return i == 0 ? 1.0f : 0.0f;

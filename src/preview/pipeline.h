@@ -32,6 +32,7 @@ struct PreviewWorkspace::Impl {
   std::vector<unsigned char> tile_class;  // per layer: how its pixels are matted
   std::vector<detail::PullPushLevel> pull_push;
   std::vector<detail::Rgba> acc;
+  std::vector<detail::Rgba> pending;  // the slab composite's pending near half
   std::vector<std::vector<detail::Rgba>> pyramid;
   std::vector<detail::Rgba> direct;  // horizontal pass of the direct (small-radius) blur
 

@@ -180,6 +180,11 @@ void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters
       n[0] = sp.shading_normal.x, n[1] = sp.shading_normal.y, n[2] = sp.shading_normal.z;
       out.ids.at(x, y, 0) = static_cast<float>(
           c.settings.triangle_ids ? hit.triangle : c.scene.mesh.triangle_object[hit.triangle]);
+      // glTF culls the back of one-sided surfaces: met first behind a near plane, it is the inside
+      // of an object whose front the plane removed.
+      if (c.settings.near_depth > 0.0f && glm::dot(sp.geometric_normal, ray.direction) > 0.0f &&
+          !c.scene.materials[sp.material].double_sided)
+        out.ids.at(x, y, 0) = kInsideId;
     }
 }
 

@@ -152,5 +152,38 @@ TEST(Matting, CompositedWeightsSumToOneForEveryDepth) {
   }
 }
 
+TEST(Matting, HatShapeAndHalves) {
+  lens::LensImaging im = test_imaging();
+  PreviewOptions o;
+  o.layer_count = 6;
+  LayerPlan plan = plan_layers_for_range(-10.0, 10.0, im, o);  // anchors -10, -6, ..., 10
+  const int i = 3;                                             // anchor 2
+  EXPECT_FLOAT_EQ(hat_weight(plan, i, -2.0), 0.0f);            // c_{i-1}
+  EXPECT_FLOAT_EQ(hat_weight(plan, i, -1.0), 0.25f);           // rising half
+  EXPECT_FLOAT_EQ(hat_weight(plan, i, 2.0), 1.0f);             // c_i, counted once
+  EXPECT_FLOAT_EQ(hat_weight(plan, i, 5.0), 0.25f);            // falling half
+  EXPECT_FLOAT_EQ(hat_weight(plan, i, 6.0), 0.0f);             // c_{i+1}
+  EXPECT_FLOAT_EQ(hat_weight(plan, 0, -100.0), 1.0f);          // end layers keep 1 beyond
+  EXPECT_FLOAT_EQ(hat_weight(plan, 5, 100.0), 1.0f);
+  EXPECT_FLOAT_EQ(hat_weight(plan, 5, 8.0), 0.5f);
+}
+
+TEST(Matting, HatsSumToOneForEveryDepth) {
+  lens::LensImaging im = test_imaging();
+  for (int layers : {1, 2, 3, 7, 12, 40}) {
+    PreviewOptions o;
+    o.layer_count = layers;
+    LayerPlan plan = plan_layers_for_range(-23.0, 9.5, im, o);
+    for (int k = 0; k <= 20000; ++k) {
+      const double c = -30.0 + 45.0 * k / 20000.0;
+      double sum = 0;
+      for (int j = 0; j < plan.size(); ++j) sum += hat_weight(plan, j, c);
+      ASSERT_NEAR(sum, 1.0, 1e-5) << layers << " layers, c = " << c;
+    }
+    for (int j = 0; j < plan.size(); ++j)  // at anchor j all weight is on layer j
+      EXPECT_NEAR(hat_weight(plan, j, plan.layers[j].signed_coc), 1.0, 1e-5) << j;
+  }
+}
+
 }  // namespace
 }  // namespace dofcache::preview

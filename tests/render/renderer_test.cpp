@@ -141,6 +141,30 @@ TEST(Renderer, NearPlaneHidesNearerSurfaces) {
   EXPECT_NEAR(clipped.depth.at(20, 15, 0), 4.0f, 1e-4f);
 }
 
+TEST(Renderer, ClippedRenderMarksTheInsideOfObjects) {
+  // Behind the near plane a ray that first meets the back of a one-sided surface is inside an
+  // object whose front the plane removed: no lens ray sees that surface.
+  scene::Scene s;
+  s.materials = {testing::diffuse_material(glm::vec3(0.5f)),
+                 testing::diffuse_material(glm::vec3(0.5f))};
+  s.materials[1].double_sided = true;
+  testing::add_quad_z(s, -3, 3, -3, 3, -4.0f, 0, 0);  // faces the camera
+  testing::add_quad(s, {glm::vec3(-1, -1, -2), glm::vec3(-1, 1, -2), glm::vec3(1, 1, -2),
+                        glm::vec3(1, -1, -2)},
+                    {0.0f, 0.0f, -1.0f}, 0, 1);  // its back faces the camera
+  s.cameras.push_back(testing::origin_camera(0.9f));
+  scene::Accel accel(s);
+  RenderSettings st = small_settings(2, 1);
+  st.visibility_only = true;
+  EXPECT_EQ(render(s, accel, s.cameras[0], st).ids.at(20, 15, 0), 1.0f);  // no near plane
+  st.near_depth = 1.0f;
+  EXPECT_EQ(render(s, accel, s.cameras[0], st).ids.at(20, 15, 0), kInsideId);
+  EXPECT_EQ(render(s, accel, s.cameras[0], st).ids.at(1, 1, 0), 0.0f);  // past the quad
+  s.mesh.triangle_material[2] = s.mesh.triangle_material[3] = 1;  // double-sided: a real surface
+  scene::Accel accel2(s);
+  EXPECT_EQ(render(s, accel2, s.cameras[0], st).ids.at(20, 15, 0), 1.0f);
+}
+
 TEST(Renderer, MaskRestrictsRenderedPixels) {
   scene::Scene s = shaded_scene();
   scene::Accel accel(s);

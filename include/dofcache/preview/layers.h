@@ -90,6 +90,11 @@ float matting_weight(const LayerPlan& plan, int i, double c);
 // the front side, i.e. 0 on the rising ramp (c < c_{i-1}), so that a revealed surface is never
 // blended into a layer that still carries (on its plateau) the foreground in front of it.
 float revealed_matting_weight(const LayerPlan& plan, int i, double c);
+// The hat of layer i, the slab composite's matte (LayerComposite::kSlabs): 1 at c_i, falling
+// linearly to 0 at c_{i-1} and c_{i+1}; layer 0 is 1 for every c <= c_0, layer n-1 for every
+// c >= c_{n-1}. The composite uses its two halves, c <= c_i and c > c_i, separately. The hats add
+// up to one for every c.
+float hat_weight(const LayerPlan& plan, int i, double c);
 // sum_i w_i(c) prod_{j<i} (1 - w_j(c)): the coverage of the unblurred composite (1 for every c).
 double composite_coverage(const LayerPlan& plan, double c);
 

@@ -30,6 +30,8 @@
 //       disk holds no open pixel, every lens ray from X hits the occluder and nothing reveals X.
 //       For c_X = 0 (in focus) this is the occluder's own CoC radius |c_F| / 2. The half pixel
 //       accounts for the pixel footprint.
+// L_j(p) = render::kInsideId (-2) marks the inside of an object the plane cuts (the back of a
+// one-sided surface): no lens ray sees it, and by (1) it is never revealed.
 // The renderer then renders A_j (colour and depth, same near plane z_j) where mask_j = 1 and hands
 // them to render_preview as RevealedLayer{plan.layers[j].depth, color, depth, mask_j}.
 #include <vector>

@@ -5,6 +5,22 @@
 
 namespace dofcache::preview {
 
+// How the layered methods composite their blurred layers (docs/preview.md, "Composite").
+enum class LayerComposite {
+  // kSlabs for Kraus & Strengert's method, kOver with the occlusion fix (whose revealed layers
+  // are placed for the trapezoid's culling; with slabs they currently lose more than they add).
+  kAuto,
+  // Kraus & Strengert 2007: trapezoid mattes, blurred layers composited back to front with "over".
+  // Copies of one surface in neighbouring layers cover each other as a union, so defocused
+  // silhouettes come out wider and more opaque than the lens makes them.
+  kOver,
+  // The hat matte of each layer split at its anchor; the two halves that share a slab between
+  // neighbouring anchors are blurred with their layers' radii and added, and the slabs are
+  // composited back to front with "over": a surface's shares add up, exactly as the hat weights
+  // interpolate the blur, and only nearer slabs occlude it. Twice the blurs, half the matte area.
+  kSlabs,
+};
+
 struct PreviewOptions {
   // Worker threads for the post-process (a TBB arena of this size); 0 uses every TBB thread.
   int threads = 0;
@@ -22,6 +38,9 @@ struct PreviewOptions {
   // Smallest spacing of neighbouring layers in CoC *radius* (pixels). The default is half the
   // radius that pyramid level 1 produces (3 px, see pyramid.h).
   double min_layer_step = 1.5;
+
+  // --- composite -------------------------------------------------------------------------------
+  LayerComposite layer_composite = LayerComposite::kAuto;
 
   // --- pyramid blur (pyramid.h) ------------------------------------------------------------------
   // true: blend the two pyramid levels whose blur brackets the layer radius (variance matched);

@@ -28,6 +28,10 @@ namespace dofcache::render {
 constexpr int kEstimatorRevision = 2;
 
 enum class Mode { Pinhole, Drt, Accumulation };
+
+// Id of a clipped render's pixel that sees the inside of a closed object (RenderSettings::
+// near_depth): no lens ray sees that surface, the object's clipped front lies in front of it.
+constexpr float kInsideId = -2.0f;
 Mode parse_mode(const std::string& name);  // throws dofcache::Error listing the valid names
 const char* mode_name(Mode mode);
 
@@ -84,7 +88,9 @@ struct RenderSettings {
   int threads = 0;  // 0: all hardware threads
   ShadingSettings shading;
   lens::ThinLens lens;
-  // Camera-space depth of a near clipping plane (0: none). Surfaces nearer are not seen.
+  // Camera-space depth of a near clipping plane (0: none). Surfaces nearer are not seen. In the
+  // id image of a clipped render, a pixel whose ray first meets the back of a one-sided surface
+  // (the inside of a closed object the plane cuts) gets kInsideId.
   float near_depth = 0.0f;
   // If set (1 channel, width x height), only pixels with mask > 0.5 are rendered; others stay
   // black with infinite depth and id -1.
