@@ -86,16 +86,18 @@ void add(PreviewTimings& a, const PreviewTimings& b) {
   a.layers_blurred = b.layers_blurred;
 }
 
-void BM_Preview(benchmark::State& state, PreviewMethod method) {
+void BM_Preview(benchmark::State& state, PreviewMethod method, LayerComposite composite,
+                std::string label) {
   const int resolution = static_cast<int>(state.range(0));
   const int threads = static_cast<int>(state.range(1));
   const Scene& s = scene_for(resolution);
   PreviewOptions options;
   options.threads = threads;
+  options.layer_composite = composite;
   PreviewWorkspace workspace;
   render_preview(s.inputs, method, options, workspace);  // warm the workspace
   Row row;
-  row.method = to_string(method);
+  row.method = label;
   row.width = s.inputs.color.width();
   row.height = s.inputs.color.height();
   row.threads = threads;
@@ -152,9 +154,16 @@ double load_average() {
 
 int run(const std::string& results_name) {
   const double load_before = load_average();
-  for (PreviewMethod m : {PreviewMethod::Gather, PreviewMethod::Scatter, PreviewMethod::Layered,
-                          PreviewMethod::LayeredOcclusion}) {
-    benchmark::RegisterBenchmark(to_string(m), BM_Preview, m)
+  // Each method with its default composite, and the layered methods with the other one too.
+  const std::vector<std::tuple<PreviewMethod, LayerComposite, std::string>> variants = {
+      {PreviewMethod::Gather, LayerComposite::kAuto, "gather"},
+      {PreviewMethod::Scatter, LayerComposite::kAuto, "scatter"},
+      {PreviewMethod::Layered, LayerComposite::kAuto, "layered"},
+      {PreviewMethod::Layered, LayerComposite::kOver, "layered, over"},
+      {PreviewMethod::LayeredOcclusion, LayerComposite::kAuto, "layered-occlusion"},
+      {PreviewMethod::LayeredOcclusion, LayerComposite::kSlabs, "layered-occlusion, slabs"}};
+  for (const auto& [m, composite, label] : variants) {
+    benchmark::RegisterBenchmark(label.c_str(), BM_Preview, m, composite, label)
         ->ArgsProduct({{0, 1}, {1, 2}})
         ->ArgNames({"res", "threads"})
         ->Unit(benchmark::kMillisecond)
@@ -169,6 +178,10 @@ int run(const std::string& results_name) {
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   const double load_after = load_average();
+  if (g_rows.empty()) {  // --benchmark_list_tests, or a filter that matched nothing
+    std::printf("no benchmark ran: %s not written\n", results_name.c_str());
+    return 0;
+  }
 
   bench::Table table(
       {"method", "resolution", "threads", "layers", "total [ms]", "min [ms]", "setup [ms]",

@@ -218,8 +218,11 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   Rgba* pending = nullptr;
   Box pending_box{W, H, 0, 0};
   if (slabs) {
-    ensure_size(ws.pending, N);
-    std::fill(ws.pending.begin(), ws.pending.begin() + N, Rgba{0, 0, 0, 0});
+    if (ws.pending.size() < N || !ws.pending_zero) {
+      ensure_size(ws.pending, N);
+      std::fill(ws.pending.begin(), ws.pending.end(), Rgba{0, 0, 0, 0});
+    }
+    ws.pending_zero = false;  // until the last flush
     pending = ws.pending.data();
   }
   auto grow = [](Box& into, const Box& b) {
@@ -586,6 +589,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
     }
   }
   flush_pending();
+  ws.pending_zero = true;
 
   // ---------------------------------------------------------------- resolve
   auto t4 = clock::now();

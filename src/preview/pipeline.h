@@ -33,6 +33,7 @@ struct PreviewWorkspace::Impl {
   std::vector<detail::PullPushLevel> pull_push;
   std::vector<detail::Rgba> acc;
   std::vector<detail::Rgba> pending;  // the slab composite's pending near half
+  bool pending_zero = false;          // every flush zeroes it: set after a complete composite
   std::vector<std::vector<detail::Rgba>> pyramid;
   std::vector<detail::Rgba> direct;  // horizontal pass of the direct (small-radius) blur
 
