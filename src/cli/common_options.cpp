@@ -74,4 +74,20 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
       ->capture_default_str()->check(CLI::Range(0, 256));
 }
 
+void add_layer_composite_option(CLI::App* cmd, preview::LayerComposite& composite) {
+  cmd->add_option_function<std::string>(
+         "--layer-composite",
+         [&composite](const std::string& name) {
+           composite = name == "over"    ? preview::LayerComposite::kOver
+                       : name == "slabs" ? preview::LayerComposite::kSlabs
+                                         : preview::LayerComposite::kAuto;
+         },
+         "Layered previews: how blurred layers are composited. over: Kraus & Strengert's "
+         "trapezoid mattes with 'over'; slabs: each layer's hat split at its anchor, the halves "
+         "sharing a slab added (defocused silhouettes cover like the lens); auto: slabs for "
+         "Kraus & Strengert, over with the occlusion fix")
+      ->check(CLI::IsMember({"auto", "over", "slabs"}))
+      ->default_str("auto");
+}
+
 }  // namespace dofcache::cli

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "dofcache/preview/options.h"
 #include "dofcache/render/renderer.h"
 
 namespace dofcache::cli {
@@ -28,5 +29,8 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading);
 // --cache-min-samples, --cache-sample-quality (the backend option --cache is each command's own).
 void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
                               std::string& radius_rule);
+
+// --layer-composite auto|over|slabs (the layered preview methods, render and refocus).
+void add_layer_composite_option(CLI::App* cmd, preview::LayerComposite& composite);
 
 }  // namespace dofcache::cli

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "commands.h"
+#include "common_options.h"
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/preview/inputs_file.h"
@@ -18,6 +19,7 @@ struct RefocusOptions {
   std::string input, out = "refocus.png", method;
   std::optional<double> focus_distance, fstop, focal_length;
   int threads = 0;
+  preview::LayerComposite layer_composite = preview::LayerComposite::kAuto;
   bool quiet = false;
 };
 
@@ -42,6 +44,7 @@ int run_refocus(const RefocusOptions& o) {
                                             : preview::PreviewMethod::Layered;
   preview::PreviewOptions options = saved.options;
   options.threads = o.threads;
+  options.layer_composite = o.layer_composite;
 
   t0 = std::chrono::steady_clock::now();
   preview::RefocusedInputs in =
@@ -85,6 +88,7 @@ Runner add_refocus_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::Range(0, 4096));
+  add_layer_composite_option(cmd, o->layer_composite);
   cmd->add_flag("-q,--quiet", o->quiet, "Print only the output path");
   return [o] { return run_refocus(*o); };
 }

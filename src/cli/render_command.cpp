@@ -28,6 +28,7 @@ struct RenderOptions {
   render::ShadingSettings shading;
   std::string cache = "none", cache_debug, cache_trace, radius_rule = "paper";
   render::CacheSettings cache_settings;
+  preview::LayerComposite layer_composite = preview::LayerComposite::kAuto;
   bool quiet = false;
 };
 
@@ -54,6 +55,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
                 preview::PreviewMethod method) {
   preview::PreviewOptions options;
   options.threads = o.threads;
+  options.layer_composite = o.layer_composite;
   preview::ScenePreview p =
       preview::render_scene_preview(scene, accel, camera, s, method, options);
   image::write_image(o.out, p.image, {{{"Z"}, p.inputs.depth}, {{"id"}, p.inputs.ids}});
@@ -253,6 +255,7 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--cache-trace", o->cache_trace,
                   "Record the cache's lookups and inserts to FILE for bench/cache_replay_bench");
   cmd->add_option("--stats-json", o->stats_json, "Write render statistics as JSON to this file");
+  add_layer_composite_option(cmd, o->layer_composite);
   cmd->add_option("--save-preview-inputs", o->save_preview_inputs,
                   "Preview modes: also save the pinhole images (and revealed layers) as one "
                   "multi-part .exr for 'dofcache refocus'");

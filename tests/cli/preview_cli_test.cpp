@@ -106,6 +106,23 @@ TEST_F(PreviewCli, BadRefocusInputIsOneLineAndNoFile) {
   expect_clean_failure("refocus " + path("in.exr") + " --out " + path("o.tiff2"), "o.tiff2");
 }
 
+TEST_F(PreviewCli, LayerCompositeChoosesTheComposite) {
+  auto render_with = [&](const std::string& mode, const std::string& composite) {
+    const std::string out = path(mode + "-" + composite + ".png");
+    dofcache::testing::CliResult r = run("render " + kScene + " --mode " + mode + " --out " + out +
+                                         " --layer-composite " + composite + kTiny);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return slurp(out);
+  };
+  // auto: slabs for Kraus & Strengert, over with the occlusion fix; the two composites differ.
+  EXPECT_EQ(render_with("preview", "auto"), render_with("preview", "slabs"));
+  EXPECT_NE(render_with("preview", "auto"), render_with("preview", "over"));
+  EXPECT_EQ(render_with("preview-occlusion", "auto"), render_with("preview-occlusion", "over"));
+  expect_clean_failure("render " + kScene + " --mode preview --layer-composite union --out " +
+                           path("o.png") + kTiny,
+                       "o.png");
+}
+
 TEST_F(PreviewCli, PreviewOptionMisuseIsOneLineAndNoFile) {
   expect_clean_failure("render " + kScene + " --mode drt --out " + path("o.png") +
                            " --save-preview-inputs " + path("in.exr") + kTiny,
