@@ -154,13 +154,13 @@ double load_average() {
 
 int run(const std::string& results_name) {
   const double load_before = load_average();
-  // Each method with its default composite, and the layered methods with the other one too.
+  // Each method with the default composite, and the layered methods with slabs too.
   const std::vector<std::tuple<PreviewMethod, LayerComposite, std::string>> variants = {
-      {PreviewMethod::Gather, LayerComposite::kAuto, "gather"},
-      {PreviewMethod::Scatter, LayerComposite::kAuto, "scatter"},
-      {PreviewMethod::Layered, LayerComposite::kAuto, "layered"},
-      {PreviewMethod::Layered, LayerComposite::kOver, "layered, over"},
-      {PreviewMethod::LayeredOcclusion, LayerComposite::kAuto, "layered-occlusion"},
+      {PreviewMethod::Gather, LayerComposite::kOver, "gather"},
+      {PreviewMethod::Scatter, LayerComposite::kOver, "scatter"},
+      {PreviewMethod::Layered, LayerComposite::kOver, "layered"},
+      {PreviewMethod::Layered, LayerComposite::kSlabs, "layered, slabs"},
+      {PreviewMethod::LayeredOcclusion, LayerComposite::kOver, "layered-occlusion"},
       {PreviewMethod::LayeredOcclusion, LayerComposite::kSlabs, "layered-occlusion, slabs"}};
   for (const auto& [m, composite, label] : variants) {
     benchmark::RegisterBenchmark(label.c_str(), BM_Preview, m, composite, label)

@@ -30,7 +30,7 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading);
 void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
                               std::string& radius_rule);
 
-// --layer-composite auto|over|slabs (the layered preview methods, render and refocus).
+// --layer-composite over|slabs (the layered preview methods, render and refocus).
 void add_layer_composite_option(CLI::App* cmd, preview::LayerComposite& composite);
 
 }  // namespace dofcache::cli

@@ -19,7 +19,7 @@ struct RefocusOptions {
   std::string input, out = "refocus.png", method;
   std::optional<double> focus_distance, fstop, focal_length;
   int threads = 0;
-  preview::LayerComposite layer_composite = preview::LayerComposite::kAuto;
+  preview::LayerComposite layer_composite = preview::LayerComposite::kOver;
   bool quiet = false;
 };
 

@@ -28,7 +28,7 @@ struct RenderOptions {
   render::ShadingSettings shading;
   std::string cache = "none", cache_debug, cache_trace, radius_rule = "paper";
   render::CacheSettings cache_settings;
-  preview::LayerComposite layer_composite = preview::LayerComposite::kAuto;
+  preview::LayerComposite layer_composite = preview::LayerComposite::kOver;
   bool quiet = false;
 };
 

@@ -79,7 +79,6 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   });
 
   // Revealed fragments, packed by pixel then layer.
-  const bool fix_requested = occlusion;
   occlusion = occlusion && !in.revealed.empty();
   if (occlusion) {
     CocMap coc_of(in.imaging, options.max_coc_radius);
@@ -213,8 +212,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   // Slab composite: the hat's halves of layer i are blurred separately; the far half joins the
   // pending near half of layer i+1 (the same slab [c_i, c_{i+1}]) by addition, and the slab goes
   // "over" what lies behind. `pending` holds that near half, inside `pending_box`.
-  const bool slabs = options.layer_composite == LayerComposite::kSlabs ||
-                     (options.layer_composite == LayerComposite::kAuto && !fix_requested);
+  const bool slabs = options.layer_composite == LayerComposite::kSlabs;
   Rgba* pending = nullptr;
   Box pending_box{W, H, 0, 0};
   if (slabs) {

@@ -114,10 +114,14 @@ TEST_F(PreviewCli, LayerCompositeChoosesTheComposite) {
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return slurp(out);
   };
-  // auto: slabs for Kraus & Strengert, over with the occlusion fix; the two composites differ.
-  EXPECT_EQ(render_with("preview", "auto"), render_with("preview", "slabs"));
-  EXPECT_NE(render_with("preview", "auto"), render_with("preview", "over"));
-  EXPECT_EQ(render_with("preview-occlusion", "auto"), render_with("preview-occlusion", "over"));
+  // The default is over; the two composites differ, for both layered methods.
+  for (const std::string mode : {"preview", "preview-occlusion"}) {
+    const std::string over = render_with(mode, "over");
+    EXPECT_NE(over, render_with(mode, "slabs")) << mode;
+    const std::string out = path(mode + "-default.png");
+    ASSERT_EQ(run("render " + kScene + " --mode " + mode + " --out " + out + kTiny).exit_code, 0);
+    EXPECT_EQ(slurp(out), over) << mode;
+  }
   expect_clean_failure("render " + kScene + " --mode preview --layer-composite union --out " +
                            path("o.png") + kTiny,
                        "o.png");

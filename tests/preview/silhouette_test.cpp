@@ -127,22 +127,30 @@ TEST(Silhouette, OcclusionFixShowsThePatchAtASmallDefocus) {
 // The direct blur, like the pyramid, gives the same image cropped to the layer's box or not, for
 // any thread count, and keeps a constant colour constant.
 TEST(Silhouette, DirectBlurIsCropAndThreadInvariant) {
-  PreviewOptions options;
-  PreviewInputs in = inputs_with_revealed(make_scene(1.0f, 0.5f, 1.0f), options);
-  for (PreviewMethod m : {PreviewMethod::Layered, PreviewMethod::LayeredOcclusion}) {
-    image::Image ref = render_preview(in, m, options);
-    PreviewOptions uncropped = options, one = options;
-    uncropped.crop_layers = false;
-    one.threads = 1;
-    EXPECT_EQ(render_preview(in, m, uncropped).data(), ref.data());
-    EXPECT_EQ(render_preview(in, m, one).data(), ref.data());
+  for (LayerComposite composite : {LayerComposite::kOver, LayerComposite::kSlabs}) {
+    PreviewOptions options;
+    options.layer_composite = composite;
+    PreviewInputs in = inputs_with_revealed(make_scene(1.0f, 0.5f, 1.0f), options);
+    for (PreviewMethod m : {PreviewMethod::Layered, PreviewMethod::LayeredOcclusion}) {
+      image::Image ref = render_preview(in, m, options);
+      PreviewOptions uncropped = options, one = options;
+      uncropped.crop_layers = false;
+      one.threads = 1;
+      EXPECT_EQ(render_preview(in, m, uncropped).data(), ref.data());
+      EXPECT_EQ(render_preview(in, m, one).data(), ref.data());
+      PreviewWorkspace reused;  // the slab composite's pending buffer is left zeroed
+      render_preview(in, m, options, reused);
+      EXPECT_EQ(render_preview(in, m, options, reused).data(), ref.data());
+    }
+    PreviewInputs flat = inputs_with_revealed(make_scene(0.25f, 0.25f, 0.0f), options);
+    for (float& v : flat.color.data()) v = 0.25f;
+    for (RevealedLayer& r : flat.revealed)
+      for (float& v : r.color.data()) v = 0.25f;
+    for (PreviewMethod m : {PreviewMethod::Layered, PreviewMethod::LayeredOcclusion}) {
+      image::Image out = render_preview(flat, m, options);
+      for (float v : out.data()) ASSERT_NEAR(v, 0.25f, 1e-5f);
+    }
   }
-  PreviewInputs flat = inputs_with_revealed(make_scene(0.25f, 0.25f, 0.0f), options);
-  for (float& v : flat.color.data()) v = 0.25f;
-  for (RevealedLayer& r : flat.revealed)
-    for (float& v : r.color.data()) v = 0.25f;
-  image::Image out = render_preview(flat, PreviewMethod::LayeredOcclusion, options);
-  for (float v : out.data()) ASSERT_NEAR(v, 0.25f, 1e-5f);
 }
 
 }  // namespace

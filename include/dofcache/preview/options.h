@@ -7,9 +7,6 @@ namespace dofcache::preview {
 
 // How the layered methods composite their blurred layers (docs/preview.md, "Composite").
 enum class LayerComposite {
-  // kSlabs for Kraus & Strengert's method, kOver with the occlusion fix (whose revealed layers
-  // are placed for the trapezoid's culling; with slabs they currently lose more than they add).
-  kAuto,
   // Kraus & Strengert 2007: trapezoid mattes, blurred layers composited back to front with "over".
   // Copies of one surface in neighbouring layers cover each other as a union, so defocused
   // silhouettes come out wider and more opaque than the lens makes them.
@@ -18,6 +15,9 @@ enum class LayerComposite {
   // neighbouring anchors are blurred with their layers' radii and added, and the slabs are
   // composited back to front with "over": a surface's shares add up, exactly as the hat weights
   // interpolate the blur, and only nearer slabs occlude it. Twice the blurs, half the matte area.
+  // Less error at silhouettes (2-3x in the edge band of the shipped scenes), but a curved surface
+  // that crosses an anchor can show a faint seam, and the occlusion fix gains nothing on it yet
+  // (docs/preview.md, "Composite"): not the default.
   kSlabs,
 };
 
@@ -40,7 +40,7 @@ struct PreviewOptions {
   double min_layer_step = 1.5;
 
   // --- composite -------------------------------------------------------------------------------
-  LayerComposite layer_composite = LayerComposite::kAuto;
+  LayerComposite layer_composite = LayerComposite::kOver;
 
   // --- pyramid blur (pyramid.h) ------------------------------------------------------------------
   // true: blend the two pyramid levels whose blur brackets the layer radius (variance matched);
