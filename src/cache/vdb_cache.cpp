@@ -45,13 +45,25 @@ struct VoxelKey {
   }
 };
 
+// The distance prefilter's bound is r^2 kSlack, a hair above the test's r^2 (scan_ranges_baseline).
+constexpr float kSlack = 1.0f + 0x1p-20f;
+
 // A level's samples in the order of the level's voxels, laid out for the lookup. The distance
-// prefilter reads positions and radii in blocks of eight samples (x[8], y[8], z[8], r[8]: two
-// cache lines), so a voxel run's candidates are contiguous in memory; the few samples in reach
-// then read one 32-byte record with what the acceptance test and the sum need.
+// prefilter reads positions and bounds in blocks of eight samples (x[8], y[8], z[8], reach2[8]:
+// two cache lines), so a voxel run's candidates are contiguous in memory; radii and normals follow
+// (the next two lines) for the scalar test of the few in reach, and the accepted ones read a
+// 16-byte record (id, value). Frames are only read back (get), so they sit apart.
 class LevelSamples {
  public:
   static constexpr std::uint32_t kLanes = 8;
+  struct alignas(32) Block {
+    float x[kLanes], y[kLanes], z[kLanes], reach2[kLanes];  // reach2 = r^2 (1 + 2^-20)
+    float r[kLanes], nx[kLanes], ny[kLanes], nz[kLanes];
+  };
+  struct Record {
+    std::uint32_t id;
+    glm::vec3 value;
+  };
 
   std::size_t size() const { return records_.size(); }
   bool empty() const { return records_.empty(); }
@@ -59,28 +71,32 @@ class LevelSamples {
   void reserve(std::size_t n) {
     blocks_.reserve((n + kLanes - 1) / kLanes);
     records_.reserve(n);
+    frames_.reserve(n);
   }
   void push_back(const CacheSample& s) {
-    push_sphere(s.position, s.radius);
-    records_.push_back({s.normal, s.id, s.value, s.frame});
+    push_geometry(s.position, s.radius, s.normal);
+    records_.push_back({s.id, s.value});
+    frames_.push_back(s.frame);
   }
   void append_from(const LevelSamples& o, std::size_t j) {
-    push_sphere(o.position(j), o.radius(j));
+    push_geometry(o.position(j), o.radius(j), o.normal(j));
     records_.push_back(o.records_[j]);
+    frames_.push_back(o.frames_[j]);
   }
   void swap(LevelSamples& o) {
     blocks_.swap(o.blocks_);
     records_.swap(o.records_);
+    frames_.swap(o.frames_);
   }
 
   CacheSample get(std::size_t i) const {
     CacheSample s;
     s.position = position(i);
     s.radius = radius(i);
-    s.normal = records_[i].normal;
+    s.normal = normal(i);
     s.id = records_[i].id;
     s.value = records_[i].value;
-    s.frame = records_[i].frame;
+    s.frame = frames_[i];
     return s;
   }
   std::uint32_t id(std::size_t i) const { return records_[i].id; }
@@ -89,119 +105,245 @@ class LevelSamples {
     return {b.x[i % kLanes], b.y[i % kLanes], b.z[i % kLanes]};
   }
   float radius(std::size_t i) const { return blocks_[i / kLanes].r[i % kLanes]; }
+  glm::vec3 normal(std::size_t i) const {
+    const Block& b = blocks_[i / kLanes];
+    return {b.nx[i % kLanes], b.ny[i % kLanes], b.nz[i % kLanes]};
+  }
 
-  std::size_t memory_bytes() const { return heap_bytes(blocks_) + heap_bytes(records_); }
+  const Block* blocks() const { return blocks_.data(); }  // sample i: block i / 8, lane i % 8
+  const Record* records() const { return records_.data(); }
 
-  // Tests the samples [begin, end) against the query and adds the accepted ones to *sum. The
-  // prefilter, ||p - p_i||^2 < r_i^2 (1 + 2^-20) computed in the order SampleTest computes it,
-  // only skips samples that SampleTest::weight rejects; the decision is the scalar test's, so
-  // every backend accepts the same samples with the same weights. Whole blocks are tested (lanes
-  // outside the range are masked off afterwards, only when some lane passed); with AVX2 one block
-  // per instruction, otherwise (SSE2, the x86-64 baseline) half a block.
-  void scan(std::uint32_t begin, std::uint32_t end, const SampleTest& test,
-            WeightedSum* sum) const {
-#if defined(__x86_64__)
-    if (kHaveAvx2) return scan_avx2(begin, end, test, sum);
-#endif
-#if defined(__SSE2__)
-    const glm::vec3 p = test.position();
-    const __m128 qx = _mm_set1_ps(p.x), qy = _mm_set1_ps(p.y), qz = _mm_set1_ps(p.z);
-    const __m128 slack = _mm_set1_ps(kSlack);
-    auto half = [&](const float* x, const float* y, const float* z, const float* r) {
-      __m128 dx = _mm_sub_ps(qx, _mm_load_ps(x));
-      __m128 dy = _mm_sub_ps(qy, _mm_load_ps(y));
-      __m128 dz = _mm_sub_ps(qz, _mm_load_ps(z));
-      __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)),
-                             _mm_mul_ps(dz, dz));
-      __m128 rr = _mm_load_ps(r);
-      return static_cast<unsigned>(
-          _mm_movemask_ps(_mm_cmplt_ps(d2, _mm_mul_ps(_mm_mul_ps(rr, rr), slack))));
-    };
-    for (std::uint32_t k = begin / kLanes, k_end = (end + kLanes - 1) / kLanes; k < k_end; ++k) {
-      const Block& b = blocks_[k];
-      unsigned mask = half(b.x, b.y, b.z, b.r) | half(b.x + 4, b.y + 4, b.z + 4, b.r + 4) << 4;
-      if (mask) add_lanes(k, mask, begin, end, test, sum);
-    }
-#else
-    for (std::uint32_t j = begin; j < end; ++j) {
-      float w = test.weight(position(j), radius(j), records_[j].normal);
-      if (w > 0.0f) sum->add(records_[j].id, w, records_[j].value);
-    }
-#endif
+  std::size_t memory_bytes() const {
+    return heap_bytes(blocks_) + heap_bytes(records_) + heap_bytes(frames_);
   }
 
  private:
-  struct alignas(32) Block {
-    float x[kLanes], y[kLanes], z[kLanes], r[kLanes];
-  };
-  struct Record {
-    glm::vec3 normal;
-    std::uint32_t id;
-    glm::vec3 value;
-    std::uint32_t frame;
-  };
-  static constexpr float kSlack = 1.0f + 0x1p-20f;
-#if defined(__x86_64__)
-  static inline const bool kHaveAvx2 = [] {
-    __builtin_cpu_init();  // may run before libgcc's own initialisation
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-#endif
-
-  // Appends a sample; the unused lanes of the last block keep radius 0, out of every point's
-  // reach.
-  void push_sphere(glm::vec3 p, float r) {
+  // Appends a sample's geometry; the unused lanes of the last block keep radius 0, out of every
+  // point's reach.
+  void push_geometry(glm::vec3 p, float r, glm::vec3 n) {
     std::size_t i = size();
     if (i % kLanes == 0) blocks_.push_back(Block{});
     Block& b = blocks_.back();
-    b.x[i % kLanes] = p.x;
-    b.y[i % kLanes] = p.y;
-    b.z[i % kLanes] = p.z;
-    b.r[i % kLanes] = r;
+    const std::size_t l = i % kLanes;
+    b.x[l] = p.x;
+    b.y[l] = p.y;
+    b.z[l] = p.z;
+    b.reach2[l] = r * r * kSlack;
+    b.r[l] = r;
+    b.nx[l] = n.x;
+    b.ny[l] = n.y;
+    b.nz[l] = n.z;
   }
 
-  // The scalar test for the lanes of block k set in mask that lie in [begin, end).
-  void add_lanes(std::uint32_t k, unsigned mask, std::uint32_t begin, std::uint32_t end,
-                 const SampleTest& test, WeightedSum* sum) const {
-    const std::uint32_t base = k * kLanes;
-    if (begin > base) mask &= ~0u << (begin - base);
-    if (end - base < kLanes) mask &= (1u << (end - base)) - 1u;
-    const Block& b = blocks_[k];
-    while (mask) {
-      auto lane = static_cast<std::uint32_t>(__builtin_ctz(mask));
-      mask &= mask - 1u;
-      const Record& rec = records_[base + lane];
-      float w = test.weight({b.x[lane], b.y[lane], b.z[lane]}, b.r[lane], rec.normal);
-      if (w > 0.0f) sum->add(rec.id, w, rec.value);
-    }
+  std::vector<Block> blocks_;
+  std::vector<Record> records_;
+  std::vector<std::uint32_t> frames_;
+};
+
+// Samples [begin, end) of one level: the candidates of one or more voxel runs.
+struct Range {
+  const LevelSamples* samples;
+  std::uint32_t begin, end;
+};
+
+// The scalar test of sample `lane` of block k, added to *sum if accepted.
+inline __attribute__((always_inline)) void test_lane(const LevelSamples& samples,
+                                                     std::uint32_t k, unsigned lane,
+                                                     const SampleTest& test, WeightedSum* sum) {
+  const LevelSamples::Block& b = samples.blocks()[k];
+  const float w = test.weight({b.x[lane], b.y[lane], b.z[lane]}, b.r[lane],
+                              {b.nx[lane], b.ny[lane], b.nz[lane]});
+  if (w > 0.0f) {
+    const LevelSamples::Record& record = samples.records()[k * LevelSamples::kLanes + lane];
+    sum->add(record.id, w, record.value);
   }
+}
+
+// The samples that passed the prefilter, collected without a branch per block and tested
+// together afterwards: which blocks have a sample in reach follows no pattern, and a mispredicted
+// branch per such block costs more than the whole prefilter.
+class Candidates {
+ public:
+  // Room for the blocks noted between two test() calls, kept apart from the counters so that
+  // those stay in registers.
+  struct Noted {
+    const LevelSamples* samples;
+    std::uint32_t k;  // block
+  };
+  static constexpr unsigned kMaxBlocks = 64 / LevelSamples::kLanes;
+  using Storage = std::array<Noted, kMaxBlocks>;
+
+  Candidates(Storage* blocks, const SampleTest& test, WeightedSum* sum)
+      : blocks_(blocks->data()), test_(test), sum_(sum) {}
+
+  // Where to stop noting the blocks k, k + 1, ... of a range (last block k_last) to keep room for
+  // its last block; the candidates are tested first if there is none.
+  std::uint32_t stop(std::uint32_t k, std::uint32_t k_last) {
+    if (count_ == kMaxBlocks) test();
+    return std::min(k_last, k + (kMaxBlocks - 1 - count_));
+  }
+
+  // Notes the lanes of block k that passed (mask, possibly 0). There must be room (stop()).
+  void note(const LevelSamples* samples, std::uint32_t k, unsigned mask) {
+    blocks_[count_] = {samples, k};
+    lanes_ |= static_cast<std::uint64_t>(mask) << (LevelSamples::kLanes * count_);
+    count_ += mask != 0;
+  }
+
+  // The scalar test of every candidate noted so far.
+  __attribute__((always_inline)) void test() {
+    while (lanes_) {
+      const auto bit = static_cast<unsigned>(__builtin_ctzll(lanes_));
+      lanes_ &= lanes_ - 1;
+      const Noted& noted = blocks_[bit / LevelSamples::kLanes];
+      test_lane(*noted.samples, noted.k, bit % LevelSamples::kLanes, test_, sum_);
+    }
+    count_ = 0;
+  }
+
+ private:
+  Noted* blocks_;
+  const SampleTest& test_;
+  WeightedSum* sum_;
+  unsigned count_ = 0;
+  std::uint64_t lanes_ = 0;  // bit 8 i + lane: that lane of blocks_[i] passed
+};
+
+// The lanes of the range in its first and in its last block (bit l: lane l).
+inline unsigned first_lanes(const Range& range) {
+  return (0xFFu << (range.begin % LevelSamples::kLanes)) & 0xFFu;
+}
+inline unsigned last_lanes(const Range& range) {
+  return 0xFFu >> (LevelSamples::kLanes - 1 - (range.end - 1) % LevelSamples::kLanes);
+}
+
+// Tests the samples of the ranges against the query and adds the accepted ones to *sum. A
+// prefilter, ||p - p_i||^2 < r_i^2 (1 + 2^-20) (the block's reach2) with the distance computed in
+// the order SampleTest computes it, picks the candidates: it only skips samples that
+// SampleTest::weight rejects, and the decision is the scalar test's, so every backend accepts the
+// same samples with the same weights. It tests whole blocks, the lanes outside the range masked
+// off: half a block per SSE2 instruction here (the x86-64 baseline), a whole one in
+// scan_ranges_avx2. Neither uses fused multiply-add. The blocks of a range are noted in chunks
+// that leave the candidates room for its last block.
+void scan_ranges_baseline(const Range* ranges, unsigned count, const SampleTest& test,
+                          WeightedSum* sum) {
+  Candidates::Storage storage;
+  Candidates candidates(&storage, test, sum);
+#if defined(__SSE2__)
+  const glm::vec3 p = test.position();
+  const __m128 qx = _mm_set1_ps(p.x), qy = _mm_set1_ps(p.y), qz = _mm_set1_ps(p.z);
+  auto half = [&](const float* x, const float* y, const float* z, const float* reach2) {
+    __m128 dx = _mm_sub_ps(qx, _mm_load_ps(x));
+    __m128 dy = _mm_sub_ps(qy, _mm_load_ps(y));
+    __m128 dz = _mm_sub_ps(qz, _mm_load_ps(z));
+    __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    return static_cast<unsigned>(_mm_movemask_ps(_mm_cmplt_ps(d2, _mm_load_ps(reach2))));
+  };
+  auto prefilter = [&](const LevelSamples::Block& b) {
+    return half(b.x, b.y, b.z, b.reach2) | half(b.x + 4, b.y + 4, b.z + 4, b.reach2 + 4) << 4;
+  };
+#else
+  auto prefilter = [](const LevelSamples::Block&) { return 0xFFu; };
+#endif
+  for (const Range* range = ranges; range != ranges + count; ++range) {
+    const LevelSamples* samples = range->samples;
+    const LevelSamples::Block* blocks = samples->blocks();
+    const std::uint32_t k_last = (range->end - 1) / LevelSamples::kLanes;
+    std::uint32_t k = range->begin / LevelSamples::kLanes;
+    unsigned lanes = first_lanes(*range);
+    for (;;) {
+      for (const std::uint32_t stop = candidates.stop(k, k_last); k < stop; ++k, lanes = 0xFFu)
+        candidates.note(samples, k, prefilter(blocks[k]) & lanes);
+      if (k == k_last) break;
+      candidates.test();
+    }
+    candidates.note(samples, k, prefilter(blocks[k]) & lanes & last_lanes(*range));
+  }
+  candidates.test();
+}
 
 #if defined(__x86_64__)
-  // The same with eight lanes per instruction, for processors with AVX2 (chosen at run time: not
-  // in the x86-64 baseline). Still no fused multiply-add, so the arithmetic matches the SSE2 path.
-  __attribute__((target("avx2"))) void scan_avx2(std::uint32_t begin, std::uint32_t end,
-                                                 const SampleTest& test,
-                                                 WeightedSum* sum) const {
-    const glm::vec3 p = test.position();
-    const __m256 qx = _mm256_set1_ps(p.x), qy = _mm256_set1_ps(p.y), qz = _mm256_set1_ps(p.z);
-    const __m256 slack = _mm256_set1_ps(kSlack);
-    for (std::uint32_t k = begin / kLanes, k_end = (end + kLanes - 1) / kLanes; k < k_end; ++k) {
-      const Block& b = blocks_[k];
-      __m256 dx = _mm256_sub_ps(qx, _mm256_load_ps(b.x));
-      __m256 dy = _mm256_sub_ps(qy, _mm256_load_ps(b.y));
-      __m256 dz = _mm256_sub_ps(qz, _mm256_load_ps(b.z));
-      __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
-                                _mm256_mul_ps(dz, dz));
-      __m256 rr = _mm256_load_ps(b.r);
-      auto mask = static_cast<unsigned>(_mm256_movemask_ps(
-          _mm256_cmp_ps(d2, _mm256_mul_ps(_mm256_mul_ps(rr, rr), slack), _CMP_LT_OQ)));
-      if (mask) add_lanes(k, mask, begin, end, test, sum);
+// The prefilter of one block, eight lanes per instruction (AVX2: not in the x86-64 baseline, so
+// chosen at run time).
+__attribute__((target("avx2"), always_inline)) inline unsigned prefilter_avx2(
+    const LevelSamples::Block& b, __m256 qx, __m256 qy, __m256 qz) {
+  const __m256 dx = _mm256_sub_ps(qx, _mm256_load_ps(b.x));
+  const __m256 dy = _mm256_sub_ps(qy, _mm256_load_ps(b.y));
+  const __m256 dz = _mm256_sub_ps(qz, _mm256_load_ps(b.z));
+  const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                  _mm256_mul_ps(dz, dz));
+  return static_cast<unsigned>(
+      _mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_load_ps(b.reach2), _CMP_LT_OQ)));
+}
+
+__attribute__((target("avx2"))) void scan_ranges_avx2(const Range* ranges, unsigned count,
+                                                      const SampleTest& test, WeightedSum* sum) {
+  Candidates::Storage storage;
+  Candidates candidates(&storage, test, sum);
+  const glm::vec3 p = test.position();
+  const __m256 qx = _mm256_set1_ps(p.x), qy = _mm256_set1_ps(p.y), qz = _mm256_set1_ps(p.z);
+  for (const Range* range = ranges; range != ranges + count; ++range) {
+    const LevelSamples* samples = range->samples;
+    const LevelSamples::Block* blocks = samples->blocks();
+    const std::uint32_t k_last = (range->end - 1) / LevelSamples::kLanes;
+    std::uint32_t k = range->begin / LevelSamples::kLanes;
+    unsigned lanes = first_lanes(*range);
+    for (;;) {
+      for (const std::uint32_t stop = candidates.stop(k, k_last); k < stop; ++k, lanes = 0xFFu)
+        candidates.note(samples, k, prefilter_avx2(blocks[k], qx, qy, qz) & lanes);
+      if (k == k_last) break;
+      candidates.test();
     }
+    candidates.note(samples, k, prefilter_avx2(blocks[k], qx, qy, qz) & lanes & last_lanes(*range));
   }
+  candidates.test();
+}
+
+const bool kHaveAvx2 = [] {
+  __builtin_cpu_init();  // may run before libgcc's own initialisation
+  return __builtin_cpu_supports("avx2") != 0;
+}();
 #endif
 
-  std::vector<Block> blocks_;  // sample i: blocks_[i / 8], lane i % 8
-  std::vector<Record> records_;
+// Collects the ranges a lookup must test and tests them in batches, so that a lookup enters the
+// SIMD kernel once rather than once per voxel run.
+class RangeScanner {
+ public:
+  RangeScanner(const SampleTest& test, WeightedSum* sum) : test_(test), sum_(sum) {}
+
+  // Runs of one level arrive in increasing order. A run that starts in the block where the
+  // previous one ends, or in the next, extends it: the samples in between lie in voxels outside
+  // the query's box, which the test rejects, and a shared block is tested once.
+  void add(const LevelSamples* samples, std::uint32_t begin, std::uint32_t end) {
+    if (count_ > 0) {
+      Range& last = ranges_[count_ - 1];
+      if (last.samples == samples &&
+          begin / LevelSamples::kLanes <= (last.end - 1) / LevelSamples::kLanes + 1) {
+        assert(begin >= last.end);
+        last.end = end;
+        return;
+      }
+    }
+    if (count_ == kMaxRanges) flush();
+    ranges_[count_++] = {samples, begin, end};
+  }
+
+  void flush() {
+#if defined(__x86_64__)
+    if (kHaveAvx2)
+      scan_ranges_avx2(ranges_.data(), count_, test_, sum_);
+    else
+#endif
+      scan_ranges_baseline(ranges_.data(), count_, test_, sum_);
+    count_ = 0;
+  }
+
+ private:
+  static constexpr unsigned kMaxRanges = 16;
+  const SampleTest& test_;
+  WeightedSum* sum_;
+  std::array<Range, kMaxRanges> ranges_;
+  unsigned count_ = 0;
 };
 
 struct Level {
@@ -241,12 +383,50 @@ inline __attribute__((always_inline)) openvdb::Int32 floor_to_int(double x) {
   return i - (x < static_cast<double>(i) ? 1 : 0);
 }
 
-// The voxel of p at the level with inverse voxel size inv_h (a power of two: p * inv_h is exact).
-// Callers keep |p| * inv_h below 2^28 (samples by their level choice, queries by the level's
-// bounds test).
+// Voxel v of a level covers [(v - 1/2) h, (v + 1/2) h): the multiples of h are voxel centres.
+// Surfaces at round coordinates (a floor at y = 0, walls at whole metres) thus lie mid-voxel on
+// the fine levels. On voxel boundaries, which include leaf boundaries, every lookup on them would
+// read the voxels and probe the leaves on both sides.
+constexpr double kVoxelShift = 0.5;
+
+// The voxel of p at the level with inverse voxel size inv_h (a power of two: p * inv_h is exact;
+// adding 1/2 may round, by less than the radius padding allows for). Callers keep |p| * inv_h
+// below 2^28 (samples by their level choice, queries by the level's bounds test).
 inline __attribute__((always_inline)) openvdb::Coord voxel_of(glm::dvec3 p, double inv_h) {
-  return openvdb::Coord(floor_to_int(p.x * inv_h), floor_to_int(p.y * inv_h),
-                        floor_to_int(p.z * inv_h));
+  return openvdb::Coord(floor_to_int(p.x * inv_h + kVoxelShift),
+                        floor_to_int(p.y * inv_h + kVoxelShift),
+                        floor_to_int(p.z * inv_h + kVoxelShift));
+}
+
+#if defined(__SSE2__)
+// floor_to_int of two doubles at once, as the two low int32 lanes.
+inline __attribute__((always_inline)) __m128i floor_to_int(__m128d x) {
+  const __m128i i = _mm_cvttpd_epi32(x);
+  const __m128i rounded_up = _mm_castpd_si128(_mm_cmplt_pd(x, _mm_cvtepi32_pd(i)));
+  return _mm_add_epi32(i, _mm_shuffle_epi32(rounded_up, _MM_SHUFFLE(3, 3, 2, 0)));  // -1 there
+}
+#endif
+
+// The voxels of the box [q - reach, q + reach], q = p in double, at the level with inverse voxel
+// size inv_h: from *lo = voxel_of(q - reach) to *hi = voxel_of(q + reach).
+inline __attribute__((always_inline)) void voxel_box(glm::vec3 p, double reach, double inv_h,
+                                                     openvdb::Coord* lo, openvdb::Coord* hi) {
+#if defined(__SSE2__)
+  const __m128d r = _mm_set1_pd(reach), s = _mm_set1_pd(inv_h), shift = _mm_set1_pd(kVoxelShift);
+  const __m128d xy = _mm_setr_pd(p.x, p.y);
+  const double z = p.z;
+  auto voxels = [&](__m128d x) { return floor_to_int(_mm_add_pd(_mm_mul_pd(x, s), shift)); };
+  alignas(16) openvdb::Int32 v[3][4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(v[0]), voxels(_mm_sub_pd(xy, r)));
+  _mm_store_si128(reinterpret_cast<__m128i*>(v[1]), voxels(_mm_add_pd(xy, r)));
+  _mm_store_si128(reinterpret_cast<__m128i*>(v[2]), voxels(_mm_setr_pd(z - reach, z + reach)));
+  *lo = openvdb::Coord(v[0][0], v[0][1], v[2][0]);
+  *hi = openvdb::Coord(v[1][0], v[1][1], v[2][1]);
+#else
+  const glm::dvec3 q(p);
+  *lo = voxel_of(q - reach, inv_h);
+  *hi = voxel_of(q + reach, inv_h);
+#endif
 }
 
 // Every mutation of any cache takes a fresh, globally unique epoch; a thread's cached accessors
@@ -283,48 +463,16 @@ class VdbRadianceCache final : public RadianceCache {
   bool lookup(glm::vec3 p, glm::vec3 n, const LookupOptions& options,
               LookupResult* out) const override {
     WeightedSum sum;
-    const Reader& reader = this->reader();
     const SampleTest test(p, n, options);
-    const glm::dvec3 q(p);
-    for (std::size_t k = 0; k < active_.size(); ++k) {
-      const Bounds& bounds = bounds_[k];
-      if (p.x < bounds.lo.x || p.y < bounds.lo.y || p.z < bounds.lo.z || p.x > bounds.hi.x ||
-          p.y > bounds.hi.y || p.z > bounds.hi.z)
-        continue;
-      const Level& level = *active_[k];
-      // The voxels the ball of the level's largest radius around q touches: any sample that can
-      // accept q has its centre, hence its voxel, inside that ball. With cell_scale >= 2 the box
-      // spans at most 2 voxels per axis, so it usually lies in one leaf: probe each leaf it
-      // touches once, then read the runs along z straight from the leaf's start indices.
-      const openvdb::Coord a = voxel_of(q - level.reach, level.inv_h);
-      const openvdb::Coord b = voxel_of(q + level.reach, level.inv_h);
-      const ConstAccessor& acc = reader.accessors[k];
-      constexpr openvdb::Int32 kMask = LeafT::DIM - 1;
-      for (openvdb::Int32 lx = a.x() & ~kMask; lx <= b.x(); lx += LeafT::DIM)
-        for (openvdb::Int32 ly = a.y() & ~kMask; ly <= b.y(); ly += LeafT::DIM)
-          for (openvdb::Int32 lz = a.z() & ~kMask; lz <= b.z(); lz += LeafT::DIM) {
-            const LeafT* leaf = acc.probeConstLeaf(openvdb::Coord(lx, ly, lz));
-            if (!leaf) continue;
-            const openvdb::Int32* start = leaf->buffer().data();
-            const openvdb::Int32 x0 = std::max(a.x(), lx) & kMask,
-                                 x1 = std::min(b.x(), lx + kMask) & kMask;
-            const openvdb::Int32 y0 = std::max(a.y(), ly) & kMask,
-                                 y1 = std::min(b.y(), ly + kMask) & kMask;
-            const openvdb::Int32 z0 = std::max(a.z(), lz) & kMask,
-                                 z1 = std::min(b.z(), lz + kMask) & kMask;
-            for (openvdb::Int32 x = x0; x <= x1; ++x)
-              for (openvdb::Int32 y = y0; y <= y1; ++y) {
-                // The run of voxels (x, y, z0..z1): samples [start[first], start[last + 1]).
-                const auto first = static_cast<openvdb::Index>(
-                    (x << (2 * LeafT::LOG2DIM)) | (y << LeafT::LOG2DIM) | z0);
-                const openvdb::Index last = first + static_cast<openvdb::Index>(z1 - z0);
-                const auto begin = static_cast<std::uint32_t>(start[first]);
-                const auto end = last + 1 < LeafT::SIZE
-                                     ? static_cast<std::uint32_t>(start[last + 1])
-                                     : level.leaf_end(static_cast<std::uint32_t>(start[0]));
-                if (begin < end) level.samples.scan(begin, end, test, &sum);
-              }
-          }
+    if (std::uint64_t in = levels_containing(p)) {
+      const Reader& reader = this->reader();
+      RangeScanner scanner(test, &sum);
+      do {
+        const auto k = static_cast<unsigned>(__builtin_ctzll(in));
+        in &= in - 1;
+        add_runs(*active_[k], reader.accessors[k], p, &scanner);
+      } while (in);
+      scanner.flush();
     }
     return sum.finish(options.min_samples, out);
   }
@@ -381,6 +529,88 @@ class VdbRadianceCache final : public RadianceCache {
   }
 
  private:
+  // Bounds of four active levels (k = 4g .. 4g + 3) by axis, for the lookup's first test; unused
+  // lanes hold an empty box.
+  struct BoundsGroup {
+    alignas(16) float lo[3][4];
+    alignas(16) float hi[3][4];
+  };
+
+  // Bit k: p lies within the bounds of active level k, the only levels that can hold a sample
+  // accepting p. Four levels per comparison.
+  std::uint64_t levels_containing(glm::vec3 p) const {
+    std::uint64_t in = 0;
+#if defined(__SSE2__)
+    const __m128 x = _mm_set1_ps(p.x), y = _mm_set1_ps(p.y), z = _mm_set1_ps(p.z);
+    for (std::size_t g = 0; g < bounds_.size(); ++g) {
+      const BoundsGroup& b = bounds_[g];
+      const __m128 below = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(x, _mm_load_ps(b.lo[0])),
+                                               _mm_cmplt_ps(y, _mm_load_ps(b.lo[1]))),
+                                     _mm_cmplt_ps(z, _mm_load_ps(b.lo[2])));
+      const __m128 above = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(x, _mm_load_ps(b.hi[0])),
+                                               _mm_cmpgt_ps(y, _mm_load_ps(b.hi[1]))),
+                                     _mm_cmpgt_ps(z, _mm_load_ps(b.hi[2])));
+      const auto outside = static_cast<unsigned>(_mm_movemask_ps(_mm_or_ps(below, above)));
+      in |= static_cast<std::uint64_t>(~outside & 0xFu) << (4 * g);
+    }
+#else
+    for (std::size_t k = 0; k < active_.size(); ++k) {
+      const BoundsGroup& b = bounds_[k / 4];
+      const std::size_t l = k % 4;
+      if (!(p.x < b.lo[0][l] || p.y < b.lo[1][l] || p.z < b.lo[2][l] || p.x > b.hi[0][l] ||
+            p.y > b.hi[1][l] || p.z > b.hi[2][l]))
+        in |= std::uint64_t{1} << k;
+    }
+#endif
+    // A NaN coordinate compares false everywhere: keep the unused lanes out.
+    return active_.size() < 64 ? in & ((std::uint64_t{1} << active_.size()) - 1) : in;
+  }
+
+  // Hands the scanner the voxel runs of the level that the ball of the level's largest radius
+  // around p touches: any sample that can accept p has its centre, hence its voxel, inside that
+  // ball. With cell_scale >= 2 the box spans at most 2 voxels per axis, so it usually lies in one
+  // leaf: probe each leaf it touches once, then read the runs along z straight from the leaf's
+  // start indices.
+  static void add_runs(const Level& level, const ConstAccessor& acc, glm::vec3 p,
+                       RangeScanner* scanner) {
+    openvdb::Coord a, b;
+    voxel_box(p, level.reach, level.inv_h, &a, &b);
+    constexpr openvdb::Int32 kMask = LeafT::DIM - 1;
+    const auto spread = static_cast<std::uint32_t>((a.x() ^ b.x()) | (a.y() ^ b.y()) |
+                                                   (a.z() ^ b.z()));
+    if (spread <= static_cast<std::uint32_t>(kMask)) {  // one leaf: the common case
+      if (const LeafT* leaf = acc.probeConstLeaf(a))
+        add_leaf_runs(level, *leaf, a & kMask, b & kMask, scanner);
+      return;
+    }
+    for (openvdb::Int32 lx = a.x() & ~kMask; lx <= b.x(); lx += LeafT::DIM)
+      for (openvdb::Int32 ly = a.y() & ~kMask; ly <= b.y(); ly += LeafT::DIM)
+        for (openvdb::Int32 lz = a.z() & ~kMask; lz <= b.z(); lz += LeafT::DIM) {
+          const openvdb::Coord origin(lx, ly, lz);
+          if (const LeafT* leaf = acc.probeConstLeaf(origin))
+            add_leaf_runs(level, *leaf, openvdb::Coord::maxComponent(a, origin) & kMask,
+                          openvdb::Coord::minComponent(b, origin.offsetBy(kMask)) & kMask, scanner);
+        }
+  }
+
+  // The runs (x, y, lo.z..hi.z) of one leaf, x and y from lo to hi (offsets within the leaf).
+  static void add_leaf_runs(const Level& level, const LeafT& leaf, openvdb::Coord lo,
+                            openvdb::Coord hi, RangeScanner* scanner) {
+    const openvdb::Int32* start = leaf.buffer().data();
+    for (openvdb::Int32 x = lo.x(); x <= hi.x(); ++x)
+      for (openvdb::Int32 y = lo.y(); y <= hi.y(); ++y) {
+        // Samples [start[first], start[last + 1]).
+        const auto first = static_cast<openvdb::Index>(
+            (x << (2 * LeafT::LOG2DIM)) | (y << LeafT::LOG2DIM) | lo.z());
+        const openvdb::Index last = first + static_cast<openvdb::Index>(hi.z() - lo.z());
+        const auto begin = static_cast<std::uint32_t>(start[first]);
+        const auto end = last + 1 < LeafT::SIZE
+                             ? static_cast<std::uint32_t>(start[last + 1])
+                             : level.leaf_end(static_cast<std::uint32_t>(start[0]));
+        if (begin < end) scanner->add(&level.samples, begin, end);
+      }
+  }
+
   const Reader& reader() const {
     Readers& readers = t_readers;
     for (const Reader& r : readers.slots)
@@ -476,8 +706,21 @@ class VdbRadianceCache final : public RadianceCache {
     bounds_.clear();
     for (int k = 0; k < kLevelCount; ++k)
       if (mask_ >> k & 1) {
+        const std::size_t i = active_.size();
         active_.push_back(levels_[k].get());
-        bounds_.push_back({levels_[k]->lo_f, levels_[k]->hi_f});
+        if (i % 4 == 0) {
+          BoundsGroup empty;
+          for (int a = 0; a < 3; ++a)
+            for (int l = 0; l < 4; ++l) {
+              empty.lo[a][l] = INFINITY;
+              empty.hi[a][l] = -INFINITY;
+            }
+          bounds_.push_back(empty);
+        }
+        for (int a = 0; a < 3; ++a) {
+          bounds_.back().lo[a][i % 4] = levels_[k]->lo_f[a];
+          bounds_.back().hi[a][i % 4] = levels_[k]->hi_f[a];
+        }
       }
     epoch_ = ++g_epoch;
   }
@@ -485,11 +728,8 @@ class VdbRadianceCache final : public RadianceCache {
   float cell_scale_ = 4.0f;
   std::array<std::unique_ptr<Level>, kLevelCount> levels_;
   std::uint64_t mask_ = 0;      // bit k: level kMinExponent + k holds samples
-  std::vector<Level*> active_;  // the non-empty levels, finest first
-  struct Bounds {
-    glm::vec3 lo, hi;
-  };
-  std::vector<Bounds> bounds_;  // their float bounds, packed for the lookup's first test
+  std::vector<Level*> active_;       // the non-empty levels, finest first
+  std::vector<BoundsGroup> bounds_;  // their float bounds, packed for the lookup's first test
   std::uint64_t epoch_;
 };
 

@@ -192,6 +192,35 @@ TEST(Backends, EveryVdbCellScaleMatchesBruteForce) {
 
 // An independent check of the tests themselves, in double precision from the equations: no
 // lookup accepts (weights) a sample that fails the distance, normal, in-front or eps test.
+TEST(Backends, DenseClusterMatchesBruteForce) {
+  // Hundreds of overlapping samples in one voxel: every lookup tests long runs in which most
+  // blocks have samples in reach, and accepts more samples than the sum keeps inline.
+  Rng rng(31);
+  std::vector<CacheSample> batch(1500);
+  for (CacheSample& s : batch) {
+    s.position = glm::vec3(0.25f, 0.0f, -2.0f) +
+                 0.01f * glm::vec3(rng.uniform(), rng.uniform(), rng.uniform());
+    s.normal = perturb({0, 1, 0}, 10.0f, rng);
+    s.radius = 0.04f + 0.01f * rng.uniform();
+    s.value = glm::vec3(rng.uniform(), rng.uniform(), rng.uniform());
+  }
+  for (auto& c : both_backends()) {
+    c->insert({batch.begin(), batch.begin() + 700});
+    c->insert({batch.begin() + 700, batch.end()});
+    std::vector<CacheSample> stored = c->samples();
+    for (int i = 0; i < 200; ++i) {
+      glm::vec3 p = glm::vec3(0.25f, 0.0f, -2.0f) +
+                    0.06f * glm::vec3(rng.uniform(), rng.uniform(), rng.uniform()) -
+                    glm::vec3(0.025f);
+      glm::vec3 n = perturb({0, 1, 0}, 10.0f, rng);
+      LookupResult ref, r;
+      bool ok = brute_force(stored, p, n, {}, &ref);
+      ASSERT_EQ(c->lookup(p, n, {}, &r), ok) << c->name();
+      ASSERT_TRUE(bit_equal(ref, r)) << c->name() << " " << ref.count << " vs " << r.count;
+    }
+  }
+}
+
 TEST(Backends, NeverWeightAFailingSample) {
   std::vector<CacheSample> batch = random_samples(3000, 3);
   LookupOptions options;
