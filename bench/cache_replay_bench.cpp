@@ -353,6 +353,10 @@ int run(const Options& o) {
   SummaryReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   benchmark::Shutdown();
+  if (g_rows.empty()) {  // --benchmark_list_tests, or a filter that matched nothing
+    std::printf("no benchmark ran: %s not written\n", o.results.c_str());
+    return 0;
+  }
 
   // Rates per CPU-second are what to compare on a machine shared with other work; the wall-clock
   // rates (and 2T/1T) need an otherwise idle machine.
