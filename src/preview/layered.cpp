@@ -228,6 +228,9 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
     into = {std::min(into.x0, b.x0), std::min(into.y0, b.y0), std::max(into.x1, b.x1),
             std::max(into.y1, b.y1)};
   };
+  auto wrote = [&](const Box& b) {  // a blur added into `pending` here
+    if (slabs) grow(pending_box, b);
+  };
   auto flush_pending = [&] {  // acc = pending over acc; pending = 0
     if (pending_box.empty()) return;
     const Box b = pending_box;
@@ -390,25 +393,16 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                   nonzero = true;
                 }
                 ws.tile_class[ti] = cls;
-                if (nonzero) {
-                  b.x0 = std::min(b.x0, tx * kTile);
-                  b.x1 = std::max(b.x1, std::min((tx + 1) * kTile, W));
-                  b.y0 = std::min(b.y0, ty * kTile);
-                  b.y1 = std::max(b.y1, std::min((ty + 1) * kTile, H));
-                }
+                if (nonzero)
+                  grow(b, {tx * kTile, ty * kTile, std::min((tx + 1) * kTile, W),
+                           std::min((ty + 1) * kTile, H)});
               }
               band_box[ty] = b;
             }
           },
           1);
       Box box{W, H, 0, 0};
-      for (const Box& b : band_box)
-        if (!b.empty()) {
-          box.x0 = std::min(box.x0, b.x0);
-          box.y0 = std::min(box.y0, b.y0);
-          box.x1 = std::max(box.x1, b.x1);
-          box.y1 = std::max(box.y1, b.y1);
-        }
+      for (const Box& b : band_box) grow(box, b);
 
       // Premultiplied layer pixels [xa, xb) of row y into out.
       auto matte_row = [&](int y, int xa, int xb, Rgba* out) {
@@ -484,7 +478,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         const Box crop = options.crop_layers ? Box{std::max(box.x0 - R, 0), std::max(box.y0 - R, 0),
                                                    std::min(box.x1 + R, W), std::min(box.y1 + R, H)}
                                              : Box{0, 0, W, H};
-        grow(pending_box, crop);
+        wrote(crop);
         const int cw = crop.x1 - crop.x0, ch = crop.y1 - crop.y0;
         ensure_size(ws.direct, static_cast<size_t>(cw) * ch);
         Rgba* hbuf = ws.direct.data();
@@ -518,7 +512,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           }
         });
       } else if (top == 0) {  // sharp layer: matte straight into the composite
-        grow(pending_box, box);
+        wrote(box);
         parallel_rows(box.y1 - box.y0, [&](int r0, int r1) {
           Rgba* tmp = ws.scratch.get(2, box.x1 - box.x0);
           for (int y = box.y0 + r0; y < box.y0 + r1; ++y) {
@@ -529,7 +523,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         });
       } else {
         const Box crop = options.crop_layers ? crop_for(box, top, W, H) : Box{0, 0, W, H};
-        grow(pending_box, crop);
+        wrote(crop);
         const int cw0 = crop.x1 - crop.x0, ch0 = crop.y1 - crop.y0;
         if (ws.pyramid.size() < static_cast<size_t>(top + 1)) ws.pyramid.resize(top + 1);
         RgbaView views[32];
@@ -579,15 +573,16 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
     };
     if (!slabs) {
       process(MattePart::kTrapezoid);
-      pending_box = Box{W, H, 0, 0};  // unused without slabs
     } else {
       process(MattePart::kFarHalf);  // completes the slab [c_i, c_{i+1}] ...
       flush_pending();               // ... which goes over what lies behind it
       process(MattePart::kNearHalf);
     }
   }
-  flush_pending();
-  ws.pending_zero = true;
+  if (slabs) {
+    flush_pending();
+    ws.pending_zero = true;  // set only here: a composite cut short by an exception leaves it false
+  }
 
   // ---------------------------------------------------------------- resolve
   auto t4 = clock::now();
