@@ -84,14 +84,8 @@ LightSampler::LightSampler(const scene::Scene& scene) : scene_(scene) {
       slot_of_[e] = static_cast<std::uint32_t>(order_.size());
       order_.push_back(e);
     }
-    // Cumulative as the loader computes Scene::emitter_cdf, so one light gives
-    // the same picks.
-    double running = 0.0;
-    for (double p : power) {
-      running += p;
-      cdf_.push_back(static_cast<float>(running / total));
-    }
-    cdf_.back() = 1.0f;
+    const std::vector<float> cdf = scene::cumulative_distribution(power);
+    cdf_.insert(cdf_.end(), cdf.begin(), cdf.end());
     l.end = static_cast<std::uint32_t>(order_.size());
     l.power = static_cast<float>(total);
     l.center = 0.5f * (lower + upper);

@@ -840,7 +840,6 @@ class Loader {
 
   void build_emitters() {
     const Mesh& m = scene_.mesh;
-    double total = 0.0;
     std::vector<double> power;
     for (std::size_t t = 0; t < m.triangles.size(); ++t) {
       const Material& mat = scene_.materials[m.triangle_material[t]];
@@ -864,14 +863,8 @@ class Loader {
       if (!(lum > 0.0f) || !(area > 0.0f)) continue;
       scene_.emitters.push_back({static_cast<std::uint32_t>(t), area, radiance});
       power.push_back(static_cast<double>(area) * lum);
-      total += power.back();
     }
-    double running = 0.0;
-    for (double p : power) {
-      running += p;
-      scene_.emitter_cdf.push_back(static_cast<float>(running / total));
-    }
-    if (!scene_.emitter_cdf.empty()) scene_.emitter_cdf.back() = 1.0f;
+    scene_.emitter_cdf = cumulative_distribution(power);
   }
 
   glm::vec3 material_emission(std::uint32_t triangle, float u, float v) const {

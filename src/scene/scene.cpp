@@ -152,6 +152,20 @@ std::size_t Scene::camera_index(const std::string& name) const {
               "' (available: " + (available.empty() ? std::string("none") : available) + ")");
 }
 
+std::vector<float> cumulative_distribution(const std::vector<double>& weights) {
+  double total = 0.0;
+  for (double w : weights) total += w;
+  std::vector<float> cdf;
+  cdf.reserve(weights.size());
+  double running = 0.0;
+  for (double w : weights) {
+    running += w;
+    cdf.push_back(static_cast<float>(running / total));
+  }
+  if (!cdf.empty()) cdf.back() = 1.0f;
+  return cdf;
+}
+
 std::size_t Scene::sample_emitter(float u, float* probability) const {
   assert(!emitter_cdf.empty() && emitter_cdf.size() == emitters.size());
   if (emitter_cdf.empty()) {

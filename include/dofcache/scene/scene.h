@@ -82,6 +82,10 @@ struct PunctualLight {  // KHR_lights_punctual, in world space
   float inner_cone = 0.0f, outer_cone = 0.78539816f;
 };
 
+// Normalised running sums of non-negative `weights` with a positive total, the last exactly 1: the
+// table Scene::sample_emitter searches (and LightSampler per light).
+std::vector<float> cumulative_distribution(const std::vector<double>& weights);
+
 // Rec. 709 luminance of a linear RGB colour: the power weight of emitters.
 inline float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
