@@ -9,8 +9,7 @@
 namespace dofcache::render {
 namespace {
 
-// 10 bits per axis of p in [0, 1]^3, interleaved: neighbours in space stay near
-// in the order.
+// 10 bits per axis of p in [0, 1]^3, interleaved: neighbours in space stay near in the order.
 std::uint32_t morton3(glm::vec3 p) {
   auto spread = [](float v) {
     auto x = static_cast<std::uint32_t>(std::clamp(v, 0.0f, 1.0f) * 1023.0f);
@@ -43,8 +42,7 @@ LightSampler::LightSampler(const scene::Scene& scene) : scene_(scene) {
     if (inserted) groups.emplace_back();
     groups[it->second].push_back(static_cast<std::uint32_t>(e));
   }
-  // Too many to weigh per sample: merge neighbours along a Morton order into
-  // kMaxLights clusters.
+  // Too many to weigh per sample: merge neighbours along a Morton order into kMaxLights clusters.
   if (groups.size() > static_cast<std::size_t>(kMaxLights)) {
     const glm::vec3 lo = scene.bounds.lower;
     const glm::vec3 extent = glm::max(scene.bounds.upper - lo, glm::vec3(1e-20f));
@@ -93,8 +91,7 @@ LightSampler::LightSampler(const scene::Scene& scene) : scene_(scene) {
       for (int k = 0; k < 3; ++k)
         l.radius = std::max(l.radius, glm::length(vertex(e, k) - l.center));
 
-    // One-sided and flat: every triangle faces the first one's way, every
-    // vertex on its plane.
+    // One-sided and flat: every triangle faces the first one's way, every vertex on its plane.
     const glm::vec3 n0 =
         glm::normalize(glm::cross(vertex(order_[l.begin], 1) - vertex(order_[l.begin], 0),
                                   vertex(order_[l.begin], 2) - vertex(order_[l.begin], 0)));
@@ -123,9 +120,8 @@ float LightSampler::weights(glm::vec3 x, glm::vec3 n, float* w) const {
     const Light& l = lights_[i];
     const glm::vec3 d = l.center - x;
     float wi = 0.0f;
-    // Zero only where every point of the light gives zero: wholly below the
-    // horizon of n, or the point behind a one-sided flat light (a small
-    // tolerance keeps points on its plane).
+    // Zero only where every point of the light gives zero: wholly below the horizon of n, or the
+    // point behind a one-sided flat light (a small tolerance keeps points on its plane).
     const bool below = glm::dot(n, d) < -l.radius;
     const bool behind = l.one_sided_plane && glm::dot(l.normal, x) - l.offset < -1e-6f * l.radius;
     if (!below && !behind) wi = l.power / std::max(glm::dot(d, d), l.radius * l.radius);

@@ -1,6 +1,5 @@
-// LightSampler: the per-point choice of emitter against hand-computed
-// probabilities, and the direct light it feeds against the closed-form
-// irradiance of two rectangular lights.
+// LightSampler: the per-point choice of emitter against hand-computed probabilities, and the direct
+// light it feeds against the closed-form irradiance of two rectangular lights.
 #include "dofcache/render/light_sampler.h"
 
 #include <gtest/gtest.h>
@@ -15,8 +14,7 @@
 namespace dofcache::render {
 namespace {
 
-// A one-sided light quad [x0, x1] x [y0, y1] in the plane z = h, facing -Z,
-// radiance 1.
+// A one-sided light quad [x0, x1] x [y0, y1] in the plane z = h, facing -Z, radiance 1.
 void add_ceiling_light(scene::Scene& s, float x0, float x1, float y0, float y1, float h,
                        std::uint32_t object) {
   testing::add_quad(
@@ -24,10 +22,9 @@ void add_ceiling_light(scene::Scene& s, float x0, float x1, float y0, float y1, 
       {0.0f, 0.0f, -1.0f}, 1, object);
 }
 
-// A floor at z = 0 (object 0), a small light of half-size 0.02 at height 0.1
-// above the origin (object 1) and a large one, x in [2, 4], y in [-1, 1], at
-// height 5 (object 2). Seen from the origin the two subtend similar irradiance,
-// but the small one has 1/2500 of the power.
+// A floor at z = 0 (object 0), a small light of half-size 0.02 at height 0.1 above the origin
+// (object 1) and a large one, x in [2, 4], y in [-1, 1], at height 5 (object 2). Seen from the
+// origin the two subtend similar irradiance, but the small one has 1/2500 of the power.
 scene::Scene two_lights() {
   scene::Scene s;
   s.materials = {testing::diffuse_material(glm::vec3(0.5f)),
@@ -49,10 +46,9 @@ TEST(LightSampler, WeighsLightsByPowerOverSquaredDistance) {
   scene::Scene s = two_lights();
   LightSampler ls(s);
   ASSERT_EQ(ls.light_count(), 2u);
-  // Small light: power 0.0016 (area * luminance 1), centre at distance 0.1,
-  // radius 0.0283: weight 0.0016 / 0.01 = 0.16. Large light: power 4, centre
-  // (3, 0, 5) at squared distance 34: 4 / 34 = 0.117647. P(small) = 0.16 /
-  // 0.277647 = 0.576271, half of it per triangle.
+  // Small light: power 0.0016 (area * luminance 1), centre at distance 0.1, radius 0.0283: weight
+  // 0.0016 / 0.01 = 0.16. Large light: power 4, centre (3, 0, 5) at squared distance 34: 4 / 34 =
+  // 0.117647. P(small) = 0.16 / 0.277647 = 0.576271, half of it per triangle.
   const glm::vec3 x(0.0f), n(0.0f, 0.0f, 1.0f);
   EXPECT_NEAR(ls.probability(x, n, 0), 0.576271f / 2, 1e-5f);
   EXPECT_NEAR(ls.probability(x, n, 1), 0.576271f / 2, 1e-5f);
@@ -61,8 +57,7 @@ TEST(LightSampler, WeighsLightsByPowerOverSquaredDistance) {
   // Power alone would give the small light 0.0016 / 4.0016 = 0.0004.
   EXPECT_NEAR(s.emitter_cdf[1], 0.0016f / 4.0016f, 1e-6f);
 
-  // sample() reports the probability that probability() gives, and its
-  // frequencies follow it.
+  // sample() reports the probability that probability() gives, and its frequencies follow it.
   std::vector<int> count(s.emitters.size(), 0);
   const int kDraws = 4000;
   for (int k = 0; k < kDraws; ++k) {
@@ -129,11 +124,10 @@ TEST(LightSampler, ManyLightsAreClustered) {
   for (std::size_t e = 0; e < s.emitters.size(); ++e) EXPECT_GT(ls.probability(x, n, e), 0.0f);
 }
 
-// Irradiance / (pi L) at the origin (normal +Z) from a parallel rectangle [x0,
-// x1] x [y0, y1] at height h: the corner form factor F(a, b) = (1 / 2pi) [A /
-// sqrt(1 + A^2) atan(B / sqrt(1 + A^2))
-// + B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = a / h, B = b / h, is odd in
-// a and b, so any rectangle is a signed sum of four corners.
+// Irradiance / (pi L) at the origin (normal +Z) from a parallel rectangle [x0, x1] x [y0, y1] at
+// height h: the corner form factor F(a, b) = (1 / 2pi) [A / sqrt(1 + A^2) atan(B / sqrt(1 + A^2)) +
+// B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = a / h, B = b / h, is odd in a and b, so any
+// rectangle is a signed sum of four corners.
 double rectangle_form_factor(double x0, double x1, double y0, double y1, double h) {
   auto corner = [h](double a, double b) {
     double A = a / h, B = b / h, sa = std::sqrt(1 + A * A), sb = std::sqrt(1 + B * B);
@@ -174,9 +168,8 @@ TEST(LightSampler, DirectLightMatchesClosedFormWithoutFireflies) {
   const double mean = sum / kEstimates;
   const double sd = std::sqrt(std::max(0.0, sum2 / kEstimates - mean * mean));
   EXPECT_NEAR(mean / expected, 1.0, 0.03);
-  // Power sampling picks the small light 0.04% of the time: its estimates have
-  // a relative standard deviation of about 16. Weighing by distance brings it
-  // under 1.
+  // Power sampling picks the small light 0.04% of the time: its estimates have a relative standard
+  // deviation of about 16. Weighing by distance brings it under 1.
   EXPECT_LT(sd / mean, 1.0);
 }
 
