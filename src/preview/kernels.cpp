@@ -1,7 +1,9 @@
 #include "kernels.h"
 
+#include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <vector>
 
 namespace dofcache::preview::detail {
 
@@ -37,27 +39,64 @@ int prepare_pull_push(std::vector<PullPushLevel>& levels, int width, int height,
 
 namespace {
 
-// Weighted 2x2 reduce of level l into level l+1 (unpremultiplied values beside their weight).
+// Weighted reduce of level l into level l+1 (unpremultiplied values beside their weight) with the
+// overlapping 4x4 tent [1 3 3 1] / 4 per axis: a coarse cell also sees the fine cells just across
+// its edges, so a hole's fill next to known pixels comes from them, not from a much coarser level
+// (with a 2x2 box a hole whose edge falls on a cell boundary took its whole fill from far away).
+// Separable: fine rows are premultiplied and reduced along x once each (a ring of four), then
+// combined along y. Values of unknown cells (weight 0) are finite on levels >= 1, so they drop
+// out by their zero weight without a branch.
 template <int C>
 void pull_level(const PullPushLevel& fine, PullPushLevel& coarse) {
   constexpr int s = C + 1;
+  constexpr float kOuter = 0.25f, kInner = 0.75f;
+  const int cw = coarse.width, fw = fine.width, fh = fine.height;
   parallel_rows(
       coarse.height,
       [&](int y0, int y1) {
+        std::vector<float> ring(static_cast<size_t>(4) * cw * s),
+            pre(static_cast<size_t>(fw + 3) * s);
+        // Fine row fy reduced along x into ring slot fy & 3 (zero outside the image).
+        auto reduce_row = [&](int fy) {
+          float* h = ring.data() + static_cast<size_t>(fy & 3) * cw * s;
+          if (fy < 0 || fy >= fh) {
+            std::fill(h, h + static_cast<size_t>(cw) * s, 0.0f);
+            return;
+          }
+          const float* src = fine.data.data() + static_cast<size_t>(fy) * fw * s;
+          float* pp = pre.data();  // pp[i + 1] = fine cell i premultiplied; zeros around
+          std::fill(pp, pp + s, 0.0f);
+          for (int i = 0; i < fw; ++i) {
+            const float* v = src + static_cast<size_t>(i) * s;
+            float* o = pp + static_cast<size_t>(i + 1) * s;
+            for (int c = 0; c < C; ++c) o[c] = v[C] * v[c];
+            o[C] = v[C];
+          }
+          std::fill(pp + static_cast<size_t>(fw + 1) * s, pp + static_cast<size_t>(fw + 3) * s,
+                    0.0f);
+          for (int x = 0; x < cw; ++x) {
+            const float* t = pp + static_cast<size_t>(2 * x) * s;
+            float* q = h + static_cast<size_t>(x) * s;
+            for (int c = 0; c < s; ++c)
+              q[c] = kOuter * (t[c] + t[3 * s + c]) + kInner * (t[s + c] + t[2 * s + c]);
+          }
+        };
+        reduce_row(2 * y0 - 1);
+        reduce_row(2 * y0);
         for (int y = y0; y < y1; ++y) {
-          for (int x = 0; x < coarse.width; ++x) {
-            float acc[C + 1] = {};
-            for (int fy = 2 * y; fy < std::min(2 * y + 2, fine.height); ++fy)
-              for (int fx = 2 * x; fx < std::min(2 * x + 2, fine.width); ++fx) {
-                const float* p = fine.data.data() + (static_cast<size_t>(fy) * fine.width + fx) * s;
-                float w = p[C];
-                if (!(w > 0)) continue;
-                for (int k = 0; k < C; ++k) acc[k] += w * p[k];
-                acc[C] += w;
-              }
-            float* q = coarse.data.data() + (static_cast<size_t>(y) * coarse.width + x) * s;
-            float inv = acc[C] > 0 ? 1.0f / acc[C] : 0.0f;
-            for (int k = 0; k < C; ++k) q[k] = acc[k] * inv;
+          reduce_row(2 * y + 1);
+          reduce_row(2 * y + 2);
+          const float* r[4];
+          for (int t = 0; t < 4; ++t)
+            r[t] = ring.data() + static_cast<size_t>((2 * y - 1 + t) & 3) * cw * s;
+          for (int x = 0; x < cw; ++x) {
+            const size_t o = static_cast<size_t>(x) * s;
+            float acc[s];
+            for (int c = 0; c < s; ++c)
+              acc[c] = kOuter * (r[0][o + c] + r[3][o + c]) + kInner * (r[1][o + c] + r[2][o + c]);
+            float* q = coarse.data.data() + (static_cast<size_t>(y) * cw + x) * s;
+            const float inv = acc[C] > 0 ? 1.0f / acc[C] : 0.0f;
+            for (int c = 0; c < C; ++c) q[c] = acc[c] * inv;
             q[C] = std::min(1.0f, acc[C]);
           }
         }

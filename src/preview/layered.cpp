@@ -250,29 +250,30 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
     pending_box = Box{W, H, 0, 0};
   };
 
-  for (int i = n - 1; i >= 0; --i) {
-    Matte matte;
-    matte.c0 = static_cast<float>(plan.origin);
-    matte.inv_step = plan.step > 0 ? static_cast<float>(1.0 / plan.step) : 0.0f;
-    matte.i = i;
-    matte.n = n;
+  // Culling and disocclusion state of the layer whose fill ws.pull_push holds: its cull threshold,
+  // the revealed layers it may use, whether anything was filled.
+  const PullPushLevel& l1 = ws.pull_push[std::min(1, pp_levels - 1)];
+  float cull = -kInf, reveal_cut = -kInf;
+  std::uint64_t usable = 0;
+  bool any_unknown = false;
+
+  // ------------------------------------------------------- culling + disocclusion (pull)
+  auto disocclude = [&](int i) {
     // Culling: c < c_{i-2} on the trapezoid (its rising ramp keeps a copy of nearer content),
     // c < c_{i-1} on the hat. Revealed fill: the nearest A_j with j >= max(i-1, 1).
     const int cull_rank = slabs ? 1 : 2;
-    const float cull = i >= cull_rank ? static_cast<float>(plan.anchor(i - cull_rank)) : -kInf;
+    cull = i >= cull_rank ? static_cast<float>(plan.anchor(i - cull_rank)) : -kInf;
     const int lowest = std::max(i - 1, 1);
-    const std::uint64_t usable = occlusion && lowest < 64 ? ~((std::uint64_t{1} << lowest) - 1) : 0;
+    usable = occlusion && lowest < 64 ? ~((std::uint64_t{1} << lowest) - 1) : 0;
     // With revealed layers, a pixel on layer i's rising ramp (c_{i-2} <= c < c_{i-1}) whose
     // hidden surface is known shows that surface in layer i, not the ramp copy of its pinhole
     // surface: inside the foreground the nearer layers cover layer i anyway (the foreground's
     // plateau copy is opaque), and where their blurred silhouette lets layer i through, a lens
     // ray passes the foreground and sees what lies behind it.
-    const float reveal_cut = usable && i >= 1 && !slabs ? static_cast<float>(plan.anchor(i - 1))
-                                                        : -kInf;
+    reveal_cut = usable && i >= 1 && !slabs ? static_cast<float>(plan.anchor(i - 1)) : -kInf;
 
-    // ------------------------------------------------------- culling + disocclusion (pull)
     auto t1 = clock::now();
-    bool any_unknown = false;
+    any_unknown = false;
     if (i >= cull_rank && cull > static_cast<float>(plan.coc_min) && pp_levels >= 2) {
       PullPushLevel& l1 = ws.pull_push[1];
       std::atomic<long> unknown{0};
@@ -326,258 +327,269 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       any_unknown = unknown.load() > 0;
       if (any_unknown) pull_push_levels(ws.pull_push, pp_levels, 4);
     }
-    const PullPushLevel& l1 = ws.pull_push[std::min(1, pp_levels - 1)];
     timings.fill_ms += ms_since(t1);
+  };
 
-    // One matte part: matting, blur, and into the composite or the pending slab.
-    auto process = [&](MattePart part) {
-      matte.part = part;
-      // ------------------------------------------------------- matting
-      // Tiles are classified once; matte_row then produces any row segment of the premultiplied
-      // layer on demand (the pyramid's first reduce consumes it, so the full-resolution layer is
-      // never stored).
-      auto t2 = clock::now();
-      // The part's matte is zero at and behind `behind` and at and before `lo`.
-      float behind, lo;
-      switch (matte.part) {
-        case MattePart::kTrapezoid:  // zero from c_{i+1} on (not the back layer), up to c_{i-2}
-          behind = i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : kInf;
-          lo = i >= 2 ? cull : -kInf;
-          break;
-        case MattePart::kNearHalf:  // non-zero on (c_{i-1}, c_i]
-          behind = n > 1 ? std::nextafter(static_cast<float>(plan.anchor(i)), kInf) : kInf;
-          lo = i >= 1 ? cull : -kInf;
-          break;
-        case MattePart::kFarHalf:  // non-zero on (c_i, c_{i+1})
-          behind = i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : kInf;
-          lo = n > 1 ? static_cast<float>(plan.anchor(i)) : kInf;
-          break;
-      }
-      std::vector<Box> band_box(th);
-      parallel_rows(
-          th,
-          [&](int ty0, int ty1) {
-            for (int ty = ty0; ty < ty1; ++ty) {
-              Box b{W, H, 0, 0};
-              for (int tx = 0; tx < tw; ++tx) {
-                const size_t ti = static_cast<size_t>(ty) * tw + tx;
-                const Tile& tile = ws.tiles[ti];
-                TileClass cls;
-                bool nonzero;
-                if (tile.cmin >= behind) {
-                  cls = kSkip;
-                  nonzero = false;
-                } else if (tile.cmin >= cull && !(tile.cmin < reveal_cut && (tile.bits & usable))) {
-                  cls = kKept;
-                  nonzero = tile.cmax > lo;  // some c in (lo, behind)
-                } else if (tile.cmax < cull && !(tile.bits & usable)) {
-                  cls = any_unknown ? kCulled : kSkip;
-                  nonzero = any_unknown;
-                  if (any_unknown) {  // the filled CoC over the tile's footprint on level 1
-                    float fmin = std::numeric_limits<float>::infinity(), fmax = -fmin;
-                    const int cx0 = std::max(tx * kTile / 2 - 1, 0),
-                              cx1 = std::min((tx + 1) * kTile / 2 + 1, l1.width);
-                    const int cy0 = std::max(ty * kTile / 2 - 1, 0),
-                              cy1 = std::min((ty + 1) * kTile / 2 + 1, l1.height);
-                    for (int cy = cy0; cy < cy1; ++cy)
-                      for (int cx = cx0; cx < cx1; ++cx) {
-                        float c = l1.data[(static_cast<size_t>(cy) * l1.width + cx) * 5 + 3];
-                        fmin = std::min(fmin, c);
-                        fmax = std::max(fmax, c);
-                      }
-                    nonzero = fmin < behind && (fmax > lo || part == MattePart::kNearHalf);
-                    if (!nonzero) cls = kSkip;
-                  }
-                } else {
-                  cls = kMixed;
-                  nonzero = true;
-                }
-                ws.tile_class[ti] = cls;
-                if (nonzero)
-                  grow(b, {tx * kTile, ty * kTile, std::min((tx + 1) * kTile, W),
-                           std::min((ty + 1) * kTile, H)});
-              }
-              band_box[ty] = b;
-            }
-          },
-          1);
-      Box box{W, H, 0, 0};
-      for (const Box& b : band_box) grow(box, b);
+  Matte matte;
+  matte.c0 = static_cast<float>(plan.origin);
+  matte.inv_step = plan.step > 0 ? static_cast<float>(1.0 / plan.step) : 0.0f;
+  matte.n = n;
 
-      // Premultiplied layer pixels [xa, xb) of row y into out.
-      auto matte_row = [&](int y, int xa, int xb, Rgba* out) {
-        const Matte m = matte;  // a local copy: stores through `out` cannot alias it
-        const int ty = y / kTile;
-        Rgba* culled_tmp = nullptr;  // scratch of pull_push_sample_row, fetched once per row
-        const Rgba* src = px + static_cast<size_t>(y) * W;
-        for (int x = xa; x < xb;) {
-          const int tx = x / kTile, xe = std::min(xb, (tx + 1) * kTile);
-          const TileClass cls =
-              static_cast<TileClass>(ws.tile_class[static_cast<size_t>(ty) * tw + tx]);
-          Rgba* o = out - xa;
-          switch (cls) {
-            case kSkip:
-              std::fill(o + x, o + xe, Rgba{0, 0, 0, 0});
-              break;
-            case kKept:
-              for (int k = x; k < xe; ++k) o[k] = premultiply(src[k], m.weight(src[k].a));
-              break;
-            case kCulled: {
-              if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
-              pull_push_sample_row(l1, y, x, xe, o + x, culled_tmp);
-              for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.fill_weight(o[k].a));
-              break;
-            }
-            case kMixed:
-              for (int k = x; k < xe; ++k) {
-                Rgba v = src[k];
-                float alpha;
-                const size_t p = static_cast<size_t>(y) * W + k;
-                const Rgba* r = v.a < cull || v.a < reveal_cut ? fragment(p, usable) : nullptr;
-                if (v.a >= cull && !(v.a < reveal_cut && r)) {
-                  alpha = m.weight(v.a);
-                } else {
-                  if (r) {
-                    v = *r;
-                    alpha = m.revealed_weight(v.a);
-                  } else if (any_unknown) {
-                    pull_push_sample<4>(l1, k, y, &v.r);
-                    alpha = m.fill_weight(v.a);
-                  } else {
-                    alpha = 0;
-                  }
+  // One matte part of layer i: matting, blur, and into the composite or the pending slab.
+  auto process = [&](int i, MattePart part) {
+    matte.i = i;
+    matte.part = part;
+    // ------------------------------------------------------- matting
+    // Tiles are classified once; matte_row then produces any row segment of the premultiplied
+    // layer on demand (the pyramid's first reduce consumes it, so the full-resolution layer is
+    // never stored).
+    auto t2 = clock::now();
+    // The part's matte is zero at and behind `behind` and at and before `lo`.
+    float behind, lo;
+    switch (matte.part) {
+      case MattePart::kTrapezoid:  // zero from c_{i+1} on (not the back layer), up to c_{i-2}
+        behind = i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : kInf;
+        lo = i >= 2 ? cull : -kInf;
+        break;
+      case MattePart::kNearHalf:  // non-zero on (c_{i-1}, c_i]
+        behind = n > 1 ? std::nextafter(static_cast<float>(plan.anchor(i)), kInf) : kInf;
+        lo = i >= 1 ? cull : -kInf;
+        break;
+      case MattePart::kFarHalf:  // non-zero on (c_i, c_{i+1})
+        behind = i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : kInf;
+        lo = n > 1 ? static_cast<float>(plan.anchor(i)) : kInf;
+        break;
+    }
+    std::vector<Box> band_box(th);
+    parallel_rows(
+        th,
+        [&](int ty0, int ty1) {
+          for (int ty = ty0; ty < ty1; ++ty) {
+            Box b{W, H, 0, 0};
+            for (int tx = 0; tx < tw; ++tx) {
+              const size_t ti = static_cast<size_t>(ty) * tw + tx;
+              const Tile& tile = ws.tiles[ti];
+              TileClass cls;
+              bool nonzero;
+              if (tile.cmin >= behind) {
+                cls = kSkip;
+                nonzero = false;
+              } else if (tile.cmin >= cull && !(tile.cmin < reveal_cut && (tile.bits & usable))) {
+                cls = kKept;
+                nonzero = tile.cmax > lo;  // some c in (lo, behind)
+              } else if (tile.cmax < cull && !(tile.bits & usable)) {
+                cls = any_unknown ? kCulled : kSkip;
+                nonzero = any_unknown;
+                if (any_unknown) {  // the filled CoC over the tile's footprint on level 1
+                  float fmin = std::numeric_limits<float>::infinity(), fmax = -fmin;
+                  const int cx0 = std::max(tx * kTile / 2 - 1, 0),
+                            cx1 = std::min((tx + 1) * kTile / 2 + 1, l1.width);
+                  const int cy0 = std::max(ty * kTile / 2 - 1, 0),
+                            cy1 = std::min((ty + 1) * kTile / 2 + 1, l1.height);
+                  for (int cy = cy0; cy < cy1; ++cy)
+                    for (int cx = cx0; cx < cx1; ++cx) {
+                      float c = l1.data[(static_cast<size_t>(cy) * l1.width + cx) * 5 + 3];
+                      fmin = std::min(fmin, c);
+                      fmax = std::max(fmax, c);
+                    }
+                  nonzero = fmin < behind && (fmax > lo || part == MattePart::kFarHalf);
+                  if (!nonzero) cls = kSkip;
                 }
-                o[k] = alpha > 0 ? premultiply(v, alpha) : Rgba{0, 0, 0, 0};
+              } else {
+                cls = kMixed;
+                nonzero = true;
               }
-              break;
+              ws.tile_class[ti] = cls;
+              if (nonzero)
+                grow(b, {tx * kTile, ty * kTile, std::min((tx + 1) * kTile, W),
+                         std::min((ty + 1) * kTile, H)});
+            }
+            band_box[ty] = b;
           }
-          x = xe;
+        },
+        1);
+    Box box{W, H, 0, 0};
+    for (const Box& b : band_box) grow(box, b);
+
+    // Premultiplied layer pixels [xa, xb) of row y into out.
+    auto matte_row = [&](int y, int xa, int xb, Rgba* out) {
+      const Matte m = matte;  // a local copy: stores through `out` cannot alias it
+      const int ty = y / kTile;
+      Rgba* culled_tmp = nullptr;  // scratch of pull_push_sample_row, fetched once per row
+      const Rgba* src = px + static_cast<size_t>(y) * W;
+      for (int x = xa; x < xb;) {
+        const int tx = x / kTile, xe = std::min(xb, (tx + 1) * kTile);
+        const TileClass cls =
+            static_cast<TileClass>(ws.tile_class[static_cast<size_t>(ty) * tw + tx]);
+        Rgba* o = out - xa;
+        switch (cls) {
+          case kSkip:
+            std::fill(o + x, o + xe, Rgba{0, 0, 0, 0});
+            break;
+          case kKept:
+            for (int k = x; k < xe; ++k) o[k] = premultiply(src[k], m.weight(src[k].a));
+            break;
+          case kCulled: {
+            if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
+            pull_push_sample_row(l1, y, x, xe, o + x, culled_tmp);
+            for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.fill_weight(o[k].a));
+            break;
+          }
+          case kMixed:
+            for (int k = x; k < xe; ++k) {
+              Rgba v = src[k];
+              float alpha;
+              const size_t p = static_cast<size_t>(y) * W + k;
+              const Rgba* r = v.a < cull || v.a < reveal_cut ? fragment(p, usable) : nullptr;
+              if (v.a >= cull && !(v.a < reveal_cut && r)) {
+                alpha = m.weight(v.a);
+              } else {
+                if (r) {
+                  v = *r;
+                  alpha = m.revealed_weight(v.a);
+                } else if (any_unknown) {
+                  pull_push_sample<4>(l1, k, y, &v.r);
+                  alpha = m.fill_weight(v.a);
+                } else {
+                  alpha = 0;
+                }
+              }
+              o[k] = alpha > 0 ? premultiply(v, alpha) : Rgba{0, 0, 0, 0};
+            }
+            break;
         }
-      };
-      timings.matting_ms += ms_since(t2);
-      if (box.empty()) return;
-      ++timings.layers_blurred;
+        x = xe;
+      }
+    };
+    timings.matting_ms += ms_since(t2);
+    if (box.empty()) return;
+    ++timings.layers_blurred;
 
-      // ------------------------------------------------------- blur + blend ("over")
-      auto t3 = clock::now();
-      LevelBlend lb =
-          level_blend_for_radius(plan.layers[i].blur_radius, max_level, options.blend_pyramid_levels);
-      const int top = lb.t > 0 ? lb.level + 1 : lb.level;
-      // Into the composite ("over"), or added to the pending slab.
-      Rgba* const target = slabs ? pending : acc;
-      auto over = [slabs](Rgba& dst, const Rgba& src) {
-        dst = slabs ? dst + src : src + dst * (1.0f - src.a);
-      };
-      const double radius = plan.layers[i].blur_radius;
-      if (top > 0 && radius < std::min(options.direct_blur_radius, double{kMaxDirectBlurRadius})) {
-        // Small radius: the separable disk-profile kernel (pyramid.h), horizontal pass into
-        // ws.direct, vertical pass fused with the "over". The crop grows the box by the kernel's
-        // reach; beyond the box the matte is zero, so cropping changes nothing.
-        const std::vector<float> taps = disk_profile_taps(radius);
-        const int R = static_cast<int>(taps.size() / 2);
-        const Box crop = options.crop_layers ? Box{std::max(box.x0 - R, 0), std::max(box.y0 - R, 0),
-                                                   std::min(box.x1 + R, W), std::min(box.y1 + R, H)}
-                                             : Box{0, 0, W, H};
-        wrote(crop);
-        const int cw = crop.x1 - crop.x0, ch = crop.y1 - crop.y0;
-        ensure_size(ws.direct, static_cast<size_t>(cw) * ch);
-        Rgba* hbuf = ws.direct.data();
-        parallel_rows(ch, [&](int r0, int r1) {
-          Rgba* row = ws.scratch.get(2, cw + 2 * R) + R;
-          for (int y = r0; y < r1; ++y) {
-            matte_row(crop.y0 + y, crop.x0, crop.x1, row);
-            for (int k = 1; k <= R; ++k) {  // clamp to edge
-              row[-k] = row[0];
-              row[cw - 1 + k] = row[cw - 1];
-            }
-            Rgba* h = hbuf + static_cast<size_t>(y) * cw;
-            for (int x = 0; x < cw; ++x) {
-              Float4 sum = as_vec(row[x - R]) * taps[0];
-              for (int k = 1; k <= 2 * R; ++k) sum += as_vec(row[x - R + k]) * taps[k];
-              h[x] = as_rgba(sum);
-            }
+    // ------------------------------------------------------- blur + blend ("over")
+    auto t3 = clock::now();
+    LevelBlend lb =
+        level_blend_for_radius(plan.layers[i].blur_radius, max_level, options.blend_pyramid_levels);
+    const int top = lb.t > 0 ? lb.level + 1 : lb.level;
+    // Into the composite ("over"), or added to the pending slab.
+    Rgba* const target = slabs ? pending : acc;
+    auto over = [slabs](Rgba& dst, const Rgba& src) {
+      dst = slabs ? dst + src : src + dst * (1.0f - src.a);
+    };
+    const double radius = plan.layers[i].blur_radius;
+    if (top > 0 && radius < std::min(options.direct_blur_radius, double{kMaxDirectBlurRadius})) {
+      // Small radius: the separable disk-profile kernel (pyramid.h), horizontal pass into
+      // ws.direct, vertical pass fused with the "over". The crop grows the box by the kernel's
+      // reach; beyond the box the matte is zero, so cropping changes nothing.
+      const std::vector<float> taps = disk_profile_taps(radius);
+      const int R = static_cast<int>(taps.size() / 2);
+      const Box crop = options.crop_layers ? Box{std::max(box.x0 - R, 0), std::max(box.y0 - R, 0),
+                                                 std::min(box.x1 + R, W), std::min(box.y1 + R, H)}
+                                           : Box{0, 0, W, H};
+      wrote(crop);
+      const int cw = crop.x1 - crop.x0, ch = crop.y1 - crop.y0;
+      ensure_size(ws.direct, static_cast<size_t>(cw) * ch);
+      Rgba* hbuf = ws.direct.data();
+      parallel_rows(ch, [&](int r0, int r1) {
+        Rgba* row = ws.scratch.get(2, cw + 2 * R) + R;
+        for (int y = r0; y < r1; ++y) {
+          matte_row(crop.y0 + y, crop.x0, crop.x1, row);
+          for (int k = 1; k <= R; ++k) {  // clamp to edge
+            row[-k] = row[0];
+            row[cw - 1 + k] = row[cw - 1];
           }
-        });
-        parallel_rows(ch, [&](int r0, int r1) {
-          for (int y = r0; y < r1; ++y) {
-            Rgba* d = target + static_cast<size_t>(crop.y0 + y) * W + crop.x0;
-            const Rgba* rows[2 * kMaxDirectBlurRadius + 1];
-            for (int k = 0; k <= 2 * R; ++k)
-              rows[k] = hbuf + static_cast<size_t>(std::clamp(y - R + k, 0, ch - 1)) * cw;
-            for (int x = 0; x < cw; ++x) {
-              Float4 sum = as_vec(rows[0][x]) * taps[0];
-              for (int k = 1; k <= 2 * R; ++k) sum += as_vec(rows[k][x]) * taps[k];
-              over(d[x], as_rgba(sum));
-            }
+          Rgba* h = hbuf + static_cast<size_t>(y) * cw;
+          for (int x = 0; x < cw; ++x) {
+            Float4 sum = as_vec(row[x - R]) * taps[0];
+            for (int k = 1; k <= 2 * R; ++k) sum += as_vec(row[x - R + k]) * taps[k];
+            h[x] = as_rgba(sum);
           }
-        });
-      } else if (top == 0) {  // sharp layer: matte straight into the composite
-        wrote(box);
-        parallel_rows(box.y1 - box.y0, [&](int r0, int r1) {
-          Rgba* tmp = ws.scratch.get(2, box.x1 - box.x0);
-          for (int y = box.y0 + r0; y < box.y0 + r1; ++y) {
-            matte_row(y, box.x0, box.x1, tmp);
-            Rgba* d = target + static_cast<size_t>(y) * W + box.x0;
-            for (int x = 0; x < box.x1 - box.x0; ++x) over(d[x], tmp[x]);
+        }
+      });
+      parallel_rows(ch, [&](int r0, int r1) {
+        for (int y = r0; y < r1; ++y) {
+          Rgba* d = target + static_cast<size_t>(crop.y0 + y) * W + crop.x0;
+          const Rgba* rows[2 * kMaxDirectBlurRadius + 1];
+          for (int k = 0; k <= 2 * R; ++k)
+            rows[k] = hbuf + static_cast<size_t>(std::clamp(y - R + k, 0, ch - 1)) * cw;
+          for (int x = 0; x < cw; ++x) {
+            Float4 sum = as_vec(rows[0][x]) * taps[0];
+            for (int k = 1; k <= 2 * R; ++k) sum += as_vec(rows[k][x]) * taps[k];
+            over(d[x], as_rgba(sum));
           }
+        }
+      });
+    } else if (top == 0) {  // sharp layer: matte straight into the composite
+      wrote(box);
+      parallel_rows(box.y1 - box.y0, [&](int r0, int r1) {
+        Rgba* tmp = ws.scratch.get(2, box.x1 - box.x0);
+        for (int y = box.y0 + r0; y < box.y0 + r1; ++y) {
+          matte_row(y, box.x0, box.x1, tmp);
+          Rgba* d = target + static_cast<size_t>(y) * W + box.x0;
+          for (int x = 0; x < box.x1 - box.x0; ++x) over(d[x], tmp[x]);
+        }
+      });
+    } else {
+      const Box crop = options.crop_layers ? crop_for(box, top, W, H) : Box{0, 0, W, H};
+      wrote(crop);
+      const int cw0 = crop.x1 - crop.x0, ch0 = crop.y1 - crop.y0;
+      if (ws.pyramid.size() < static_cast<size_t>(top + 1)) ws.pyramid.resize(top + 1);
+      RgbaView views[32];
+      views[0] = {nullptr, cw0, ch0, 0};  // level 0 is produced row by row by matte_row
+      for (int k = 1; k <= top; ++k) {
+        int w = (views[k - 1].width + 1) / 2, h = (views[k - 1].height + 1) / 2;
+        ensure_size(ws.pyramid[k], static_cast<size_t>(w) * h);
+        views[k] = {ws.pyramid[k].data(), w, h, w};
+        if (k == 1)
+          reduce_box4_rows(cw0, ch0, views[1], ws.scratch, [&](int y, Rgba* out) {
+            matte_row(crop.y0 + y, crop.x0, crop.x1, out);
+          });
+        else
+          reduce_box4(views[k - 1], views[k], ws.scratch);
+      }
+      Rgba* acc0 = target + static_cast<size_t>(crop.y0) * W + crop.x0;
+      const float t = lb.t, s = 1.0f - lb.t;
+      if (lb.t > 0 && lb.level == 0) {
+        // Blend level 0 (the sharp layer) with level 1 and composite.
+        expand_bspline2(views[1], cw0, ch0, ws.scratch, [&](int y, const Rgba* e) {
+          Rgba* l = ws.scratch.get(2, cw0);
+          matte_row(crop.y0 + y, crop.x0, crop.x1, l);
+          Rgba* d = acc0 + static_cast<size_t>(y) * W;
+          for (int x = 0; x < cw0; ++x) over(d[x], l[x] * s + e[x] * t);
         });
       } else {
-        const Box crop = options.crop_layers ? crop_for(box, top, W, H) : Box{0, 0, W, H};
-        wrote(crop);
-        const int cw0 = crop.x1 - crop.x0, ch0 = crop.y1 - crop.y0;
-        if (ws.pyramid.size() < static_cast<size_t>(top + 1)) ws.pyramid.resize(top + 1);
-        RgbaView views[32];
-        views[0] = {nullptr, cw0, ch0, 0};  // level 0 is produced row by row by matte_row
-        for (int k = 1; k <= top; ++k) {
-          int w = (views[k - 1].width + 1) / 2, h = (views[k - 1].height + 1) / 2;
-          ensure_size(ws.pyramid[k], static_cast<size_t>(w) * h);
-          views[k] = {ws.pyramid[k].data(), w, h, w};
-          if (k == 1)
-            reduce_box4_rows(cw0, ch0, views[1], ws.scratch, [&](int y, Rgba* out) {
-              matte_row(crop.y0 + y, crop.x0, crop.x1, out);
-            });
-          else
-            reduce_box4(views[k - 1], views[k], ws.scratch);
+        if (lb.t > 0) {  // mix at level l: (1 - t) reduce_l + t expand(reduce_{l+1})
+          const RgbaView& dst = views[lb.level];
+          expand_bspline2(views[lb.level + 1], dst.width, dst.height, ws.scratch,
+                          [&](int y, const Rgba* e) {
+                            Rgba* d = dst.row(y);
+                            for (int x = 0; x < dst.width; ++x) d[x] = d[x] * s + e[x] * t;
+                          });
         }
-        Rgba* acc0 = target + static_cast<size_t>(crop.y0) * W + crop.x0;
-        const float t = lb.t, s = 1.0f - lb.t;
-        if (lb.t > 0 && lb.level == 0) {
-          // Blend level 0 (the sharp layer) with level 1 and composite.
-          expand_bspline2(views[1], cw0, ch0, ws.scratch, [&](int y, const Rgba* e) {
-            Rgba* l = ws.scratch.get(2, cw0);
-            matte_row(crop.y0 + y, crop.x0, crop.x1, l);
-            Rgba* d = acc0 + static_cast<size_t>(y) * W;
-            for (int x = 0; x < cw0; ++x) over(d[x], l[x] * s + e[x] * t);
-          });
-        } else {
-          if (lb.t > 0) {  // mix at level l: (1 - t) reduce_l + t expand(reduce_{l+1})
-            const RgbaView& dst = views[lb.level];
-            expand_bspline2(views[lb.level + 1], dst.width, dst.height, ws.scratch,
-                            [&](int y, const Rgba* e) {
-                              Rgba* d = dst.row(y);
-                              for (int x = 0; x < dst.width; ++x) d[x] = d[x] * s + e[x] * t;
-                            });
-          }
-          for (int k = lb.level; k >= 2; --k) {  // expand in place into the level below
-            const RgbaView& dst = views[k - 1];
-            expand_bspline2(views[k], dst.width, dst.height, ws.scratch,
-                            [&](int y, const Rgba* e) { std::copy(e, e + dst.width, dst.row(y)); });
-          }
-          expand_bspline2(views[1], cw0, ch0, ws.scratch, [&](int y, const Rgba* e) {
-            Rgba* d = acc0 + static_cast<size_t>(y) * W;
-            for (int x = 0; x < cw0; ++x) over(d[x], e[x]);
-          });
+        for (int k = lb.level; k >= 2; --k) {  // expand in place into the level below
+          const RgbaView& dst = views[k - 1];
+          expand_bspline2(views[k], dst.width, dst.height, ws.scratch,
+                          [&](int y, const Rgba* e) { std::copy(e, e + dst.width, dst.row(y)); });
         }
+        expand_bspline2(views[1], cw0, ch0, ws.scratch, [&](int y, const Rgba* e) {
+          Rgba* d = acc0 + static_cast<size_t>(y) * W;
+          for (int x = 0; x < cw0; ++x) over(d[x], e[x]);
+        });
       }
-      timings.blur_blend_ms += ms_since(t3);
-    };
-    if (!slabs) {
-      process(MattePart::kTrapezoid);
-    } else {
-      process(MattePart::kFarHalf);  // completes the slab [c_i, c_{i+1}] ...
-      flush_pending();               // ... which goes over what lies behind it
-      process(MattePart::kNearHalf);
     }
+    timings.blur_blend_ms += ms_since(t3);
+  };
+
+  for (int i = n - 1; i >= 0; --i) {
+    if (slabs) {
+      // The far half completes the slab [c_i, c_{i+1}], which then goes over what lies behind it.
+      // The slab's holes (c < c_i) are those of layer i+1, whose fill ws.pull_push still holds:
+      // the far half backs them with it too, at the hat's weight of the fill's CoC, so a fill
+      // next to a surface at c_i is blurred like that surface (see Matte::fill_weight).
+      process(i, MattePart::kFarHalf);
+      flush_pending();
+    }
+    disocclude(i);
+    process(i, slabs ? MattePart::kNearHalf : MattePart::kTrapezoid);
   }
   if (slabs) {
     flush_pending();

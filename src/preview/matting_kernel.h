@@ -37,12 +37,15 @@ struct Matte {
     return std::min(rise, fall);
   }
   // Culled pixels filled by pull-push (what the layer extrapolates behind nearer content). On the
-  // trapezoid the matte itself. On the hat's near half a fill is opaque wherever it lies in front
-  // of c_i: it backs the nearer slabs where their blur lets them through, also where the nearer
-  // slab holds the same surface (its share in layer i-1 is missing there, because layer i-1 keeps
-  // its own pixels), so a surface that crosses an anchor shows no seam.
+  // trapezoid the matte itself. On the hat's halves the fill is the slab's backing: it belongs to
+  // the slab [c_i, c_{i+1}] (the holes of layer i+1, c < c_i) and is split between its two parts
+  // by the hat at the fill's CoC, like a surface there: the far half of layer i takes weight 1
+  // up to c_i, then the falling ramp; the near half of layer i+1 takes the rising ramp. A fill
+  // extrapolated from a surface just behind c_i is thus blurred with that surface's radius r_i
+  // (with r_{i+1} the two blurred coverages left a gap along the contour where a curved surface
+  // crosses c_i, through which what lies behind showed as a seam).
   float fill_weight(float c) const {
-    if (part == MattePart::kNearHalf) return n <= 1 || u(c) <= 0.0f ? 1.0f : 0.0f;
+    if (part == MattePart::kFarHalf) return n > 1 && u(c) <= 0.0f ? 1.0f : weight(c);
     return weight(c);
   }
   // Revealed fragments: on the trapezoid a hard front cut, nothing on the rising ramp. On the
