@@ -5,12 +5,20 @@
 //      (uncached runs at doubling spp, interpolated in log-log), divided by the cached time;
 //   3. the minFactor sweep 0.5, 1, 2, 4 on the Cornell box.
 // The equal-quality table has the fixed --sample-quality variants, the same with the sample
-// quality render::recommended_sample_quality(spp) ("auto"), and the regime of --hi-spp lens
+// quality render::recommended_sample_quality(spp) ("auto"; scaled by 32 / --gather-rays, see
+// auto_sample_quality), and the regime of --hi-spp lens
 // samples per pixel (default 256; 0 skips it), where a cached lens ray's low cost counts more.
 // All variants run side by side in one process. Writes bench/results/cache_render.{json,csv}.
+// --gather-rays / --light-samples set the per-ray shading of every measured render (the cache's
+// sample quality multiplies them); --uncached-gather-rays gives uncached DRT its own gather rays
+// (e.g. a cheap shade with more lens samples). The reference always uses the default shading: its
+// expected image does not depend on them. With non-default shading and no --results, the results
+// name says so (cache_render_gather128, ...), so the default-shading results are not overwritten.
 //   cache_render_bench [--width W] [--spp N] [--hi-spp N] [--ref-spp N] [--threads T]
 //                      [--sample-quality Q|auto] [--accuracy A] [--max-radius-px R] [--scene NAME]...
+//                      [--gather-rays G] [--light-samples L] [--uncached-gather-rays G]
 //                      [--results NAME]   (--help for more)
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -34,8 +42,10 @@ namespace {
 
 struct Options {
   int width = 128, spp = 16, hi_spp = 256, ref_spp = 512, threads = 0;
-  int sample_quality = 4;  // 0: render::recommended_sample_quality(spp) of each render
+  int sample_quality = 4;  // 0: auto_sample_quality(spp) of each render
   double accuracy = 0.1, max_radius_px = 8.0;
+  render::ShadingSettings shading;  // per-ray shading of the measured renders
+  int uncached_gather_rays = 0;     // 0: shading.gather_rays
   std::vector<std::string> scenes = {"cornell_box.gltf", "color_bars.gltf", "color_spheres.gltf",
                                      "glossy_closeup.glb"};
   std::string results = "cache_render";
@@ -71,11 +81,24 @@ SceneSetup load(const std::string& file, const Options& o) {
   return s;
 }
 
+// Always with the default shading: the reference's expected image does not depend on it, and its
+// cached file (named without it) is shared by every shading setting.
 image::Image reference(const SceneSetup& s, const Options& o) {
-  return bench::converged_reference(s.name, s.scene, *s.accel, s.scene.cameras[0], s.base, o.ref_spp);
+  render::RenderSettings base = s.base;
+  base.shading = render::ShadingSettings{};
+  return bench::converged_reference(s.name, s.scene, *s.accel, s.scene.cameras[0], base, o.ref_spp);
 }
 
-// A cached render's variant: radius rule, sample quality (0: recommended for the spp) and, for
+// The sample quality "auto" picks: render::recommended_sample_quality(spp) for the default gather
+// rays, scaled by default / actual gather rays (at least 1), so that a cache sample's gather rays
+// (quality times gather rays) stay where the recommendation puts them whatever --gather-rays is.
+int auto_sample_quality(int spp, const Options& o) {
+  const long default_gather = render::ShadingSettings{}.gather_rays;
+  const long scaled_spp = static_cast<long>(spp) * default_gather / o.shading.gather_rays;
+  return render::recommended_sample_quality(static_cast<int>(std::max(scaled_spp, 1L)));
+}
+
+// A cached render's variant: radius rule, sample quality (0: auto for the spp) and, for
 // the adaptive rule, the radius cap in pixel footprints (0: --max-radius-px).
 struct Variant {
   const char* name;
@@ -89,12 +112,15 @@ Run run(const SceneSetup& s, const image::Image& ref, int spp, const std::string
         int quality = -1, double max_radius_px = 0.0) {
   render::RenderSettings r = s.base;
   r.spp = spp;
+  r.shading = g_options->shading;
+  if (backend == "none" && g_options->uncached_gather_rays > 0)
+    r.shading.gather_rays = g_options->uncached_gather_rays;
   auto cache = cache::make_radiance_cache(backend);
   r.cache.cache = cache.get();
   r.cache.min_factor = min_factor;
   r.cache.radius_rule = rule;
   if (quality < 0) quality = g_options->sample_quality;
-  r.cache.sample_quality = quality > 0 ? quality : render::recommended_sample_quality(spp);
+  r.cache.sample_quality = quality > 0 ? quality : auto_sample_quality(spp, *g_options);
   r.cache.accuracy = g_options->accuracy;
   r.cache.max_radius_pixels = max_radius_px > 0.0 ? max_radius_px : g_options->max_radius_px;
   render::RenderOutput out = render::render(s.scene, *s.accel, s.scene.cameras[0], r);
@@ -124,8 +150,24 @@ double equal_quality_time(const SceneSetup& s, const image::Image& ref, double t
   return -1.0;
 }
 
+// Throws dofcache::Error, before anything is measured, if a cache sample's shading (the per-ray
+// shading times a sample quality the bench will use) is out of ShadingSettings' range.
+void check_sample_shading(const Options& o) {
+  std::vector<int> qualities;
+  if (o.sample_quality > 0) qualities.push_back(o.sample_quality);
+  qualities.push_back(auto_sample_quality(o.spp, o));
+  if (o.hi_spp > 0) qualities.push_back(auto_sample_quality(o.hi_spp, o));
+  for (int q : qualities) {
+    render::ShadingSettings sample = o.shading;
+    sample.light_samples *= q;
+    sample.gather_rays *= q;
+    sample.validate();
+  }
+}
+
 int run_bench(const Options& o) {
   g_options = &o;
+  check_sample_shading(o);
   bench::Table t41({"scene", "cache", "spp", "time [s]", "speed-up", "relMSE", "PSNR [dB]",
                     "SSIM", "hit rate", "samples", "cache MB"});
   bench::Table teq({"scene", "cache", "spp", "sample quality", "cached time [s]", "cached relMSE",
@@ -184,6 +226,11 @@ int run_bench(const Options& o) {
       }
     }
   }
+  const int uncached_gather =
+      o.uncached_gather_rays > 0 ? o.uncached_gather_rays : o.shading.gather_rays;
+  std::printf("\nShading: %d light samples, %d gather rays per shade (uncached DRT: %d gather "
+              "rays); reference: the default shading\n",
+              o.shading.light_samples, o.shading.gather_rays, uncached_gather);
   std::printf("\nTable 4.1 again: the same %d lens samples per pixel, error against a %d-spp "
               "uncached reference (%d px wide)\n", o.spp, o.ref_spp, o.width);
   t41.print();
@@ -196,7 +243,10 @@ int run_bench(const Options& o) {
   results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"hi_spp", o.hi_spp},
                          {"reference_spp", o.ref_spp},
                          {"threads", o.threads}, {"sample_quality", o.sample_quality},
-                         {"accuracy", o.accuracy}, {"max_radius_px", o.max_radius_px}};
+                         {"accuracy", o.accuracy}, {"max_radius_px", o.max_radius_px},
+                         {"gather_rays", o.shading.gather_rays},
+                         {"light_samples", o.shading.light_samples},
+                         {"uncached_gather_rays", uncached_gather}};
   results["rows"] = t41.to_json();
   results["columns"] = t41.header();
   results["equal_quality"] = teq.to_json();
@@ -219,10 +269,11 @@ int main(int argc, char** argv) {
                           "Lens samples per pixel of the many-samples regime (0: skip it)", 0);
   bench::add_count_option(app, "--ref-spp", o.ref_spp,
                           "Lens samples per pixel of the converged uncached reference");
-  // "auto" is stored as 0: render::recommended_sample_quality(spp) of each render.
+  // "auto" is stored as 0: auto_sample_quality(spp) of each render.
   app.add_option("--sample-quality", o.sample_quality,
                  "A cache sample uses this many times the light and gather samples of a per-ray "
-                 "shade, 1..256; auto (or 0): chosen from each render's spp")
+                 "shade, 1..256; auto (or 0): chosen from each render's spp, "
+                 "render::recommended_sample_quality(spp * 32 / gather rays)")
       ->type_name("Q|auto")
       ->transform(CLI::Transformer({{"auto", "0"}}).description(""))
       ->check(bench::in_range(0, 256).description(""));
@@ -232,7 +283,29 @@ int main(int argc, char** argv) {
   app.add_option("--max-radius-px", o.max_radius_px,
                  "Adaptive radius: cap in pixel footprints (the 'max 1 px' rows use 1)")
       ->check(bench::in_range(0.0, 1e4));
+  app.add_option("--gather-rays", o.shading.gather_rays,
+                 "Final-gather rays per shade of every measured render (the reference keeps the "
+                 "default)")
+      ->check(bench::in_range(1, 4096));
+  app.add_option("--light-samples", o.shading.light_samples,
+                 "Shadow rays to area lights per shade of every measured render (the reference "
+                 "keeps the default)")
+      ->check(bench::in_range(1, 4096));
+  app.add_option("--uncached-gather-rays", o.uncached_gather_rays,
+                 "Final-gather rays per shade of the uncached renders only (0: --gather-rays)")
+      ->check(bench::in_range(0, 4096));
   bench::add_scene_option(app, o.scenes);
   bench::parse_command_line(app, argc, argv);
+  // Non-default shading and no --results: say so in the name rather than overwrite the results
+  // of the default shading.
+  const render::ShadingSettings defaults;
+  if (app.get_option("--results")->count() == 0) {
+    if (o.shading.gather_rays != defaults.gather_rays)
+      o.results += "_gather" + std::to_string(o.shading.gather_rays);
+    if (o.shading.light_samples != defaults.light_samples)
+      o.results += "_light" + std::to_string(o.shading.light_samples);
+    if (o.uncached_gather_rays > 0 && o.uncached_gather_rays != o.shading.gather_rays)
+      o.results += "_uncachedgather" + std::to_string(o.uncached_gather_rays);
+  }
   return bench::run_guarded(app, [&] { return run_bench(o); });
 }
