@@ -39,6 +39,34 @@ int prepare_pull_push(std::vector<PullPushLevel>& levels, int width, int height,
 
 namespace {
 
+// Weighted 2x2 reduce of level l into level l+1 (unpremultiplied values beside their weight).
+template <int C>
+void pull_level_box(const PullPushLevel& fine, PullPushLevel& coarse) {
+  constexpr int s = C + 1;
+  parallel_rows(
+      coarse.height,
+      [&](int y0, int y1) {
+        for (int y = y0; y < y1; ++y) {
+          for (int x = 0; x < coarse.width; ++x) {
+            float acc[C + 1] = {};
+            for (int fy = 2 * y; fy < std::min(2 * y + 2, fine.height); ++fy)
+              for (int fx = 2 * x; fx < std::min(2 * x + 2, fine.width); ++fx) {
+                const float* p = fine.data.data() + (static_cast<size_t>(fy) * fine.width + fx) * s;
+                float w = p[C];
+                if (!(w > 0)) continue;
+                for (int k = 0; k < C; ++k) acc[k] += w * p[k];
+                acc[C] += w;
+              }
+            float* q = coarse.data.data() + (static_cast<size_t>(y) * coarse.width + x) * s;
+            float inv = acc[C] > 0 ? 1.0f / acc[C] : 0.0f;
+            for (int k = 0; k < C; ++k) q[k] = acc[k] * inv;
+            q[C] = std::min(1.0f, acc[C]);
+          }
+        }
+      },
+      8);
+}
+
 // Weighted reduce of level l into level l+1 (unpremultiplied values beside their weight) with the
 // overlapping 4x4 tent [1 3 3 1] / 4 per axis: a coarse cell also sees the fine cells just across
 // its edges, so a hole's fill next to known pixels comes from them, not from a much coarser level
@@ -47,7 +75,7 @@ namespace {
 // combined along y. Values of unknown cells (weight 0) are finite on levels >= 1, so they drop
 // out by their zero weight without a branch.
 template <int C>
-void pull_level(const PullPushLevel& fine, PullPushLevel& coarse) {
+void pull_level_tent(const PullPushLevel& fine, PullPushLevel& coarse) {
   constexpr int s = C + 1;
   constexpr float kOuter = 0.25f, kInner = 0.75f;
   const int cw = coarse.width, fw = fine.width, fh = fine.height;
@@ -131,8 +159,13 @@ void push_level(PullPushLevel& fine, const PullPushLevel& coarse) {
 }
 
 template <int C>
-void pull_push_levels_c(std::vector<PullPushLevel>& levels, int n) {
-  for (int l = 1; l + 1 < n; ++l) pull_level<C>(levels[l], levels[l + 1]);
+void pull_push_levels_c(std::vector<PullPushLevel>& levels, int n, PullFilter filter) {
+  for (int l = 1; l + 1 < n; ++l) {
+    if (filter == PullFilter::kTent)
+      pull_level_tent<C>(levels[l], levels[l + 1]);
+    else
+      pull_level_box<C>(levels[l], levels[l + 1]);
+  }
   // The top (1x1) is normalised already; weight 0 there means nothing was known: value 0.
   float* p = levels[n - 1].data.data();
   if (!(p[C] > 0))
@@ -175,8 +208,9 @@ void dispatch_channels(int channels, const F& f) {
 
 }  // namespace
 
-void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels) {
-  dispatch_channels(channels, [&](auto c) { pull_push_levels_c<decltype(c)::value>(levels, n); });
+void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels, PullFilter filter) {
+  dispatch_channels(channels,
+                    [&](auto c) { pull_push_levels_c<decltype(c)::value>(levels, n, filter); });
 }
 
 void pull_push_sample(const PullPushLevel& l1, int channels, int x, int y, float* out) {

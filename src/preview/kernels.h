@@ -106,10 +106,15 @@ struct PullPushLevel {
   int width = 0, height = 0;
   std::vector<float> data;
 };
+// The pull's reduce: Kraus & Strengert's 2x2 box, or the overlapping separable tent [1 3 3 1] / 4,
+// whose coarse cells also see the cells across their edges, so that a hole's fill next to known
+// pixels comes from them even where the hole's edge falls on cell boundaries (the slab composite's
+// backing along a contour needs that; it costs about 1.5 ms per 640x480 frame).
+enum class PullFilter { kBox, kTent };
 // Pulls levels 2 .. n-1 (1x1) from `levels[1]` (already filled by the caller), then pushes back
 // down to level 1 so that every level-1 pixel holds a normalised filled value with weight 1.
 // Needs n >= 2; channels 1..8.
-void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels);
+void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels, PullFilter filter);
 // Size the pull-push levels for a width x height level 0; returns the number of levels.
 int prepare_pull_push(std::vector<PullPushLevel>& levels, int width, int height, int channels);
 // Bilinear lookup of the filled level 1 at fine pixel (x, y): coarse coordinate (x + 1/2)/2 - 1/2,

@@ -325,7 +325,8 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           },
           8);
       any_unknown = unknown.load() > 0;
-      if (any_unknown) pull_push_levels(ws.pull_push, pp_levels, 4);
+      if (any_unknown)
+        pull_push_levels(ws.pull_push, pp_levels, 4, slabs ? PullFilter::kTent : PullFilter::kBox);
     }
     timings.fill_ms += ms_since(t1);
   };
