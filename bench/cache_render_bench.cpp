@@ -157,12 +157,7 @@ void check_sample_shading(const Options& o) {
   if (o.sample_quality > 0) qualities.push_back(o.sample_quality);
   qualities.push_back(auto_sample_quality(o.spp, o));
   if (o.hi_spp > 0) qualities.push_back(auto_sample_quality(o.hi_spp, o));
-  for (int q : qualities) {
-    render::ShadingSettings sample = o.shading;
-    sample.light_samples *= q;
-    sample.gather_rays *= q;
-    sample.validate();
-  }
+  for (int q : qualities) render::cache_sample_shading(o.shading, q).validate();
 }
 
 int run_bench(const Options& o) {

@@ -49,13 +49,6 @@ struct Context {
   const DiffuseLookup* reflections;  // cached diffuse light for reflected surfaces, or null
 };
 
-ShadingSettings cache_sample_shading(const RenderSettings& s) {
-  ShadingSettings q = s.shading;
-  q.light_samples *= s.cache.sample_quality;
-  q.gather_rays *= s.cache.sample_quality;
-  return q;
-}
-
 // Diffuse illumination of surfaces seen in reflections, from the cache as it was at the start of
 // the pass (never the tile buffers: a read-only view keeps the result thread-count independent).
 class CacheView final : public DiffuseLookup {
@@ -219,6 +212,13 @@ void render_samples(const Context& c, const Tile& t, std::uint32_t s0, std::uint
 
 }  // namespace
 
+ShadingSettings cache_sample_shading(const ShadingSettings& per_ray, int sample_quality) {
+  ShadingSettings q = per_ray;
+  q.light_samples *= sample_quality;
+  q.gather_rays *= sample_quality;
+  return q;
+}
+
 int recommended_sample_quality(int spp) {
   return std::clamp((std::max(spp, 0) + 16) / 32, 1, 256);
 }
@@ -268,6 +268,12 @@ void RenderSettings::validate() const {
       throw Error("cache maximum radius must be in [0, 10000] pixels");
     if (cache.sample_quality < 1 || cache.sample_quality > 256)
       throw Error("cache sample quality must be in [1, 256]");
+    try {
+      cache_sample_shading(shading, cache.sample_quality).validate();
+    } catch (const Error& e) {
+      throw Error("cache samples (" + std::to_string(cache.sample_quality) +
+                  " times the per-ray shading): " + e.what());
+    }
     if (cache.lookup.min_samples < 1 || cache.lookup.min_samples > 1024)
       throw Error("cache: samples needed per lookup must be in [1, 1024]");
     if (!(cache.lookup.max_normal_angle_deg > 0.0f && cache.lookup.max_normal_angle_deg <= 90.0f))
@@ -292,9 +298,15 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   cache::RadianceCache* cache = settings.cache.cache;
   std::unique_ptr<CacheView> reflections;
   if (cache) reflections = std::make_unique<CacheView>(cache, settings.cache.lookup);
-  Context c{scene, accel, settings, make_camera(camera, settings),
+  const ShadingSettings sample_shading =
+      cache_sample_shading(settings.shading, settings.cache.sample_quality);
+  Context c{scene,
+            accel,
+            settings,
+            make_camera(camera, settings),
             Shader(scene, accel, settings.shading),
-            Shader(scene, accel, cache_sample_shading(settings)), reflections.get()};
+            Shader(scene, accel, sample_shading),
+            reflections.get()};
   const int w = settings.width, h = settings.height;
   RenderOutput out;
   out.color = image::Image(w, h, 3, 0.0f);

@@ -113,5 +113,27 @@ TEST(CachedRender, PinholeWithCacheIsRefused) {
   EXPECT_THROW(render(s, accel, s.cameras[0], st), Error);
 }
 
+// A cache sample's shading is the per-ray shading times the sample quality: each factor may be in
+// range while their product is not (4096 light samples at quality 2), which is refused up front.
+TEST(CachedRender, CacheSampleShadingOutOfRangeIsRefused) {
+  ShadingSettings per_ray;
+  per_ray.light_samples = 3;
+  per_ray.gather_rays = 5;
+  const ShadingSettings q = cache_sample_shading(per_ray, 4);
+  EXPECT_EQ(q.light_samples, 12);
+  EXPECT_EQ(q.gather_rays, 20);
+  EXPECT_EQ(q.bounces, per_ray.bounces);
+
+  scene::Scene s = diffuse_scene();
+  scene::Accel accel(s);
+  auto vdb = cache::make_radiance_cache("vdb");
+  RenderSettings st = settings(1, 1, vdb.get());
+  st.shading.light_samples = 4096;
+  st.cache.sample_quality = 2;
+  EXPECT_THROW(st.validate(), Error);
+  st.cache.sample_quality = 1;
+  EXPECT_NO_THROW(st.validate());
+}
+
 }  // namespace
 }  // namespace dofcache::render

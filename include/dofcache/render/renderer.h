@@ -80,6 +80,10 @@ struct CacheSettings {
 // best equal-quality speed-up; the fixed q = 8 at 64 spp spent about 90% of the render on samples.
 int recommended_sample_quality(int spp);
 
+// The shading of a cache sample: `per_ray` with its light samples and gather rays multiplied by
+// `sample_quality` (CacheSettings::sample_quality).
+ShadingSettings cache_sample_shading(const ShadingSettings& per_ray, int sample_quality);
+
 struct RenderSettings {
   int width = 640, height = 480;
   int spp = 16;  // samples per pixel (lens samples for drt, passes for accumulation)
