@@ -330,6 +330,16 @@ int run(const Options& o) {
     const image::Image revealed = revealed_region(in);
     std::map<std::string, image::Image> images;
     std::map<std::string, Errors> errs;
+    const double band_pct = 100 * fraction_set(band);
+    // One row of the error table; the image and its errors are kept under `label`.
+    auto record = [&](const std::string& label, const image::Image& img, double ms) {
+      Errors e = errors(img, ref, band, &revealed);
+      terr.add_row({s.name, label, Cell(e.whole.rel_mse, 5), Cell(e.whole.ssim, 4),
+                    Cell(e.band.rel_mse, 5), Cell(e.band.ssim, 4), Cell(band_pct, 1),
+                    Cell(e.revealed_rel_mse, 5), Cell(ms, 2)});
+      images[label] = img;
+      errs[label] = e;
+    };
     auto post = [&](const std::string& label, PreviewMethod m,
                     const preview::PreviewInputs* inputs = nullptr,
                     const preview::PreviewOptions* opts = nullptr) {
@@ -341,19 +351,9 @@ int run(const Options& o) {
         img = preview::render_preview(inputs ? *inputs : in, m, opts ? *opts : options, ws);
         best = std::min(best, ms_since(t0));
       }
-      Errors e = errors(img, ref, band, &revealed);
-      terr.add_row({s.name, label, Cell(e.whole.rel_mse, 5), Cell(e.whole.ssim, 4),
-                    Cell(e.band.rel_mse, 5), Cell(e.band.ssim, 4),
-                    Cell(100 * fraction_set(band), 1), Cell(e.revealed_rel_mse, 5), Cell(best, 2)});
-      images[label] = img;
-      errs[label] = e;
+      record(label, img, best);
     };
-    {
-      Errors e = errors(in.color, ref, band, &revealed);
-      terr.add_row({s.name, "pinhole (no blur)", Cell(e.whole.rel_mse, 5), Cell(e.whole.ssim, 4),
-                    Cell(e.band.rel_mse, 5), Cell(e.band.ssim, 4),
-                    Cell(100 * fraction_set(band), 1), Cell(e.revealed_rel_mse, 5), Cell(0.0, 2)});
-    }
+    record("pinhole (no blur)", in.color, 0.0);
     post("gather", PreviewMethod::Gather);
     post("scatter", PreviewMethod::Scatter);
     post("Kraus (layered)", PreviewMethod::Layered);
@@ -374,17 +374,12 @@ int run(const Options& o) {
           s.scene, *s.accel, s.camera(), ps, PreviewMethod::LayeredOcclusion, all);
       post("occlusion fix, no lens reach", PreviewMethod::LayeredOcclusion, &wide.inputs, &all);
     }
+    // What the inputs carry: the band's lens integral traced through them (exact_visibility).
+    const std::string exact_label = "exact visibility, " + std::to_string(o.exact_rays) + " rays";
     {
-      // What the inputs carry: the band's lens integral traced through them (exact_visibility).
-      const std::string label = "exact visibility, " + std::to_string(o.exact_rays) + " rays";
       auto t0 = clock_type::now();
       image::Image img = exact_visibility(in, images["occlusion fix"], band, options, o.exact_rays);
-      const double ms = ms_since(t0);
-      Errors e = errors(img, ref, band, &revealed);
-      terr.add_row({s.name, label, Cell(e.whole.rel_mse, 5), Cell(e.whole.ssim, 4),
-                    Cell(e.band.rel_mse, 5), Cell(e.band.ssim, 4),
-                    Cell(100 * fraction_set(band), 1), Cell(e.revealed_rel_mse, 5), Cell(ms, 2)});
-      errs["exact visibility"] = e;
+      record(exact_label, img, ms_since(t0));
     }
     // The paper's comparison (both on Kraus & Strengert's "over" composite, the default), then the
     // same with slabs, and the fix against Kraus & Strengert on slabs.
@@ -398,7 +393,7 @@ int run(const Options& o) {
     if (s.name != "cornell_box")
       ttarget.add_row({s.name, Cell(k_over.band.rel_mse, 5), Cell(fix.band.rel_mse, 5),
                        Cell(ratio, 2), ratio <= 0.5, Cell(ratio_slabs, 2), Cell(ratio_mixed, 2),
-                       Cell(errs["exact visibility"].band.rel_mse / k_over.band.rel_mse, 2),
+                       Cell(errs[exact_label].band.rel_mse / k_over.band.rel_mse, 2),
                        Cell(k_over.revealed_rel_mse, 5), Cell(fix.revealed_rel_mse, 5)});
 
     // 3. Table 4.3: DRT, cached DRT, and the two previews (whole pipeline).
