@@ -1,10 +1,11 @@
 // Post-process cost of the depth-of-field preview methods (gather, scatter, layered, layered with
-// the occlusion fix) on the synthetic demo scene (preview/synthetic_scene.h: a textured backdrop
-// behind the focal plane, a receding floor, boxes from 0.8 m to 6 m; 50 mm f/1.4 focused at 3 m,
-// so CoC radii span about -13 .. +5 px at 480 rows, scaled with the height), at 640x480 and
-// 1280x720, with 1 and 2 threads. Also the occlusion-mask construction (build_occlusion_masks),
-// which the paper counts separately ("extra-region mask"). Inputs, near-plane id layers and
-// revealed layers are made once per resolution, outside the timing.
+// the occlusion fix, with and without its edge trace) on the synthetic demo scene
+// (preview/synthetic_scene.h: a textured backdrop behind the focal plane, a receding floor, boxes
+// from 0.8 m to 6 m; 50 mm f/1.4 focused at 3 m, so CoC radii span about -13 .. +5 px at 480 rows,
+// scaled with the height), at 640x480 and 1280x720, with 1 and 2 threads. Also the occlusion-mask
+// construction (build_occlusion_masks), which the paper counts separately ("extra-region mask").
+// Inputs, near-plane id layers and revealed layers are made once per resolution, outside the
+// timing.
 //
 //   preview_postprocess_bench [--results NAME] [--benchmark_NAME=VALUE...]   (--help for more)
 //
@@ -81,19 +82,18 @@ void add(PreviewTimings& a, const PreviewTimings& b) {
   a.blur_blend_ms += b.blur_blend_ms;
   a.filter_ms += b.filter_ms;
   a.resolve_ms += b.resolve_ms;
+  a.trace_ms += b.trace_ms;
   a.total_ms += b.total_ms;
   a.layers = b.layers;
   a.layers_blurred = b.layers_blurred;
 }
 
-void BM_Preview(benchmark::State& state, PreviewMethod method, LayerComposite composite,
+void BM_Preview(benchmark::State& state, PreviewMethod method, PreviewOptions options,
                 std::string label) {
   const int resolution = static_cast<int>(state.range(0));
   const int threads = static_cast<int>(state.range(1));
   const Scene& s = scene_for(resolution);
-  PreviewOptions options;
   options.threads = threads;
-  options.layer_composite = composite;
   PreviewWorkspace workspace;
   render_preview(s.inputs, method, options, workspace);  // warm the workspace
   Row row;
@@ -154,16 +154,21 @@ double load_average() {
 
 int run(const std::string& results_name) {
   const double load_before = load_average();
-  // Each method with the default composite, and the layered methods with slabs too.
-  const std::vector<std::tuple<PreviewMethod, LayerComposite, std::string>> variants = {
-      {PreviewMethod::Gather, LayerComposite::kOver, "gather"},
-      {PreviewMethod::Scatter, LayerComposite::kOver, "scatter"},
-      {PreviewMethod::Layered, LayerComposite::kOver, "layered"},
-      {PreviewMethod::Layered, LayerComposite::kSlabs, "layered, slabs"},
-      {PreviewMethod::LayeredOcclusion, LayerComposite::kOver, "layered-occlusion"},
-      {PreviewMethod::LayeredOcclusion, LayerComposite::kSlabs, "layered-occlusion, slabs"}};
-  for (const auto& [m, composite, label] : variants) {
-    benchmark::RegisterBenchmark(label.c_str(), BM_Preview, m, composite, label)
+  // Each method with the default options, the layered methods with slabs too, and the occlusion
+  // fix without its edge trace.
+  PreviewOptions slabs, layers_only;
+  slabs.layer_composite = LayerComposite::kSlabs;
+  layers_only.edge_rays = 0;
+  const std::vector<std::tuple<PreviewMethod, PreviewOptions, std::string>> variants = {
+      {PreviewMethod::Gather, {}, "gather"},
+      {PreviewMethod::Scatter, {}, "scatter"},
+      {PreviewMethod::Layered, {}, "layered"},
+      {PreviewMethod::Layered, slabs, "layered, slabs"},
+      {PreviewMethod::LayeredOcclusion, {}, "layered-occlusion"},
+      {PreviewMethod::LayeredOcclusion, layers_only, "layered-occlusion, layers only"},
+      {PreviewMethod::LayeredOcclusion, slabs, "layered-occlusion, slabs"}};
+  for (const auto& [m, opts, label] : variants) {
+    benchmark::RegisterBenchmark(label.c_str(), BM_Preview, m, opts, label)
         ->ArgsProduct({{0, 1}, {1, 2}})
         ->ArgNames({"res", "threads"})
         ->Unit(benchmark::kMillisecond)
@@ -185,7 +190,8 @@ int run(const std::string& results_name) {
 
   bench::Table table(
       {"method", "resolution", "threads", "layers", "total [ms]", "min [ms]", "setup [ms]",
-       "fill [ms]", "matting [ms]", "blur+blend [ms]", "filter [ms]", "resolve [ms]"},
+       "fill [ms]", "matting [ms]", "blur+blend [ms]", "filter [ms]", "resolve [ms]",
+       "edge trace [ms]"},
       2);
   for (const auto& [key, r] : g_rows) {
     if (!r.calls) continue;
@@ -193,7 +199,7 @@ int run(const std::string& results_name) {
     table.add_row({r.method, std::to_string(r.width) + "x" + std::to_string(r.height), r.threads,
                    r.sum.layers, r.sum.total_ms / n, r.min_ms, r.sum.setup_ms / n,
                    r.sum.fill_ms / n, r.sum.matting_ms / n, r.sum.blur_blend_ms / n,
-                   r.sum.filter_ms / n, r.sum.resolve_ms / n});
+                   r.sum.filter_ms / n, r.sum.resolve_ms / n, r.sum.trace_ms / n});
   }
   table.print();
   std::printf("load average (1 min): %.2f before, %.2f after\n", load_before, load_after);

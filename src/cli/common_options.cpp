@@ -74,12 +74,12 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
       ->capture_default_str()->check(CLI::Range(0, 256));
 }
 
-void add_layer_composite_option(CLI::App* cmd, preview::LayerComposite& composite) {
+void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options) {
   cmd->add_option_function<std::string>(
          "--layer-composite",
-         [&composite](const std::string& name) {
-           composite = name == "slabs" ? preview::LayerComposite::kSlabs
-                                       : preview::LayerComposite::kOver;
+         [&options](const std::string& name) {
+           options.layer_composite = name == "slabs" ? preview::LayerComposite::kSlabs
+                                                     : preview::LayerComposite::kOver;
          },
          "Layered previews: how blurred layers are composited. over: Kraus & Strengert's "
          "trapezoid mattes composited with 'over'; slabs: each layer's hat split at its anchor "
@@ -87,6 +87,13 @@ void add_layer_composite_option(CLI::App* cmd, preview::LayerComposite& composit
          "(2-3x less error at silhouettes; a curved surface can show a faint seam)")
       ->check(CLI::IsMember({"over", "slabs"}))
       ->default_str("over");
+  cmd->add_option("--edge-rays", options.edge_rays,
+                  "preview-occlusion: lens rays per pixel traced through the pinhole surface and "
+                  "the revealed layers near occluding edges, where layers cannot tell which part "
+                  "of the lens sees past an edge (rounded to a square grid; 0: layers only, "
+                  "faster, more edge error)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1024));
 }
 
 }  // namespace dofcache::cli

@@ -30,7 +30,8 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading);
 void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
                               std::string& radius_rule);
 
-// --layer-composite over|slabs (the layered preview methods, render and refocus).
-void add_layer_composite_option(CLI::App* cmd, preview::LayerComposite& composite);
+// The layered previews' composite (render and refocus): --layer-composite over|slabs and
+// --edge-rays N, into options.layer_composite and options.edge_rays.
+void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options);
 
 }  // namespace dofcache::cli

@@ -19,7 +19,7 @@ struct RefocusOptions {
   std::string input, out = "refocus.png", method;
   std::optional<double> focus_distance, fstop, focal_length;
   int threads = 0;
-  preview::LayerComposite layer_composite = preview::LayerComposite::kOver;
+  preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
   bool quiet = false;
 };
 
@@ -44,7 +44,8 @@ int run_refocus(const RefocusOptions& o) {
                                             : preview::PreviewMethod::Layered;
   preview::PreviewOptions options = saved.options;
   options.threads = o.threads;
-  options.layer_composite = o.layer_composite;
+  options.layer_composite = o.composite.layer_composite;
+  options.edge_rays = o.composite.edge_rays;
 
   t0 = std::chrono::steady_clock::now();
   preview::RefocusedInputs in =
@@ -88,7 +89,7 @@ Runner add_refocus_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::Range(0, 4096));
-  add_layer_composite_option(cmd, o->layer_composite);
+  add_composite_options(cmd, o->composite);
   cmd->add_flag("-q,--quiet", o->quiet, "Print only the output path");
   return [o] { return run_refocus(*o); };
 }

@@ -28,7 +28,7 @@ struct RenderOptions {
   render::ShadingSettings shading;
   std::string cache = "none", cache_debug, cache_trace, radius_rule = "paper";
   render::CacheSettings cache_settings;
-  preview::LayerComposite layer_composite = preview::LayerComposite::kOver;
+  preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
   bool quiet = false;
 };
 
@@ -55,7 +55,8 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
                 preview::PreviewMethod method) {
   preview::PreviewOptions options;
   options.threads = o.threads;
-  options.layer_composite = o.layer_composite;
+  options.layer_composite = o.composite.layer_composite;
+  options.edge_rays = o.composite.edge_rays;
   preview::ScenePreview p =
       preview::render_scene_preview(scene, accel, camera, s, method, options);
   image::write_image(o.out, p.image, {{{"Z"}, p.inputs.depth}, {{"id"}, p.inputs.ids}});
@@ -255,7 +256,7 @@ Runner add_render_command(CLI::App& app) {
   cmd->add_option("--cache-trace", o->cache_trace,
                   "Record the cache's lookups and inserts to FILE for bench/cache_replay_bench");
   cmd->add_option("--stats-json", o->stats_json, "Write render statistics as JSON to this file");
-  add_layer_composite_option(cmd, o->layer_composite);
+  add_composite_options(cmd, o->composite);
   cmd->add_option("--save-preview-inputs", o->save_preview_inputs,
                   "Preview modes: also save the pinhole images (and revealed layers) as one "
                   "multi-part .exr for 'dofcache refocus'");

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <vector>
 
@@ -38,6 +39,15 @@ void parallel_rows(int rows, const F& f, int grain = 4) {
   tbb::parallel_for(tbb::blocked_range<int>(0, rows, grain),
                     [&](const tbb::blocked_range<int>& r) { f(r.begin(), r.end()); });
 }
+
+// Few bits are ever set in the masks counted here (a pixel is revealed by one or two layers): clear
+// them one by one rather than call the generic routine (no POPCNT without -march flags).
+inline int popcount64(std::uint64_t v) {
+  int c = 0;
+  for (; v; v &= v - 1) ++c;
+  return c;
+}
+inline int ctz64(std::uint64_t v) { return __builtin_ctzll(v); }
 
 template <class T>
 void ensure_size(std::vector<T>& v, size_t n) {

@@ -48,14 +48,6 @@ inline Rgba premultiply(const Rgba& v, float alpha) {
   return as_rgba(r);
 }
 
-// Few bits are ever set (a pixel is revealed by one or two layers): clear them one by one rather
-// than call the generic routine (no POPCNT without -march flags).
-int popcount64(std::uint64_t v) {
-  int c = 0;
-  for (; v; v &= v - 1) ++c;
-  return c;
-}
-int ctz64(std::uint64_t v) { return __builtin_ctzll(v); }
 
 }  // namespace
 
@@ -616,6 +608,12 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
     }
   });
   timings.resolve_ms += ms_since(t4);
+
+  if (occlusion && options.edge_rays > 0) {
+    auto t5 = clock::now();
+    trace_edge_band(options, W, H, ws, out);
+    timings.trace_ms += ms_since(t5);
+  }
 }
 
 }  // namespace dofcache::preview::detail

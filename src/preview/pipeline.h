@@ -8,6 +8,11 @@
 #include "kernels.h"
 
 namespace dofcache::preview {
+namespace detail {
+struct EdgeSeed {  // an edge pixel and its radius (0: none)
+  float x, y, r;
+};
+}  // namespace detail
 
 struct PreviewWorkspace::Impl {
   std::vector<float> coc;  // signed CoC of every pinhole pixel (clamped)
@@ -37,6 +42,11 @@ struct PreviewWorkspace::Impl {
   std::vector<std::vector<detail::Rgba>> pyramid;
   std::vector<detail::Rgba> direct;  // horizontal pass of the direct (small-radius) blur
 
+  // occlusion fix: edge trace (edge_trace.cpp)
+  std::vector<std::uint64_t> trace_bins;      // CoC bins occupied per pixel and per fragment
+  std::vector<float> trace_reach;             // signed distance into the edge band
+  std::vector<detail::EdgeSeed> trace_seeds;  // per 2x2 block: the edge disk reach is measured to
+
   // gather / scatter
   std::vector<float> radius, inv_area, plane_r, plane_g, plane_b;
   std::vector<float> tile_radius;
@@ -51,6 +61,11 @@ namespace detail {
 void layered_preview(const PreviewInputs& inputs, const PreviewOptions& options,
                      const LayerPlan& plan, bool occlusion, PreviewWorkspace::Impl& ws,
                      image::Image& out, PreviewTimings& timings);
+// The occlusion fix's edge trace (edge_trace.cpp): replaces the layer composite in `out` near
+// occluding edges by options.edge_rays lens rays traced through ws.packed and the revealed
+// fragments (ws.revealed*, if any).
+void trace_edge_band(const PreviewOptions& options, int width, int height,
+                     PreviewWorkspace::Impl& ws, image::Image& out);
 void gather_preview(const image::Image& color, const PreviewOptions& options,
                     PreviewWorkspace::Impl& ws, image::Image& out);
 void scatter_preview(const image::Image& color, const PreviewOptions& options,

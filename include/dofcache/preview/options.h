@@ -61,6 +61,11 @@ struct PreviewOptions {
   // --- occlusion fix (occlusion.h) ---------------------------------------------------------------
   // Keep only mask pixels that some lens ray can reach (Lee et al. 2010); see occlusion.h.
   bool mask_lens_reach = true;
+  // Lens rays per pixel traced through the pinhole surface and the revealed fragments in the band
+  // around occluding edges, where the layer composite cannot represent which part of the lens sees
+  // past the edge (docs/preview.md, "Edge trace"). Rounded to a square grid; 0 keeps the layer
+  // composite everywhere. Only the layered method with revealed layers traces.
+  int edge_rays = 16;
 
   // --- scatter baseline --------------------------------------------------------------------------
   // Width of a depth bin of the scatter baseline in signed CoC diameter (pixels). Splats of one bin

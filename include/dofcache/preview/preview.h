@@ -59,6 +59,7 @@ struct PreviewTimings {
   double blur_blend_ms = 0;  // layered: pyramid blur; "over" is fused into its last expand
   double filter_ms = 0;      // gather / scatter: the whole filter
   double resolve_ms = 0;     // division by total alpha, output image
+  double trace_ms = 0;       // occlusion fix: lens rays traced in the edge band
   double total_ms = 0;
   int layers = 0;          // layers planned (layered methods)
   int layers_blurred = 0;  // layers whose matte was not empty

@@ -1,0 +1,297 @@
+// The occlusion fix's edge trace: near occluding edges the lens integral is evaluated directly by
+// tracing lens rays through the layered depth image the preview already holds (the pinhole surface
+// and the revealed fragments), and the result replaces the layer composite there.
+//
+// Why: layers blur each depth slab over the whole lens and composite the slabs with one alpha per
+// pixel, so a pixel that sees a foreground edge through part of its lens sees the *whole* disk of
+// the background behind it, attenuated. The lens sees only the part of the background that the
+// unoccluded part of the lens looks at (partial visibility). Where the background behind an edge is
+// not uniform (a bar behind a bar, the ball behind a bar) that is what keeps the layered fix's edge
+// error high; exact visibility through the same inputs has a third of it (docs/preview.md).
+//
+// Geometry (the lens-reach rule of occlusion.h): the ray through pixel centre p and lens point u
+// (unit disk) crosses the depth of signed CoC c at p + u c / 2 (eq. 2.6: the CoC radius is c / 2).
+// Along the ray c increases from the lens outwards, so the first fragment met is the one seen.
+//
+// Cost control:
+//  * only the pixels whose lens cone reaches an occluding edge are traced (the edge band: within
+//    max(R_p, R_q) of 4-neighbours whose CoC differ by more than 1 px), with a feather outside it;
+//  * a ray is not marched in fixed steps: the CoC range is cut into 64 bins, every pixel holds a
+//    64-bit mask of the bins its fragments occupy, and a ray visits only the bins that some pixel
+//    within that bin's reach occupies (about two per ray on the shipped scenes), one lookup each;
+//  * rays stop at their first hit.
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+#include "dofcache/lens/thin_lens.h"
+#include "pipeline.h"
+
+namespace dofcache::preview::detail {
+namespace {
+
+constexpr int kBins = 64;
+constexpr int kTile = 8;                  // tiles of the reach masks
+constexpr float kFeather = 2.0f;          // pixels outside the band over which the trace fades out
+constexpr float kNotNear = -1e30f;        // band reach of a pixel no edge reaches
+constexpr int kRotations = 97;            // distinct rotations of the lens grid over the pixels
+constexpr int kFloorOffsetInt = 1 << 12;  // > the largest CoC radius (clamped to 128 px)
+constexpr float kFloorOffset = static_cast<float>(kFloorOffsetInt);
+constexpr float kEdgeJump = 1.0f;  // CoC difference of 4-neighbours that makes an occluding edge
+
+// 64 equal bins over the signed CoC range of the fragments. Thin bins keep the fragments thin, so a
+// ray passes behind a foreground edge as closely as the lens lets it (bins of at least 1 px, the
+// thickness of a plain march, lose most of the gain on colour bars at 160x120, where the whole
+// range is 11 px). While a ray crosses one bin it moves at most w / 2 pixels.
+struct Bins {
+  float lo = 0, width = 1, inv_width = 1;
+  int of(float c) const {
+    const int b = static_cast<int>((c - lo) * inv_width);
+    return std::clamp(b, 0, kBins - 1);
+  }
+  float centre(int b) const { return lo + (static_cast<float>(b) + 0.5f) * width; }
+};
+
+// reach[p] = max over edge pixels q of (R_q - |p - q|), R_q the edge radius at q: >= 0 inside the
+// union of the edge disks, minus the distance to its border outside. The best edge pixel (seed) is
+// searched on 2x2 blocks like a distance transform propagates: each block offers its seed to the
+// next along the rows (both ways), then along the columns (both ways), and keeps the better one at
+// its centre. Each pixel then measures its block's seed exactly. A pixel can miss its best seed by
+// about a pixel, which the feather absorbs.
+void edge_reach(const Rgba* px, int W, int H, float max_radius, std::vector<EdgeSeed>& seeds,
+                std::vector<float>& reach) {
+  const int BW = (W + 1) / 2, BH = (H + 1) / 2;
+  ensure_size(seeds, static_cast<size_t>(BW) * BH);
+  ensure_size(reach, static_cast<size_t>(W) * H);
+  auto value = [](const EdgeSeed& e, float x, float y) {
+    return e.r > 0 ? e.r - std::sqrt((e.x - x) * (e.x - x) + (e.y - y) * (e.y - y)) : kNotNear;
+  };
+  // Each block's own seed: its edge pixel of largest radius.
+  parallel_rows(BH, [&](int by0, int by1) {
+    for (int by = by0; by < by1; ++by)
+      for (int bx = 0; bx < BW; ++bx) {
+        EdgeSeed best{0, 0, 0};
+        for (int y = 2 * by; y < std::min(H, 2 * by + 2); ++y)
+          for (int x = 2 * bx; x < std::min(W, 2 * bx + 2); ++x) {
+            const size_t p = static_cast<size_t>(y) * W + x;
+            const float a = px[p].a;
+            float r = 0;
+            auto edge = [&](size_t q) {
+              const float b = px[q].a;
+              if (std::abs(a - b) > kEdgeJump)
+                r = std::max(r, std::max(1.0f, 0.5f * std::max(std::abs(a), std::abs(b))));
+            };
+            if (x > 0) edge(p - 1);
+            if (x + 1 < W) edge(p + 1);
+            if (y > 0) edge(p - W);
+            if (y + 1 < H) edge(p + W);
+            r = std::min(r, max_radius);
+            if (r > best.r) best = {static_cast<float>(x), static_cast<float>(y), r};
+          }
+        seeds[static_cast<size_t>(by) * BW + bx] = best;
+      }
+  });
+  // Block b takes the seed of block `from` if that one is better at b's centre.
+  auto relax = [&](int bx, int by, int fx, int fy) {
+    EdgeSeed& mine = seeds[static_cast<size_t>(by) * BW + bx];
+    const EdgeSeed& theirs = seeds[static_cast<size_t>(fy) * BW + fx];
+    const float cx = 2.0f * bx + 0.5f, cy = 2.0f * by + 0.5f;
+    if (theirs.r > 0 && value(theirs, cx, cy) > value(mine, cx, cy)) mine = theirs;
+  };
+  parallel_rows(BH, [&](int by0, int by1) {
+    for (int by = by0; by < by1; ++by) {
+      for (int bx = 1; bx < BW; ++bx) relax(bx, by, bx - 1, by);
+      for (int bx = BW - 2; bx >= 0; --bx) relax(bx, by, bx + 1, by);
+    }
+  });
+  constexpr int kColumns = 16;  // columns per task: rows of a column block stay in cache
+  tbb::parallel_for(0, (BW + kColumns - 1) / kColumns, [&](int k) {
+    const int bx0 = k * kColumns, bx1 = std::min(BW, bx0 + kColumns);
+    for (int by = 1; by < BH; ++by)
+      for (int bx = bx0; bx < bx1; ++bx) relax(bx, by, bx, by - 1);
+    for (int by = BH - 2; by >= 0; --by)
+      for (int bx = bx0; bx < bx1; ++bx) relax(bx, by, bx, by + 1);
+  });
+  parallel_rows(H, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < W; ++x)
+        reach[static_cast<size_t>(y) * W + x] =
+            value(seeds[static_cast<size_t>(y / 2) * BW + x / 2], static_cast<float>(x),
+                  static_cast<float>(y));
+  });
+}
+
+}  // namespace
+
+void trace_edge_band(const PreviewOptions& options, int W, int H, PreviewWorkspace::Impl& ws,
+                     image::Image& out) {
+  const int grid = static_cast<int>(std::lround(std::sqrt(std::max(0, options.edge_rays))));
+  if (grid < 1 || W <= 0 || H <= 0) return;
+  const size_t N = static_cast<size_t>(W) * H;
+  const Rgba* px = ws.packed.data();
+  const bool has_revealed = ws.revealed_first.size() >= N;
+  // Revealed fragments of pixel p: [first, first + count) of ws.revealed, one per bit of
+  // ws.revealed_bits[p] (layer j), in layer order.
+  auto first_fragment = [&](size_t p) { return has_revealed ? ws.revealed_first[p] : -1; };
+  auto fragment_of_layer = [&](size_t p, int j) {  // index of p's fragment of A_j, or -1
+    const int f = first_fragment(p);
+    if (f < 0 || !((ws.revealed_bits[p] >> j) & 1)) return -1;
+    return f + popcount64(ws.revealed_bits[p] & ((std::uint64_t{1} << j) - 1));
+  };
+  const size_t fragment_count = has_revealed ? ws.revealed.size() : 0;
+
+  // The CoC range of every fragment, and its bins.
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (size_t p = 0; p < N; ++p) lo = std::min(lo, px[p].a), hi = std::max(hi, px[p].a);
+  for (size_t p = 0; p < N; ++p) {
+    const int f = first_fragment(p);
+    if (f < 0) continue;
+    for (int k = f; k < f + popcount64(ws.revealed_bits[p]); ++k)
+      lo = std::min(lo, ws.revealed[k].a), hi = std::max(hi, ws.revealed[k].a);
+  }
+  Bins bins;
+  bins.lo = lo;
+  bins.width = std::max(1e-3f, (hi - lo) * (1.0f + 1e-6f) / kBins);
+  bins.inv_width = 1.0f / bins.width;
+
+  // Bins occupied per fragment. A fragment spans its CoC and, if a 4-neighbour of the same
+  // surface lies behind it (nearer than the edge threshold), back to that neighbour: continuous
+  // surfaces stay closed to rays at any slope, while occluding edges stay thin.
+  auto run = [&](float c, float back) {
+    const int a = bins.of(c), b = bins.of(c + back);
+    const std::uint64_t upto = b >= 63 ? ~std::uint64_t{0} : (std::uint64_t{2} << b) - 1;
+    return upto & ~((std::uint64_t{1} << a) - 1);
+  };
+  auto extend = [](float back, float c, float nb) {
+    const float d = nb - c;
+    return d > back && d <= kEdgeJump ? d : back;
+  };
+  ensure_size(ws.trace_bins, 2 * N + fragment_count);
+  // Per pixel {every fragment's bins, the pinhole fragment's bins} side by side (a ray reads
+  // both), then one entry per revealed fragment.
+  std::uint64_t* occ = ws.trace_bins.data();
+  std::uint64_t* frag_run = occ + 2 * N;
+  parallel_rows(H, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t p = static_cast<size_t>(y) * W + x;
+        const size_t nbs[4] = {x > 0 ? p - 1 : p, x + 1 < W ? p + 1 : p, y > 0 ? p - W : p,
+                               y + 1 < H ? p + W : p};
+        const float c = px[p].a;
+        float back = 0;
+        for (size_t q : nbs) back = extend(back, c, px[q].a);
+        std::uint64_t m = occ[2 * p + 1] = run(c, back);
+        const int f = first_fragment(p);
+        if (f >= 0) {
+          int k = f;
+          for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
+            const int j = ctz64(b);
+            const float fc = ws.revealed[k].a;
+            float fback = 0;
+            for (size_t q : nbs) {
+              fback = extend(fback, fc, px[q].a);
+              const int g = fragment_of_layer(q, j);
+              if (g >= 0) fback = extend(fback, fc, ws.revealed[g].a);
+            }
+            frag_run[k] = run(fc, fback);
+            m |= frag_run[k];
+          }
+        }
+        occ[2 * p] = m;
+      }
+  });
+  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
+  std::vector<std::uint64_t> tiles(static_cast<size_t>(tw) * th, 0), tmp(tiles.size(), 0);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      tiles[(y / kTile) * tw + x / kTile] |= occ[2 * (static_cast<size_t>(y) * W + x)];
+  // Bin k is met only within |c_k| / 2 of the pixel: dilate each bin's tiles by its own reach,
+  // one tile ring per step, from the farthest-reaching bins in.
+  auto reach_of = [&](int k) {
+    return static_cast<int>(
+        std::ceil((0.5f * std::abs(bins.centre(k)) + 0.5f * bins.width) / kTile));
+  };
+  int max_reach = 0;
+  for (int k = 0; k < kBins; ++k) max_reach = std::max(max_reach, reach_of(k));
+  std::vector<std::uint64_t> with_reach(max_reach + 1, 0);
+  for (int k = 0; k < kBins; ++k) with_reach[reach_of(k)] |= std::uint64_t{1} << k;
+  std::vector<std::uint64_t> dilated(tiles.size());
+  for (size_t t = 0; t < tiles.size(); ++t) dilated[t] = tiles[t] & with_reach[max_reach];
+  for (int r = max_reach; r > 0; --r) {
+    for (int ty = 0; ty < th; ++ty)
+      for (int tx = 0; tx < tw; ++tx) {
+        std::uint64_t m = tiles[ty * tw + tx] & with_reach[r - 1];
+        for (int y = std::max(0, ty - 1); y <= std::min(th - 1, ty + 1); ++y)
+          for (int x = std::max(0, tx - 1); x <= std::min(tw - 1, tx + 1); ++x)
+            m |= dilated[y * tw + x];
+        tmp[ty * tw + tx] = m;
+      }
+    dilated.swap(tmp);
+  }
+  tiles.swap(dilated);
+
+  std::vector<float>& reach = ws.trace_reach;
+  edge_reach(px, W, H, static_cast<float>(options.max_coc_radius), ws.trace_seeds, reach);
+
+  // A stratified grid on the lens, rotated per pixel (a fixed golden-angle sequence) so that its
+  // structure turns into noise rather than aliasing.
+  std::vector<glm::vec2> lens;
+  for (int a = 0; a < grid; ++a)
+    for (int b = 0; b < grid; ++b)
+      lens.push_back(lens::concentric_disk({(a + 0.5f) / grid, (b + 0.5f) / grid}));
+  const float inv_rays = 1.0f / static_cast<float>(lens.size());
+  glm::vec2 rotations[kRotations];
+  for (int i = 0; i < kRotations; ++i)
+    rotations[i] = {std::cos(2.3999632f * i), std::sin(2.3999632f * i)};
+
+  float* o = out.data().data();
+  parallel_rows(H, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t p = static_cast<size_t>(y) * W + x;
+        if (reach[p] <= -kFeather) continue;
+        const float weight = std::min(1.0f, 1.0f + reach[p] / kFeather);
+        const std::uint64_t near = tiles[(y / kTile) * tw + x / kTile];
+        const std::uint64_t visit = near;
+        const glm::vec2 rot = rotations[(x * 7 + y * 13) % kRotations];
+        const float cs = rot.x, sn = rot.y;
+        const float cx = static_cast<float>(x) + 0.5f, cy = static_cast<float>(y) + 0.5f;
+        float sum[3] = {0, 0, 0};
+        for (const glm::vec2& l : lens) {
+          const float ux = 0.5f * (cs * l.x - sn * l.y), uy = 0.5f * (sn * l.x + cs * l.y);
+          const float* hit = o + 3 * p;  // a ray that meets nothing keeps the layer composite
+          for (std::uint64_t v = visit; v; v &= v - 1) {
+            const int k = ctz64(v);
+            const float c = bins.centre(k);
+            // floor() without a library call: positions lie well above -kFloorOffset.
+            const int qx = static_cast<int>(cx + ux * c + kFloorOffset) - kFloorOffsetInt;
+            const int qy = static_cast<int>(cy + uy * c + kFloorOffset) - kFloorOffsetInt;
+            if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
+            const size_t q = static_cast<size_t>(qy) * W + qx;
+            const std::uint64_t bit = std::uint64_t{1} << k;
+            if (!(occ[2 * q] & bit)) continue;
+            // The pinhole surface is nearer than any fragment revealed behind it.
+            if (occ[2 * q + 1] & bit) {
+              hit = &px[q].r;
+            } else {
+              const int g0 = first_fragment(q);
+              for (int g = g0; g >= 0 && g < g0 + popcount64(ws.revealed_bits[q]); ++g)
+                if (frag_run[g] & bit) {
+                  hit = &ws.revealed[g].r;
+                  break;
+                }
+            }
+            break;
+          }
+          sum[0] += hit[0], sum[1] += hit[1], sum[2] += hit[2];
+        }
+        for (int ch = 0; ch < 3; ++ch)
+          o[3 * p + ch] += weight * (sum[ch] * inv_rays - o[3 * p + ch]);
+      }
+  });
+}
+
+}  // namespace dofcache::preview::detail
