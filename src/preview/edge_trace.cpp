@@ -242,10 +242,38 @@ void trace_edge_band(const PreviewOptions& options, int W, int H, PreviewWorkspa
   for (int a = 0; a < grid; ++a)
     for (int b = 0; b < grid; ++b)
       lens.push_back(lens::concentric_disk({(a + 0.5f) / grid, (b + 0.5f) / grid}));
+  // Probes first: the four cells at the grid's corners, which map to the lens's rim on the
+  // diagonals (the rays that see farthest past an edge). A 1x1 grid has no probes.
+  size_t probes = 0;
+  if (grid > 1)
+    for (int corner : {0, grid - 1, grid * (grid - 1), grid * grid - 1})
+      std::swap(lens[probes++], lens[corner]);
   const float inv_rays = 1.0f / static_cast<float>(lens.size());
   glm::vec2 rotations[kRotations];
   for (int i = 0; i < kRotations; ++i)
     rotations[i] = {std::cos(2.3999632f * i), std::sin(2.3999632f * i)};
+
+  // The first fragment along the ray through pixel centre (cx, cy) and lens offset u (|u| <= 1/2),
+  // visiting the bins in `visit`; null if it meets none.
+  auto first_hit = [&](float cx, float cy, float ux, float uy, std::uint64_t visit) -> const Rgba* {
+    for (std::uint64_t v = visit; v; v &= v - 1) {
+      const int k = ctz64(v);
+      const float c = bins.centre(k);
+      // floor() without a library call: positions lie well above -kFloorOffset.
+      const int qx = static_cast<int>(cx + ux * c + kFloorOffset) - kFloorOffsetInt;
+      const int qy = static_cast<int>(cy + uy * c + kFloorOffset) - kFloorOffsetInt;
+      if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
+      const size_t q = static_cast<size_t>(qy) * W + qx;
+      const std::uint64_t bit = std::uint64_t{1} << k;
+      if (!(occ[2 * q] & bit)) continue;
+      // The pinhole surface is nearer than any fragment revealed behind it.
+      if (occ[2 * q + 1] & bit) return &px[q];
+      const int g0 = first_fragment(q);
+      for (int g = g0; g >= 0 && g < g0 + popcount64(ws.revealed_bits[q]); ++g)
+        if (frag_run[g] & bit) return &ws.revealed[g];
+    }
+    return nullptr;
+  };
 
   float* o = out.data().data();
   parallel_rows(H, [&](int y0, int y1) {
@@ -254,40 +282,24 @@ void trace_edge_band(const PreviewOptions& options, int W, int H, PreviewWorkspa
         const size_t p = static_cast<size_t>(y) * W + x;
         if (reach[p] <= -kFeather) continue;
         const float weight = std::min(1.0f, 1.0f + reach[p] / kFeather);
-        const std::uint64_t near = tiles[(y / kTile) * tw + x / kTile];
-        const std::uint64_t visit = near;
+        const std::uint64_t visit = tiles[(y / kTile) * tw + x / kTile];
         const glm::vec2 rot = rotations[(x * 7 + y * 13) % kRotations];
-        const float cs = rot.x, sn = rot.y;
         const float cx = static_cast<float>(x) + 0.5f, cy = static_cast<float>(y) + 0.5f;
         float sum[3] = {0, 0, 0};
-        for (const glm::vec2& l : lens) {
-          const float ux = 0.5f * (cs * l.x - sn * l.y), uy = 0.5f * (sn * l.x + cs * l.y);
-          const float* hit = o + 3 * p;  // a ray that meets nothing keeps the layer composite
-          for (std::uint64_t v = visit; v; v &= v - 1) {
-            const int k = ctz64(v);
-            const float c = bins.centre(k);
-            // floor() without a library call: positions lie well above -kFloorOffset.
-            const int qx = static_cast<int>(cx + ux * c + kFloorOffset) - kFloorOffsetInt;
-            const int qy = static_cast<int>(cy + uy * c + kFloorOffset) - kFloorOffsetInt;
-            if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
-            const size_t q = static_cast<size_t>(qy) * W + qx;
-            const std::uint64_t bit = std::uint64_t{1} << k;
-            if (!(occ[2 * q] & bit)) continue;
-            // The pinhole surface is nearer than any fragment revealed behind it.
-            if (occ[2 * q + 1] & bit) {
-              hit = &px[q].r;
-            } else {
-              const int g0 = first_fragment(q);
-              for (int g = g0; g >= 0 && g < g0 + popcount64(ws.revealed_bits[q]); ++g)
-                if (frag_run[g] & bit) {
-                  hit = &ws.revealed[g].r;
-                  break;
-                }
-            }
-            break;
-          }
-          sum[0] += hit[0], sum[1] += hit[1], sum[2] += hit[2];
+        bool own_surface_only = true;
+        for (size_t i = 0; i < lens.size(); ++i) {
+          // The probes at the lens's rim (the first ones) all meeting the pixel's own surface
+          // mean that the whole lens does: the layer composite blurs that surface like the lens.
+          if (i == probes && own_surface_only) break;
+          const glm::vec2 l = lens[i];
+          const float ux = 0.5f * (rot.x * l.x - rot.y * l.y);
+          const float uy = 0.5f * (rot.y * l.x + rot.x * l.y);
+          const Rgba* hit = first_hit(cx, cy, ux, uy, visit);
+          own_surface_only = own_surface_only && hit && std::abs(hit->a - px[p].a) <= kEdgeJump;
+          const float* rgb = hit ? &hit->r : o + 3 * p;  // a miss keeps the layer composite
+          sum[0] += rgb[0], sum[1] += rgb[1], sum[2] += rgb[2];
         }
+        if (own_surface_only) continue;
         for (int ch = 0; ch < 3; ++ch)
           o[3 * p + ch] += weight * (sum[ch] * inv_rays - o[3 * p + ch]);
       }
