@@ -127,6 +127,23 @@ TEST_F(PreviewCli, LayerCompositeChoosesTheComposite) {
                        "o.png");
 }
 
+TEST_F(PreviewCli, EdgeRaysTraceOnlyTheOcclusionFix) {
+  auto render_with = [&](const std::string& mode, const std::string& rays) {
+    const std::string out = path(mode + "-rays" + rays + ".png");
+    dofcache::testing::CliResult r = run("render " + kScene + " --mode " + mode + " --out " + out +
+                                         " --edge-rays " + rays + kTiny);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return slurp(out);
+  };
+  // The fix traces its edge band (16 rays by default); without revealed layers there is nothing
+  // to trace, so Kraus & Strengert is the same for any ray count.
+  EXPECT_NE(render_with("preview-occlusion", "0"), render_with("preview-occlusion", "16"));
+  EXPECT_EQ(render_with("preview", "0"), render_with("preview", "64"));
+  expect_clean_failure("render " + kScene + " --mode preview-occlusion --edge-rays -1 --out " +
+                           path("o.png") + kTiny,
+                       "o.png");
+}
+
 TEST_F(PreviewCli, PreviewOptionMisuseIsOneLineAndNoFile) {
   expect_clean_failure("render " + kScene + " --mode drt --out " + path("o.png") +
                            " --save-preview-inputs " + path("in.exr") + kTiny,
