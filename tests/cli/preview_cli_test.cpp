@@ -45,6 +45,17 @@ class PreviewCli : public dofcache::testing::CliTest {
     for (const auto& e : fs::directory_iterator(dir_))  // no temporary left behind either
       EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
   }
+
+  // The bytes of the tiny render in preview `mode` with `option value` (expected to succeed).
+  std::string render_with(const std::string& mode, const std::string& option,
+                          const std::string& value) {
+    const std::string out = path(mode + option + "-" + value + ".png");
+    dofcache::testing::CliResult r =
+        run("render " + kScene + " --mode " + mode + " --out " + out + " " + option + " " + value +
+            kTiny);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return slurp(out);
+  }
 };
 
 TEST_F(PreviewCli, EveryPreviewModeWritesAnImage) {
@@ -107,17 +118,10 @@ TEST_F(PreviewCli, BadRefocusInputIsOneLineAndNoFile) {
 }
 
 TEST_F(PreviewCli, LayerCompositeChoosesTheComposite) {
-  auto render_with = [&](const std::string& mode, const std::string& composite) {
-    const std::string out = path(mode + "-" + composite + ".png");
-    dofcache::testing::CliResult r = run("render " + kScene + " --mode " + mode + " --out " + out +
-                                         " --layer-composite " + composite + kTiny);
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return slurp(out);
-  };
   // The default is over; the two composites differ, for both layered methods.
   for (const std::string mode : {"preview", "preview-occlusion"}) {
-    const std::string over = render_with(mode, "over");
-    EXPECT_NE(over, render_with(mode, "slabs")) << mode;
+    const std::string over = render_with(mode, "--layer-composite", "over");
+    EXPECT_NE(over, render_with(mode, "--layer-composite", "slabs")) << mode;
     const std::string out = path(mode + "-default.png");
     ASSERT_EQ(run("render " + kScene + " --mode " + mode + " --out " + out + kTiny).exit_code, 0);
     EXPECT_EQ(slurp(out), over) << mode;
@@ -128,17 +132,11 @@ TEST_F(PreviewCli, LayerCompositeChoosesTheComposite) {
 }
 
 TEST_F(PreviewCli, EdgeRaysTraceOnlyTheOcclusionFix) {
-  auto render_with = [&](const std::string& mode, const std::string& rays) {
-    const std::string out = path(mode + "-rays" + rays + ".png");
-    dofcache::testing::CliResult r = run("render " + kScene + " --mode " + mode + " --out " + out +
-                                         " --edge-rays " + rays + kTiny);
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return slurp(out);
-  };
   // The fix traces its edge band (16 rays by default); without revealed layers there is nothing
   // to trace, so Kraus & Strengert is the same for any ray count.
-  EXPECT_NE(render_with("preview-occlusion", "0"), render_with("preview-occlusion", "16"));
-  EXPECT_EQ(render_with("preview", "0"), render_with("preview", "64"));
+  EXPECT_NE(render_with("preview-occlusion", "--edge-rays", "0"),
+            render_with("preview-occlusion", "--edge-rays", "16"));
+  EXPECT_EQ(render_with("preview", "--edge-rays", "0"), render_with("preview", "--edge-rays", "64"));
   expect_clean_failure("render " + kScene + " --mode preview-occlusion --edge-rays -1 --out " +
                            path("o.png") + kTiny,
                        "o.png");
