@@ -121,9 +121,8 @@ image::Image edge_band(const image::Image& depth, const lens::LensImaging& imagi
     for (int x = 0; x < w; ++x)
       for (auto [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}}) {
         if (x + dx >= w || y + dy >= h) continue;
-        const float a = c.at(x, y, 0), b = c.at(x + dx, y + dy, 0);
-        if (std::abs(a - b) <= 1.0f) continue;
-        const double r = std::max(1.0, 0.5 * std::max(std::abs(a), std::abs(b)));
+        const double r = preview::occluding_edge_radius(c.at(x, y, 0), c.at(x + dx, y + dy, 0));
+        if (r == 0) continue;
         stamp(x, y, r);
         stamp(x + dx, y + dy, r);
       }

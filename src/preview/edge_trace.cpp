@@ -25,7 +25,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 
 #include "dofcache/lens/thin_lens.h"
 #include "pipeline.h"
@@ -40,7 +39,7 @@ constexpr float kNotNear = -1e30f;        // band reach of a pixel no edge reach
 constexpr int kRotations = 97;            // distinct rotations of the lens grid over the pixels
 constexpr int kFloorOffsetInt = 1 << 12;  // > the largest CoC radius (clamped to 128 px)
 constexpr float kFloorOffset = static_cast<float>(kFloorOffsetInt);
-constexpr float kEdgeJump = 1.0f;  // CoC difference of 4-neighbours that makes an occluding edge
+constexpr float kEdgeJump = 1.0f;  // CoC jump of an occluding edge (occluding_edge_radius)
 
 // 64 equal bins over the signed CoC range of the fragments. Thin bins keep the fragments thin, so a
 // ray passes behind a foreground edge as closely as the lens lets it (bins of at least 1 px, the
@@ -77,13 +76,8 @@ void edge_reach(const Rgba* px, int W, int H, float max_radius, std::vector<Edge
         for (int y = 2 * by; y < std::min(H, 2 * by + 2); ++y)
           for (int x = 2 * bx; x < std::min(W, 2 * bx + 2); ++x) {
             const size_t p = static_cast<size_t>(y) * W + x;
-            const float a = px[p].a;
             float r = 0;
-            auto edge = [&](size_t q) {
-              const float b = px[q].a;
-              if (std::abs(a - b) > kEdgeJump)
-                r = std::max(r, std::max(1.0f, 0.5f * std::max(std::abs(a), std::abs(b))));
-            };
+            auto edge = [&](size_t q) { r = std::max(r, occluding_edge_radius(px[p].a, px[q].a)); };
             if (x > 0) edge(p - 1);
             if (x + 1 < W) edge(p + 1);
             if (y > 0) edge(p - W);
@@ -126,8 +120,8 @@ void edge_reach(const Rgba* px, int W, int H, float max_radius, std::vector<Edge
 
 }  // namespace
 
-void trace_edge_band(const PreviewOptions& options, int W, int H, PreviewWorkspace::Impl& ws,
-                     image::Image& out) {
+void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W, int H,
+                     PreviewWorkspace::Impl& ws, image::Image& out) {
   const int grid = static_cast<int>(std::lround(std::sqrt(std::max(0, options.edge_rays))));
   if (grid < 1 || W <= 0 || H <= 0) return;
   const size_t N = static_cast<size_t>(W) * H;
@@ -136,6 +130,9 @@ void trace_edge_band(const PreviewOptions& options, int W, int H, PreviewWorkspa
   // Revealed fragments of pixel p: [first, first + count) of ws.revealed, one per bit of
   // ws.revealed_bits[p] (layer j), in layer order.
   auto first_fragment = [&](size_t p) { return has_revealed ? ws.revealed_first[p] : -1; };
+  auto fragments_end = [&](size_t p, int first) {
+    return first < 0 ? first : first + popcount64(ws.revealed_bits[p]);
+  };
   auto fragment_of_layer = [&](size_t p, int j) {  // index of p's fragment of A_j, or -1
     const int f = first_fragment(p);
     if (f < 0 || !((ws.revealed_bits[p] >> j) & 1)) return -1;
@@ -143,13 +140,11 @@ void trace_edge_band(const PreviewOptions& options, int W, int H, PreviewWorkspa
   };
   const size_t fragment_count = has_revealed ? ws.revealed.size() : 0;
 
-  // The CoC range of every fragment, and its bins.
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-  for (size_t p = 0; p < N; ++p) lo = std::min(lo, px[p].a), hi = std::max(hi, px[p].a);
+  // The CoC range of every fragment (the plan holds the pinhole's), and its bins.
+  float lo = static_cast<float>(plan.coc_min), hi = static_cast<float>(plan.coc_max);
   for (size_t p = 0; p < N; ++p) {
     const int f = first_fragment(p);
-    if (f < 0) continue;
-    for (int k = f; k < f + popcount64(ws.revealed_bits[p]); ++k)
+    for (int k = f, end = fragments_end(p, f); k < end; ++k)
       lo = std::min(lo, ws.revealed[k].a), hi = std::max(hi, ws.revealed[k].a);
   }
   Bins bins;
@@ -269,7 +264,7 @@ void trace_edge_band(const PreviewOptions& options, int W, int H, PreviewWorkspa
       // The pinhole surface is nearer than any fragment revealed behind it.
       if (occ[2 * q + 1] & bit) return &px[q];
       const int g0 = first_fragment(q);
-      for (int g = g0; g >= 0 && g < g0 + popcount64(ws.revealed_bits[q]); ++g)
+      for (int g = g0, end = fragments_end(q, g0); g < end; ++g)
         if (frag_run[g] & bit) return &ws.revealed[g];
     }
     return nullptr;

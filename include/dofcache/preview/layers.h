@@ -95,6 +95,12 @@ float revealed_matting_weight(const LayerPlan& plan, int i, double c);
 // c >= c_{n-1}. The composite uses its two halves, c <= c_i and c > c_i, separately. The hats add
 // up to one for every c.
 float hat_weight(const LayerPlan& plan, int i, double c);
+// The occluding-edge rule of the edge band (docs/preview.md): 4-neighbours of signed CoC a and b
+// (clamped, CocMap) form an occluding edge if they differ by more than 1 px, and the blur of either
+// side reaches R = max(1, max(|a|, |b|) / 2) px around it. Returns R, or 0 for no edge. The
+// occlusion fix's edge trace traces this band; the preview benchmark measures error in it.
+float occluding_edge_radius(float a, float b);
+
 // sum_i w_i(c) prod_{j<i} (1 - w_j(c)): the coverage of the unblurred composite (1 for every c).
 double composite_coverage(const LayerPlan& plan, double c);
 
