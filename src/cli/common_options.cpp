@@ -90,8 +90,8 @@ void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options) {
   cmd->add_option("--edge-rays", options.edge_rays,
                   "preview-occlusion: lens rays per pixel traced through the pinhole surface and "
                   "the revealed layers near occluding edges, where layers cannot tell which part "
-                  "of the lens sees past an edge (rounded to a square grid; 0: layers only, "
-                  "faster, more edge error)")
+                  "of the lens sees past an edge (rounded to a square grid; 0, or fewer than 4: "
+                  "layers only, faster, more edge error)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1024));
 }

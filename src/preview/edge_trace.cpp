@@ -122,8 +122,10 @@ void edge_reach(const Rgba* px, int W, int H, float max_radius, std::vector<Edge
 
 void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W, int H,
                      PreviewWorkspace::Impl& ws, image::Image& out) {
+  // A 1x1 grid would be the pinhole ray alone, which the probes below (the grid's corners) would
+  // always discard: fewer than 4 rays trace nothing.
   const int grid = static_cast<int>(std::lround(std::sqrt(std::max(0, options.edge_rays))));
-  if (grid < 1 || W <= 0 || H <= 0) return;
+  if (grid < 2 || W <= 0 || H <= 0) return;
   const size_t N = static_cast<size_t>(W) * H;
   const Rgba* px = ws.packed.data();
   const bool has_revealed = ws.revealed_first.size() >= N;
@@ -238,11 +240,10 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
     for (int b = 0; b < grid; ++b)
       lens.push_back(lens::concentric_disk({(a + 0.5f) / grid, (b + 0.5f) / grid}));
   // Probes first: the four cells at the grid's corners, which map to the lens's rim on the
-  // diagonals (the rays that see farthest past an edge). A 1x1 grid has no probes.
+  // diagonals (the rays that see farthest past an edge).
   size_t probes = 0;
-  if (grid > 1)
-    for (int corner : {0, grid - 1, grid * (grid - 1), grid * grid - 1})
-      std::swap(lens[probes++], lens[corner]);
+  for (int corner : {0, grid - 1, grid * (grid - 1), grid * grid - 1})
+    std::swap(lens[probes++], lens[corner]);
   const float inv_rays = 1.0f / static_cast<float>(lens.size());
   glm::vec2 rotations[kRotations];
   for (int i = 0; i < kRotations; ++i)

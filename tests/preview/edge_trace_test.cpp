@@ -146,6 +146,11 @@ TEST(EdgeTrace, OnlyTheOcclusionFixTraces) {
   // Kraus & Strengert ignores the revealed layers and so has nothing to trace through.
   EXPECT_EQ(render_preview(s.inputs, PreviewMethod::Layered, none).data(),
             render_preview(s.inputs, PreviewMethod::Layered, many).data());
+  // Below a 2x2 grid (fewer than 4 rays) the fix does not trace either.
+  PreviewOptions one;
+  one.edge_rays = 2;
+  EXPECT_EQ(render_preview(s.inputs, PreviewMethod::LayeredOcclusion, none).data(),
+            render_preview(s.inputs, PreviewMethod::LayeredOcclusion, one).data());
 }
 
 }  // namespace

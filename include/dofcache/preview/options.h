@@ -63,8 +63,9 @@ struct PreviewOptions {
   bool mask_lens_reach = true;
   // Lens rays per pixel traced through the pinhole surface and the revealed fragments in the band
   // around occluding edges, where the layer composite cannot represent which part of the lens sees
-  // past the edge (docs/preview.md, "Edge trace"). Rounded to a square grid; 0 keeps the layer
-  // composite everywhere. Only the layered method with revealed layers traces.
+  // past the edge (docs/preview.md, "Edge trace"). Rounded to a square grid; 0 (or anything below
+  // 4, the smallest grid with rim probes) keeps the layer composite everywhere. Only the layered
+  // method with revealed layers traces.
   int edge_rays = 16;
 
   // --- scatter baseline --------------------------------------------------------------------------
