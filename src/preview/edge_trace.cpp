@@ -33,7 +33,7 @@ namespace dofcache::preview::detail {
 namespace {
 
 constexpr int kBins = 64;
-constexpr int kTile = 8;                  // tiles of the reach masks
+constexpr int kTile = 4;                  // tiles of the reach masks
 constexpr float kFeather = 2.0f;          // pixels outside the band over which the trace fades out
 constexpr float kNotNear = -1e30f;        // band reach of a pixel no edge reaches
 constexpr int kRotations = 97;            // distinct rotations of the lens grid over the pixels
@@ -59,46 +59,71 @@ struct Bins {
 // searched on 2x2 blocks like a distance transform propagates: each block offers its seed to the
 // next along the rows (both ways), then along the columns (both ways), and keeps the better one at
 // its centre. Each pixel then measures its block's seed exactly. A pixel can miss its best seed by
-// about a pixel, which the feather absorbs.
-void edge_reach(const Rgba* px, int W, int H, float max_radius, std::vector<EdgeSeed>& seeds,
-                std::vector<float>& reach) {
+// about a pixel, which the feather absorbs. Reaches below `floor` (outside the feather) may be
+// reported as kNotNear.
+void edge_reach(const float* coc, int W, int H, float max_radius, float floor,
+                std::vector<EdgeSeed>& seeds, std::vector<float>& reach) {
   const int BW = (W + 1) / 2, BH = (H + 1) / 2;
   ensure_size(seeds, static_cast<size_t>(BW) * BH);
   ensure_size(reach, static_cast<size_t>(W) * H);
+  // The seed's reach at (x, y).
   auto value = [](const EdgeSeed& e, float x, float y) {
     return e.r > 0 ? e.r - std::sqrt((e.x - x) * (e.x - x) + (e.y - y) * (e.y - y)) : kNotNear;
   };
-  // Each block's own seed: its edge pixel of largest radius.
+  auto centre = [](int b) { return 2.0f * static_cast<float>(b) + 0.5f; };
+  // Each block's own seed: its edge pixel of largest radius. The radii of a row are computed
+  // first, without branches (a loop the compiler vectorises), then picked per block.
   parallel_rows(BH, [&](int by0, int by1) {
-    for (int by = by0; by < by1; ++by)
+    std::vector<float> radii(2 * static_cast<size_t>(W));
+    for (int by = by0; by < by1; ++by) {
+      const int rows = std::min(2, H - 2 * by);
+      for (int i = 0; i < rows; ++i) {
+        const int y = 2 * by + i;
+        const float* c = coc + static_cast<size_t>(y) * W;
+        const float* up = y > 0 ? c - W : c;  // a pixel is no edge with itself
+        const float* down = y + 1 < H ? c + W : c;
+        float* r = radii.data() + static_cast<size_t>(i) * W;
+        auto radius = [&](int x, float left, float right) {
+          return std::min(max_radius, std::max(std::max(occluding_edge_radius(c[x], left),
+                                                        occluding_edge_radius(c[x], right)),
+                                               std::max(occluding_edge_radius(c[x], up[x]),
+                                                        occluding_edge_radius(c[x], down[x]))));
+        };
+        r[0] = radius(0, c[0], c[std::min(1, W - 1)]);
+        for (int x = 1; x + 1 < W; ++x) r[x] = radius(x, c[x - 1], c[x + 1]);
+        if (W > 1) r[W - 1] = radius(W - 1, c[W - 2], c[W - 1]);
+      }
       for (int bx = 0; bx < BW; ++bx) {
-        EdgeSeed best{0, 0, 0};
-        for (int y = 2 * by; y < std::min(H, 2 * by + 2); ++y)
+        EdgeSeed best{0, 0, 0, kNotNear};
+        for (int i = 0; i < rows; ++i)
           for (int x = 2 * bx; x < std::min(W, 2 * bx + 2); ++x) {
-            const size_t p = static_cast<size_t>(y) * W + x;
-            float r = 0;
-            auto edge = [&](size_t q) { r = std::max(r, occluding_edge_radius(px[p].a, px[q].a)); };
-            if (x > 0) edge(p - 1);
-            if (x + 1 < W) edge(p + 1);
-            if (y > 0) edge(p - W);
-            if (y + 1 < H) edge(p + W);
-            r = std::min(r, max_radius);
-            if (r > best.r) best = {static_cast<float>(x), static_cast<float>(y), r};
+            const float r = radii[static_cast<size_t>(i) * W + x];
+            if (r > best.r) best = {static_cast<float>(x), static_cast<float>(2 * by + i), r, 0};
           }
+        best.reach = value(best, centre(bx), centre(by));
         seeds[static_cast<size_t>(by) * BW + bx] = best;
       }
+    }
   });
-  // Block b takes the seed of block `from` if that one is better at b's centre.
+  // Block b takes the seed of block `from` if that one reaches farther at b's centre. Each block
+  // keeps its seed's reach there, so a step measures one distance.
   auto relax = [&](int bx, int by, int fx, int fy) {
-    EdgeSeed& mine = seeds[static_cast<size_t>(by) * BW + bx];
     const EdgeSeed& theirs = seeds[static_cast<size_t>(fy) * BW + fx];
-    const float cx = 2.0f * bx + 0.5f, cy = 2.0f * by + 0.5f;
-    if (theirs.r > 0 && value(theirs, cx, cy) > value(mine, cx, cy)) mine = theirs;
+    if (theirs.r <= 0) return;
+    EdgeSeed& mine = seeds[static_cast<size_t>(by) * BW + bx];
+    const float v = value(theirs, centre(bx), centre(by));
+    if (v > mine.reach) mine = {theirs.x, theirs.y, theirs.r, v};
   };
+  // Along the rows, a few rows side by side: each row is a chain of dependent steps, and
+  // interleaving rows lets the processor overlap them.
+  constexpr int kRows = 4;
   parallel_rows(BH, [&](int by0, int by1) {
-    for (int by = by0; by < by1; ++by) {
-      for (int bx = 1; bx < BW; ++bx) relax(bx, by, bx - 1, by);
-      for (int bx = BW - 2; bx >= 0; --bx) relax(bx, by, bx + 1, by);
+    for (int b0 = by0; b0 < by1; b0 += kRows) {
+      const int b1 = std::min(by1, b0 + kRows);
+      for (int bx = 1; bx < BW; ++bx)
+        for (int by = b0; by < b1; ++by) relax(bx, by, bx - 1, by);
+      for (int bx = BW - 2; bx >= 0; --bx)
+        for (int by = b0; by < b1; ++by) relax(bx, by, bx + 1, by);
     }
   });
   constexpr int kColumns = 16;  // columns per task: rows of a column block stay in cache
@@ -109,12 +134,17 @@ void edge_reach(const Rgba* px, int W, int H, float max_radius, std::vector<Edge
     for (int by = BH - 2; by >= 0; --by)
       for (int bx = bx0; bx < bx1; ++bx) relax(bx, by, bx, by + 1);
   });
+  // A block whose seed reaches less than `floor` - 1 at its centre leaves it at every pixel
+  // (they lie within 0.71 of the centre): no distance is measured there.
   parallel_rows(H, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y)
-      for (int x = 0; x < W; ++x)
+      for (int x = 0; x < W; ++x) {
+        const EdgeSeed& seed = seeds[static_cast<size_t>(y / 2) * BW + x / 2];
         reach[static_cast<size_t>(y) * W + x] =
-            value(seeds[static_cast<size_t>(y / 2) * BW + x / 2], static_cast<float>(x),
-                  static_cast<float>(y));
+            seed.reach < floor - 1.0f
+                ? kNotNear
+                : value(seed, static_cast<float>(x), static_cast<float>(y));
+      }
   });
 }
 
@@ -140,15 +170,12 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
     if (f < 0 || !((ws.revealed_bits[p] >> j) & 1)) return -1;
     return f + popcount64(ws.revealed_bits[p] & ((std::uint64_t{1} << j) - 1));
   };
-  const size_t fragment_count = has_revealed ? ws.revealed.size() : 0;
+  const size_t fragment_count = has_revealed ? ws.revealed_count : 0;
 
   // The CoC range of every fragment (the plan holds the pinhole's), and its bins.
   float lo = static_cast<float>(plan.coc_min), hi = static_cast<float>(plan.coc_max);
-  for (size_t p = 0; p < N; ++p) {
-    const int f = first_fragment(p);
-    for (int k = f, end = fragments_end(p, f); k < end; ++k)
-      lo = std::min(lo, ws.revealed[k].a), hi = std::max(hi, ws.revealed[k].a);
-  }
+  for (size_t k = 0; k < fragment_count; ++k)
+    lo = std::min(lo, ws.revealed[k].a), hi = std::max(hi, ws.revealed[k].a);
   Bins bins;
   bins.lo = lo;
   bins.width = std::max(1e-3f, (hi - lo) * (1.0f + 1e-6f) / kBins);
@@ -171,40 +198,46 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   // both), then one entry per revealed fragment.
   std::uint64_t* occ = ws.trace_bins.data();
   std::uint64_t* frag_run = occ + 2 * N;
-  parallel_rows(H, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y)
-      for (int x = 0; x < W; ++x) {
-        const size_t p = static_cast<size_t>(y) * W + x;
-        const size_t nbs[4] = {x > 0 ? p - 1 : p, x + 1 < W ? p + 1 : p, y > 0 ? p - W : p,
-                               y + 1 < H ? p + W : p};
-        const float c = px[p].a;
-        float back = 0;
-        for (size_t q : nbs) back = extend(back, c, px[q].a);
-        std::uint64_t m = occ[2 * p + 1] = run(c, back);
-        const int f = first_fragment(p);
-        if (f >= 0) {
-          int k = f;
-          for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
-            const int j = ctz64(b);
-            const float fc = ws.revealed[k].a;
-            float fback = 0;
-            for (size_t q : nbs) {
-              fback = extend(fback, fc, px[q].a);
-              const int g = fragment_of_layer(q, j);
-              if (g >= 0) fback = extend(fback, fc, ws.revealed[g].a);
-            }
-            frag_run[k] = run(fc, fback);
-            m |= frag_run[k];
-          }
-        }
-        occ[2 * p] = m;
-      }
-  });
+  // ... and per 8x8 tile, the union of its pixels' bins (each task owns whole tile rows).
   const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
   std::vector<std::uint64_t> tiles(static_cast<size_t>(tw) * th, 0), tmp(tiles.size(), 0);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      tiles[(y / kTile) * tw + x / kTile] |= occ[2 * (static_cast<size_t>(y) * W + x)];
+  const float* coc = ws.coc.data();  // px[p].a, contiguous
+  parallel_rows(
+      th,
+      [&](int ty0, int ty1) {
+        for (int y = ty0 * kTile; y < std::min(H, ty1 * kTile); ++y) {
+          const size_t row = static_cast<size_t>(y) * W;
+          const size_t up = y > 0 ? row - W : row, down = y + 1 < H ? row + W : row;
+          std::uint64_t* tile_row = tiles.data() + static_cast<size_t>(y / kTile) * tw;
+          for (int x = 0; x < W; ++x) {
+            const size_t p = row + x;
+            const size_t nbs[4] = {x > 0 ? p - 1 : p, x + 1 < W ? p + 1 : p, up + x, down + x};
+            const float c = coc[p];
+            float back = 0;
+            for (size_t q : nbs) back = extend(back, c, coc[q]);
+            std::uint64_t m = occ[2 * p + 1] = run(c, back);
+            const int f = first_fragment(p);
+            if (f >= 0) {
+              int k = f;
+              for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
+                const int j = ctz64(b);
+                const float fc = ws.revealed[k].a;
+                float fback = 0;
+                for (size_t q : nbs) {
+                  fback = extend(fback, fc, coc[q]);
+                  const int g = fragment_of_layer(q, j);
+                  if (g >= 0) fback = extend(fback, fc, ws.revealed[g].a);
+                }
+                frag_run[k] = run(fc, fback);
+                m |= frag_run[k];
+              }
+            }
+            occ[2 * p] = m;
+            tile_row[x / kTile] |= m;
+          }
+        }
+      },
+      1);
   // Bin k is met only within |c_k| / 2 of the pixel: dilate each bin's tiles by its own reach,
   // one tile ring per step, from the farthest-reaching bins in.
   auto reach_of = [&](int k) {
@@ -217,21 +250,30 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   for (int k = 0; k < kBins; ++k) with_reach[reach_of(k)] |= std::uint64_t{1} << k;
   std::vector<std::uint64_t> dilated(tiles.size());
   for (size_t t = 0; t < tiles.size(); ++t) dilated[t] = tiles[t] & with_reach[max_reach];
-  for (int r = max_reach; r > 0; --r) {
-    for (int ty = 0; ty < th; ++ty)
-      for (int tx = 0; tx < tw; ++tx) {
-        std::uint64_t m = tiles[ty * tw + tx] & with_reach[r - 1];
-        for (int y = std::max(0, ty - 1); y <= std::min(th - 1, ty + 1); ++y)
-          for (int x = std::max(0, tx - 1); x <= std::min(tw - 1, tx + 1); ++x)
-            m |= dilated[y * tw + x];
-        tmp[ty * tw + tx] = m;
+  for (int r = max_reach; r > 0; --r) {  // a 3x3 dilation as two passes of 3
+    parallel_rows(th, [&](int ty0, int ty1) {
+      for (int ty = ty0; ty < ty1; ++ty) {
+        const std::uint64_t* d = dilated.data() + static_cast<size_t>(ty) * tw;
+        std::uint64_t* t = tmp.data() + static_cast<size_t>(ty) * tw;
+        for (int tx = 0; tx < tw; ++tx)
+          t[tx] = d[tx] | d[std::max(0, tx - 1)] | d[std::min(tw - 1, tx + 1)];
       }
-    dilated.swap(tmp);
+    });
+    parallel_rows(th, [&](int ty0, int ty1) {
+      for (int ty = ty0; ty < ty1; ++ty) {
+        const size_t row = static_cast<size_t>(ty) * tw;
+        const size_t up = ty > 0 ? row - tw : row, down = ty + 1 < th ? row + tw : row;
+        for (int tx = 0; tx < tw; ++tx)
+          dilated[row + tx] =
+              (tiles[row + tx] & with_reach[r - 1]) | tmp[row + tx] | tmp[up + tx] | tmp[down + tx];
+      }
+    });
   }
   tiles.swap(dilated);
 
   std::vector<float>& reach = ws.trace_reach;
-  edge_reach(px, W, H, static_cast<float>(options.max_coc_radius), ws.trace_seeds, reach);
+  edge_reach(ws.coc.data(), W, H, static_cast<float>(options.max_coc_radius), -kFeather,
+             ws.trace_seeds, reach);
 
   // A stratified grid on the lens, rotated per pixel (a fixed golden-angle sequence) so that its
   // structure turns into noise rather than aliasing.
@@ -241,29 +283,44 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
       lens.push_back(lens::concentric_disk({(a + 0.5f) / grid, (b + 0.5f) / grid}));
   // Probes first: the four cells at the grid's corners, which map to the lens's rim on the
   // diagonals (the rays that see farthest past an edge).
-  size_t probes = 0;
+  int probes = 0;
   for (int corner : {0, grid - 1, grid * (grid - 1), grid * grid - 1})
     std::swap(lens[probes++], lens[corner]);
   const float inv_rays = 1.0f / static_cast<float>(lens.size());
-  glm::vec2 rotations[kRotations];
-  for (int i = 0; i < kRotations; ++i)
-    rotations[i] = {std::cos(2.3999632f * i), std::sin(2.3999632f * i)};
+  // The lens offsets u / 2 of every ray under every rotation, rotation-major.
+  const int rays = static_cast<int>(lens.size());
+  std::vector<glm::vec2> offsets(static_cast<size_t>(kRotations) * rays);
+  for (int r = 0; r < kRotations; ++r) {
+    const glm::vec2 rot{std::cos(2.3999632f * r), std::sin(2.3999632f * r)};
+    for (int i = 0; i < rays; ++i) {
+      const glm::vec2 l = lens[i];
+      offsets[static_cast<size_t>(r) * rays + i] = {0.5f * (rot.x * l.x - rot.y * l.y),
+                                                    0.5f * (rot.y * l.x + rot.x * l.y)};
+    }
+  }
+  float coc_of[kBins];
+  for (int k = 0; k < kBins; ++k) coc_of[k] = bins.centre(k);
 
   // The first fragment along the ray through pixel centre (cx, cy) and lens offset u (|u| <= 1/2),
   // visiting the bins in `visit`; null if it meets none.
-  auto first_hit = [&](float cx, float cy, float ux, float uy, std::uint64_t visit) -> const Rgba* {
+  const std::uint64_t* const occupancy = occ;
+  const int width = W, height = H;
+  auto first_hit = [&, occupancy, width, height](float cx, float cy, float ux, float uy,
+                                                 std::uint64_t visit) -> const Rgba* {
     for (std::uint64_t v = visit; v; v &= v - 1) {
       const int k = ctz64(v);
-      const float c = bins.centre(k);
+      const float c = coc_of[k];
       // floor() without a library call: positions lie well above -kFloorOffset.
       const int qx = static_cast<int>(cx + ux * c + kFloorOffset) - kFloorOffsetInt;
       const int qy = static_cast<int>(cy + uy * c + kFloorOffset) - kFloorOffsetInt;
-      if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
-      const size_t q = static_cast<size_t>(qy) * W + qx;
+      if (static_cast<unsigned>(qx) >= static_cast<unsigned>(width) ||
+          static_cast<unsigned>(qy) >= static_cast<unsigned>(height))
+        continue;
+      const size_t q = static_cast<size_t>(qy) * width + qx;
       const std::uint64_t bit = std::uint64_t{1} << k;
-      if (!(occ[2 * q] & bit)) continue;
+      if (!(occupancy[2 * q] & bit)) continue;
       // The pinhole surface is nearer than any fragment revealed behind it.
-      if (occ[2 * q + 1] & bit) return &px[q];
+      if (occupancy[2 * q + 1] & bit) return &px[q];
       const int g0 = first_fragment(q);
       for (int g = g0, end = fragments_end(q, g0); g < end; ++g)
         if (frag_run[g] & bit) return &ws.revealed[g];
@@ -279,18 +336,15 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
         if (reach[p] <= -kFeather) continue;
         const float weight = std::min(1.0f, 1.0f + reach[p] / kFeather);
         const std::uint64_t visit = tiles[(y / kTile) * tw + x / kTile];
-        const glm::vec2 rot = rotations[(x * 7 + y * 13) % kRotations];
+        const glm::vec2* u = offsets.data() + static_cast<size_t>((x * 7 + y * 13) % kRotations) * rays;
         const float cx = static_cast<float>(x) + 0.5f, cy = static_cast<float>(y) + 0.5f;
         float sum[3] = {0, 0, 0};
         bool own_surface_only = true;
-        for (size_t i = 0; i < lens.size(); ++i) {
+        for (int i = 0; i < rays; ++i) {
           // The probes at the lens's rim (the first ones) all meeting the pixel's own surface
           // mean that the whole lens does: the layer composite blurs that surface like the lens.
           if (i == probes && own_surface_only) break;
-          const glm::vec2 l = lens[i];
-          const float ux = 0.5f * (rot.x * l.x - rot.y * l.y);
-          const float uy = 0.5f * (rot.y * l.x + rot.x * l.y);
-          const Rgba* hit = first_hit(cx, cy, ux, uy, visit);
+          const Rgba* hit = first_hit(cx, cy, u[i].x, u[i].y, visit);
           own_surface_only = own_surface_only && hit && std::abs(hit->a - px[p].a) <= kEdgeJump;
           const float* rgb = hit ? &hit->r : o + 3 * p;  // a miss keeps the layer composite
           sum[0] += rgb[0], sum[1] += rgb[1], sum[2] += rgb[2];

@@ -72,6 +72,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
 
   // Revealed fragments, packed by pixel then layer.
   occlusion = occlusion && !in.revealed.empty();
+  ws.revealed_count = 0;
   if (occlusion) {
     CocMap coc_of(in.imaging, options.max_coc_radius);
     ensure_size(ws.revealed_bits, N);
@@ -114,7 +115,8 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       }
     });
     for (int y = 0; y < H; ++y) row_start[y + 1] += row_start[y];
-    ensure_size(ws.revealed, static_cast<size_t>(row_start[H]));
+    ws.revealed_count = static_cast<size_t>(row_start[H]);
+    ensure_size(ws.revealed, ws.revealed_count);
     parallel_rows(H, [&](int y0, int y1) {
       for (int y = y0; y < y1; ++y) {
         int k = row_start[y];

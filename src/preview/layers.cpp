@@ -136,9 +136,4 @@ double composite_coverage(const LayerPlan& plan, double c) {
   return covered;
 }
 
-float occluding_edge_radius(float a, float b) {
-  if (std::abs(a - b) <= 1.0f) return 0.0f;
-  return std::max(1.0f, 0.5f * std::max(std::abs(a), std::abs(b)));
-}
-
 }  // namespace dofcache::preview

@@ -9,8 +9,8 @@
 
 namespace dofcache::preview {
 namespace detail {
-struct EdgeSeed {  // an edge pixel and its radius (0: none)
-  float x, y, r;
+struct EdgeSeed {  // an edge pixel and its radius (0: none), with its reach at a block's centre
+  float x, y, r, reach;
 };
 }  // namespace detail
 
@@ -23,6 +23,7 @@ struct PreviewWorkspace::Impl {
   std::vector<std::uint64_t> revealed_bits;  // bit j: A_j is valid at this pixel
   std::vector<int> revealed_first;           // index of the pixel's first fragment, or -1
   std::vector<detail::Rgba> revealed;        // fragments {r, g, b, c}, by pixel then layer
+  size_t revealed_count = 0;                 // fragments of this call (revealed may hold more)
   struct Block {                             // 2x2 pixels
     detail::Rgba mean;                       // of {r, g, b, c}
     float cmin, cmax;
