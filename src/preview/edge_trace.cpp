@@ -106,13 +106,16 @@ void edge_reach(const float* coc, int W, int H, float max_radius, float floor,
     }
   });
   // Block b takes the seed of block `from` if that one reaches farther at b's centre. Each block
-  // keeps its seed's reach there, so a step measures one distance.
+  // keeps its seed's reach there, so a step measures one distance. A seed's reach only falls along
+  // the passes (each carries it away from its edge pixel), so once it is below `cut` at a block it
+  // is dropped there: it could not bring any pixel it reaches from there above `floor`.
+  const float cut = floor - 1.0f;
   auto relax = [&](int bx, int by, int fx, int fy) {
     const EdgeSeed& theirs = seeds[static_cast<size_t>(fy) * BW + fx];
     if (theirs.r <= 0) return;
     EdgeSeed& mine = seeds[static_cast<size_t>(by) * BW + bx];
     const float v = value(theirs, centre(bx), centre(by));
-    if (v > mine.reach) mine = {theirs.x, theirs.y, theirs.r, v};
+    if (v > mine.reach) mine = v < cut ? EdgeSeed{0, 0, 0, kNotNear} : EdgeSeed{theirs.x, theirs.y, theirs.r, v};
   };
   // Along the rows, a few rows side by side: each row is a chain of dependent steps, and
   // interleaving rows lets the processor overlap them.
@@ -141,7 +144,7 @@ void edge_reach(const float* coc, int W, int H, float max_radius, float floor,
       for (int x = 0; x < W; ++x) {
         const EdgeSeed& seed = seeds[static_cast<size_t>(y / 2) * BW + x / 2];
         reach[static_cast<size_t>(y) * W + x] =
-            seed.reach < floor - 1.0f
+            seed.reach < cut
                 ? kNotNear
                 : value(seed, static_cast<float>(x), static_cast<float>(y));
       }
