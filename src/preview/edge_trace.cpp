@@ -14,12 +14,15 @@
 // Along the ray c increases from the lens outwards, so the first fragment met is the one seen.
 //
 // Cost control:
-//  * only the pixels whose lens cone reaches an occluding edge are traced (the edge band: within
-//    max(R_p, R_q) of 4-neighbours whose CoC differ by more than 1 px), with a feather outside it;
+//  * only the pixels whose lens rays can pass an occluding edge are traced (within the nearer
+//    side's CoC radius of 4-neighbours whose CoC differ by more than 1 px: partial_occlusion_radius),
+//    with a feather outside it;
 //  * a ray is not marched in fixed steps: the CoC range is cut into 64 bins, every pixel holds a
 //    64-bit mask of the bins its fragments occupy, and a ray visits only the bins that some pixel
-//    within that bin's reach occupies (about two per ray on the shipped scenes), one lookup each;
-//  * rays stop at their first hit.
+//    within that bin's reach occupies (4x4-pixel tiles), one lookup each: 1.7 lookups per ray on
+//    the demo scene, 2.8 on colour bars;
+//  * four rim rays probe first, and a pixel whose probes all meet its own surface keeps the
+//    composite; rays stop at their first hit.
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -54,6 +57,18 @@ struct Bins {
   float centre(int b) const { return lo + (static_cast<float>(b) + 0.5f) * width; }
 };
 
+// How far from an occluding edge between 4-neighbours of signed CoC a and b (0: none) a pixel's
+// lens rays can pass the nearer side's boundary: at the nearer side's depth (CoC min(a, b)) the
+// rays of a pixel spread over that CoC's radius (eq. 2.6) around it. Farther away either every ray
+// meets the nearer surface or none does, and behind it every ray sees the same surface through the
+// whole lens, which the layers (with the revealed fill) blur correctly. This is narrower than the
+// error band's occluding_edge_radius (max(|a|, |b|) / 2) where the farther side is the more
+// defocused: a sharp foreground before a blurred background has no partial occlusion around it.
+inline float partial_occlusion_radius(float a, float b) {
+  const float r = std::max(1.0f, 0.5f * std::abs(std::min(a, b)));
+  return std::abs(a - b) > kEdgeJump ? r : 0.0f;
+}
+
 // reach[p] = max over edge pixels q of (R_q - |p - q|), R_q the edge radius at q: >= 0 inside the
 // union of the edge disks, minus the distance to its border outside. The best edge pixel (seed) is
 // searched on 2x2 blocks like a distance transform propagates: each block offers its seed to the
@@ -84,10 +99,10 @@ void edge_reach(const float* coc, int W, int H, float max_radius, float floor,
         const float* down = y + 1 < H ? c + W : c;
         float* r = radii.data() + static_cast<size_t>(i) * W;
         auto radius = [&](int x, float left, float right) {
-          return std::min(max_radius, std::max(std::max(occluding_edge_radius(c[x], left),
-                                                        occluding_edge_radius(c[x], right)),
-                                               std::max(occluding_edge_radius(c[x], up[x]),
-                                                        occluding_edge_radius(c[x], down[x]))));
+          return std::min(max_radius, std::max(std::max(partial_occlusion_radius(c[x], left),
+                                                        partial_occlusion_radius(c[x], right)),
+                                               std::max(partial_occlusion_radius(c[x], up[x]),
+                                                        partial_occlusion_radius(c[x], down[x]))));
         };
         r[0] = radius(0, c[0], c[std::min(1, W - 1)]);
         for (int x = 1; x + 1 < W; ++x) r[x] = radius(x, c[x - 1], c[x + 1]);
@@ -184,6 +199,20 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   bins.width = std::max(1e-3f, (hi - lo) * (1.0f + 1e-6f) / kBins);
   bins.inv_width = 1.0f / bins.width;
 
+  // The band: pixels with reach > -kFeather are traced.
+  std::vector<float>& reach = ws.trace_reach;
+  edge_reach(ws.coc.data(), W, H, static_cast<float>(options.max_coc_radius), -kFeather,
+             ws.trace_seeds, reach);
+
+  // Bin k is met only within |c_k| / 2 of the pixel: in tiles, reach_of(k).
+  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
+  auto reach_of = [&](int k) {
+    return static_cast<int>(
+        std::ceil((0.5f * std::abs(bins.centre(k)) + 0.5f * bins.width) / kTile));
+  };
+  int max_reach = 0;
+  for (int k = 0; k < kBins; ++k) max_reach = std::max(max_reach, reach_of(k));
+
   // Bins occupied per fragment. A fragment spans its CoC and, if a 4-neighbour of the same
   // surface lies behind it (nearer than the edge threshold), back to that neighbour: continuous
   // surfaces stay closed to rays at any slope, while occluding edges stay thin.
@@ -201,8 +230,7 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   // both), then one entry per revealed fragment.
   std::uint64_t* occ = ws.trace_bins.data();
   std::uint64_t* frag_run = occ + 2 * N;
-  // ... and per 8x8 tile, the union of its pixels' bins (each task owns whole tile rows).
-  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
+  // ... and per tile, the union of its pixels' bins (each task owns whole tile rows).
   std::vector<std::uint64_t> tiles(static_cast<size_t>(tw) * th, 0), tmp(tiles.size(), 0);
   const float* coc = ws.coc.data();  // px[p].a, contiguous
   parallel_rows(
@@ -241,14 +269,8 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
         }
       },
       1);
-  // Bin k is met only within |c_k| / 2 of the pixel: dilate each bin's tiles by its own reach,
-  // one tile ring per step, from the farthest-reaching bins in.
-  auto reach_of = [&](int k) {
-    return static_cast<int>(
-        std::ceil((0.5f * std::abs(bins.centre(k)) + 0.5f * bins.width) / kTile));
-  };
-  int max_reach = 0;
-  for (int k = 0; k < kBins; ++k) max_reach = std::max(max_reach, reach_of(k));
+  // Dilate each bin's tiles by its own reach, one tile ring per step, from the farthest-reaching
+  // bins in.
   std::vector<std::uint64_t> with_reach(max_reach + 1, 0);
   for (int k = 0; k < kBins; ++k) with_reach[reach_of(k)] |= std::uint64_t{1} << k;
   std::vector<std::uint64_t> dilated(tiles.size());
@@ -274,9 +296,6 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   }
   tiles.swap(dilated);
 
-  std::vector<float>& reach = ws.trace_reach;
-  edge_reach(ws.coc.data(), W, H, static_cast<float>(options.max_coc_radius), -kFeather,
-             ws.trace_seeds, reach);
 
   // A stratified grid on the lens, rotated per pixel (a fixed golden-angle sequence) so that its
   // structure turns into noise rather than aliasing.

@@ -97,7 +97,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       by_layer[j] = &r;
     }
     // One pass over the rows, all masks per row (the row of bits stays in cache), counting the
-    // fragments per row; then offsets: prefix over rows, then per pixel.
+    // fragments per row; then offsets: prefix over rows, then per pixel with the fragments.
     std::vector<int> row_start(H + 1, 0);
     parallel_rows(H, [&](int y0, int y1) {
       for (int y = y0; y < y1; ++y) {
@@ -106,6 +106,10 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         for (int j = 1; j < n; ++j) {
           if (!by_layer[j]) continue;
           const float* m = by_layer[j]->mask.data().data() + static_cast<size_t>(y) * W;
+          // Most rows of a mask are empty: a vectorised scan finds them before any bit is set.
+          int any = 0;
+          for (int x = 0; x < W; ++x) any |= m[x] > 0.5f;
+          if (!any) continue;
           const std::uint64_t bit = std::uint64_t{1} << j;
           for (int x = 0; x < W; ++x) bits[x] |= m[x] > 0.5f ? bit : 0;
         }
@@ -123,17 +127,11 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         for (size_t p = static_cast<size_t>(y) * W; p < static_cast<size_t>(y + 1) * W; ++p) {
           std::uint64_t b = ws.revealed_bits[p];
           ws.revealed_first[p] = b ? k : -1;
-          k += popcount64(b);
-        }
-      }
-    });
-    parallel_rows(H, [&](int y0, int y1) {
-      for (size_t p = static_cast<size_t>(y0) * W; p < static_cast<size_t>(y1) * W; ++p) {
-        std::uint64_t b = ws.revealed_bits[p];
-        for (int k = ws.revealed_first[p]; b; b &= b - 1, ++k) {
-          const RevealedLayer& r = *by_layer[ctz64(b)];
-          const float* c = r.color.data().data() + 3 * p;
-          ws.revealed[k] = Rgba{c[0], c[1], c[2], coc_of(r.depth.data()[p])};
+          for (; b; b &= b - 1, ++k) {
+            const RevealedLayer& r = *by_layer[ctz64(b)];
+            const float* c = r.color.data().data() + 3 * p;
+            ws.revealed[k] = Rgba{c[0], c[1], c[2], coc_of(r.depth.data()[p])};
+          }
         }
       }
     });

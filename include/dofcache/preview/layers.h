@@ -100,7 +100,8 @@ float hat_weight(const LayerPlan& plan, int i, double c);
 // The occluding-edge rule of the edge band (docs/preview.md): 4-neighbours of signed CoC a and b
 // (clamped, CocMap) form an occluding edge if they differ by more than 1 px, and the blur of either
 // side reaches R = max(1, max(|a|, |b|) / 2) px around it. Returns R, or 0 for no edge. The
-// occlusion fix's edge trace traces this band; the preview benchmark measures error in it.
+// preview benchmark measures error in this band; the occlusion fix's edge trace traces the part of
+// it where lens rays can pass the edge (edge_trace.cpp).
 // (Inline and without branches: the edge trace calls it four times per pixel, in vectorised loops.)
 inline float occluding_edge_radius(float a, float b) {
   const float r = std::max(1.0f, 0.5f * std::max(std::abs(a), std::abs(b)));
