@@ -15,8 +15,8 @@
 //
 // Cost control:
 //  * only the pixels whose lens rays can pass an occluding edge are traced (within the nearer
-//    side's CoC radius of 4-neighbours whose CoC differ by more than 1 px: partial_occlusion_radius),
-//    with a feather outside it;
+//    side's CoC radius of 4-neighbours whose CoC differ by more than 1 px:
+//    partial_occlusion_radius), with a feather outside it;
 //  * a ray is not marched in fixed steps: the CoC range is cut into 64 bins, every pixel holds a
 //    64-bit mask of the bins its fragments occupy, and a ray visits only the bins that some pixel
 //    within that bin's reach occupies (4x4-pixel tiles), one lookup each: 1.7 lookups per ray on
@@ -26,6 +26,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 
@@ -130,7 +131,8 @@ void edge_reach(const float* coc, int W, int H, float max_radius, float floor,
     if (theirs.r <= 0) return;
     EdgeSeed& mine = seeds[static_cast<size_t>(by) * BW + bx];
     const float v = value(theirs, centre(bx), centre(by));
-    if (v > mine.reach) mine = v < cut ? EdgeSeed{0, 0, 0, kNotNear} : EdgeSeed{theirs.x, theirs.y, theirs.r, v};
+    if (v > mine.reach)
+      mine = v < cut ? EdgeSeed{0, 0, 0, kNotNear} : EdgeSeed{theirs.x, theirs.y, theirs.r, v};
   };
   // Along the rows, a few rows side by side: each row is a chain of dependent steps, and
   // interleaving rows lets the processor overlap them.
@@ -159,21 +161,19 @@ void edge_reach(const float* coc, int W, int H, float max_radius, float floor,
       for (int x = 0; x < W; ++x) {
         const EdgeSeed& seed = seeds[static_cast<size_t>(y / 2) * BW + x / 2];
         reach[static_cast<size_t>(y) * W + x] =
-            seed.reach < cut
-                ? kNotNear
-                : value(seed, static_cast<float>(x), static_cast<float>(y));
+            seed.reach < cut ? kNotNear : value(seed, static_cast<float>(x), static_cast<float>(y));
       }
   });
 }
 
 }  // namespace
 
-void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W, int H,
+long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W, int H,
                      PreviewWorkspace::Impl& ws, image::Image& out) {
   // A 1x1 grid would be the pinhole ray alone, which the probes below (the grid's corners) would
   // always discard: fewer than 4 rays trace nothing.
   const int grid = static_cast<int>(std::lround(std::sqrt(std::max(0, options.edge_rays))));
-  if (grid < 2 || W <= 0 || H <= 0) return;
+  if (grid < 2 || W <= 0 || H <= 0) return 0;
   const size_t N = static_cast<size_t>(W) * H;
   const Rgba* px = ws.packed.data();
   const bool has_revealed = ws.revealed_first.size() >= N;
@@ -296,7 +296,6 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   }
   tiles.swap(dilated);
 
-
   // A stratified grid on the lens, rotated per pixel (a fixed golden-angle sequence) so that its
   // structure turns into noise rather than aliasing.
   std::vector<glm::vec2> lens;
@@ -351,14 +350,18 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   };
 
   float* o = out.data().data();
+  std::atomic<long> traced{0};
   parallel_rows(H, [&](int y0, int y1) {
+    long band = 0;
     for (int y = y0; y < y1; ++y)
       for (int x = 0; x < W; ++x) {
         const size_t p = static_cast<size_t>(y) * W + x;
         if (reach[p] <= -kFeather) continue;
         const float weight = std::min(1.0f, 1.0f + reach[p] / kFeather);
+        ++band;
         const std::uint64_t visit = tiles[(y / kTile) * tw + x / kTile];
-        const glm::vec2* u = offsets.data() + static_cast<size_t>((x * 7 + y * 13) % kRotations) * rays;
+        const glm::vec2* u =
+            offsets.data() + static_cast<size_t>((x * 7 + y * 13) % kRotations) * rays;
         const float cx = static_cast<float>(x) + 0.5f, cy = static_cast<float>(y) + 0.5f;
         float sum[3] = {0, 0, 0};
         bool own_surface_only = true;
@@ -375,7 +378,9 @@ void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
         for (int ch = 0; ch < 3; ++ch)
           o[3 * p + ch] += weight * (sum[ch] * inv_rays - o[3 * p + ch]);
       }
+    traced += band;
   });
+  return traced.load();
 }
 
 }  // namespace dofcache::preview::detail

@@ -611,7 +611,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
 
   if (occlusion && options.edge_rays > 0) {
     auto t5 = clock::now();
-    trace_edge_band(options, plan, W, H, ws, out);
+    timings.traced_pixels = trace_edge_band(options, plan, W, H, ws, out);
     timings.trace_ms += ms_since(t5);
   }
 }

@@ -64,8 +64,8 @@ void layered_preview(const PreviewInputs& inputs, const PreviewOptions& options,
                      image::Image& out, PreviewTimings& timings);
 // The occlusion fix's edge trace (edge_trace.cpp): replaces the layer composite in `out` near
 // occluding edges by options.edge_rays lens rays traced through ws.packed and the revealed
-// fragments (ws.revealed*, if any).
-void trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int width, int height,
+// fragments (ws.revealed*, if any). Returns the number of pixels traced (the band's).
+long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int width, int height,
                      PreviewWorkspace::Impl& ws, image::Image& out);
 void gather_preview(const image::Image& color, const PreviewOptions& options,
                     PreviewWorkspace::Impl& ws, image::Image& out);

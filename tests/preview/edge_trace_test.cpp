@@ -129,6 +129,87 @@ TEST(EdgeTrace, FollowsTheLensAtOccludingEdges) {
     }
 }
 
+// A sharp (in-focus) square before a defocused background, with a green patch hidden behind the
+// square: at the square's depth every lens ray of a pixel meets the pixel itself, so no pixel
+// outside the square sees past its edge through part of the lens; each sees the background's
+// whole blurred disk, the hidden patch included. Partial occlusion is confined to the square's
+// outline, so the trace stays within a pixel of it (and its feather), although the background's
+// blur makes the error band 8 px wide there; outside, the layers with the revealed fill give the
+// lens integral.
+TEST(EdgeTrace, NoTraceAroundASharpForeground) {
+  SyntheticScene sc;
+  sc.width = sc.height = kSize;
+  sc.imaging = demo_imaging(960);  // CoC diameters up to about 20 px
+  constexpr double kBlur = 8.0;    // the background's CoC radius
+  const double back = sc.imaging.depth_for_signed_coc(2.0 * kBlur);
+  sc.rects.push_back(
+      flat_rect(kLo, kLo, kHi, kHi, sc.imaging.depth_for_signed_coc(0.0), 3, 1.0f, 0.0f, 0.0f));
+  sc.rects.push_back(flat_rect(kLo, kLo, kHi, kHi, back, 2, 0.0f, 1.0f, 0.0f));
+  sc.rects.push_back(flat_rect(kSize / 2, 0, kSize, kSize, back * 1.001, 1, 0.1f, 0.2f, 0.9f));
+  sc.rects.push_back(flat_rect(0, 0, kSize, kSize, back * 1.002, 0, 0.5f, 0.5f, 0.5f));
+  PreviewInputs inputs = sc.pinhole();
+  PreviewOptions options, layers_only;
+  layers_only.edge_rays = 0;
+  LayerPlan plan = plan_layers(inputs.depth, inputs.imaging, options);
+  inputs.revealed = sc.revealed_layers(
+      plan, build_occlusion_masks(sc.id_layers(plan), inputs.depth, plan, inputs.imaging, options));
+  ASSERT_FALSE(inputs.revealed.empty());
+  PreviewWorkspace workspace;
+  PreviewTimings timings;
+  const image::Image traced =
+      render_preview(inputs, PreviewMethod::LayeredOcclusion, options, workspace, &timings);
+  const image::Image layers = render_preview(inputs, PreviewMethod::LayeredOcclusion, layers_only);
+
+  // The lens integral outside the square: the background (green behind the square) averaged over
+  // the disk of radius kBlur around the pixel.
+  auto lens_sees = [&](int x, int y, int c) {
+    constexpr int kGrid = 64;
+    double sum = 0;
+    int n = 0;
+    for (int a = 0; a < kGrid; ++a)
+      for (int b = 0; b < kGrid; ++b) {
+        const double ux = 2.0 * (a + 0.5) / kGrid - 1, uy = 2.0 * (b + 0.5) / kGrid - 1;
+        if (ux * ux + uy * uy > 1) continue;
+        const double sx = x + 0.5 + ux * kBlur, sy = y + 0.5 + uy * kBlur;
+        const bool patch = sx >= kLo && sx < kHi && sy >= kLo && sy < kHi;
+        const float rgb[3][3] = {{0.0f, 1.0f, 0.0f}, {0.1f, 0.2f, 0.9f}, {0.5f, 0.5f, 0.5f}};
+        sum += rgb[patch ? 0 : sx >= kSize / 2 ? 1 : 2][c];
+        ++n;
+      }
+    return sum / n;
+  };
+  // Pixels 4 to kBlur px outside the square: in the error band, beyond the trace's band (1 px,
+  // a 2 px feather and a pixel of slack in the band's distance).
+  double err = 0;
+  int ring = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const int d = std::max({kLo - x, x - (kHi - 1), kLo - y, y - (kHi - 1)});
+      if (d < 4 || d > kBlur) continue;
+      ++ring;
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_EQ(traced.at(x, y, c), layers.at(x, y, c)) << x << "," << y;
+        err += std::pow(layers.at(x, y, c) - lens_sees(x, y, c), 2) / 3;
+      }
+    }
+  ASSERT_GT(ring, 800);
+  err /= ring;
+  RecordProperty("ring_mse", std::to_string(err));
+  // The pyramid's bell-shaped kernel against the lens's disk: a few percent RMS.
+  EXPECT_LT(err, 0.04 * 0.04) << err;
+  // The trace runs along the outline only: within the square's 1 px band, its feather and a pixel
+  // of slack (at most 4 px either side), not across the 8 px of the background's blur.
+  long near_outline = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const int d = std::max({kLo - x, x - (kHi - 1), kLo - y, y - (kHi - 1)});
+      near_outline += d >= -3 && d <= 4;
+    }
+  RecordProperty("traced_pixels", std::to_string(timings.traced_pixels));
+  EXPECT_GT(timings.traced_pixels, 0);
+  EXPECT_LE(timings.traced_pixels, near_outline);
+}
+
 TEST(EdgeTrace, SameImageForAnyThreadCount) {
   Scene s = make_scene();
   PreviewOptions one, two;

@@ -63,6 +63,7 @@ struct PreviewTimings {
   double total_ms = 0;
   int layers = 0;          // layers planned (layered methods)
   int layers_blurred = 0;  // layers whose matte was not empty
+  long traced_pixels = 0;  // occlusion fix: pixels of the edge band whose lens rays were traced
 };
 
 // Reusable scratch memory: keep one across frames to avoid reallocating buffers.
