@@ -204,15 +204,6 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   edge_reach(ws.coc.data(), W, H, static_cast<float>(options.max_coc_radius), -kFeather,
              ws.trace_seeds, reach);
 
-  // Bin k is met only within |c_k| / 2 of the pixel: in tiles, reach_of(k).
-  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
-  auto reach_of = [&](int k) {
-    return static_cast<int>(
-        std::ceil((0.5f * std::abs(bins.centre(k)) + 0.5f * bins.width) / kTile));
-  };
-  int max_reach = 0;
-  for (int k = 0; k < kBins; ++k) max_reach = std::max(max_reach, reach_of(k));
-
   // Bins occupied per fragment. A fragment spans its CoC and, if a 4-neighbour of the same
   // surface lies behind it (nearer than the edge threshold), back to that neighbour: continuous
   // surfaces stay closed to rays at any slope, while occluding edges stay thin.
@@ -231,6 +222,7 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   std::uint64_t* occ = ws.trace_bins.data();
   std::uint64_t* frag_run = occ + 2 * N;
   // ... and per tile, the union of its pixels' bins (each task owns whole tile rows).
+  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
   std::vector<std::uint64_t> tiles(static_cast<size_t>(tw) * th, 0), tmp(tiles.size(), 0);
   const float* coc = ws.coc.data();  // px[p].a, contiguous
   parallel_rows(
@@ -269,8 +261,14 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
         }
       },
       1);
-  // Dilate each bin's tiles by its own reach, one tile ring per step, from the farthest-reaching
-  // bins in.
+  // Bin k is met only within |c_k| / 2 of the pixel: dilate each bin's tiles by its own reach,
+  // one tile ring per step, from the farthest-reaching bins in.
+  auto reach_of = [&](int k) {
+    return static_cast<int>(
+        std::ceil((0.5f * std::abs(bins.centre(k)) + 0.5f * bins.width) / kTile));
+  };
+  int max_reach = 0;
+  for (int k = 0; k < kBins; ++k) max_reach = std::max(max_reach, reach_of(k));
   std::vector<std::uint64_t> with_reach(max_reach + 1, 0);
   for (int k = 0; k < kBins; ++k) with_reach[reach_of(k)] |= std::uint64_t{1} << k;
   std::vector<std::uint64_t> dilated(tiles.size());
