@@ -176,19 +176,9 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   if (grid < 2 || W <= 0 || H <= 0) return 0;
   const size_t N = static_cast<size_t>(W) * H;
   const Rgba* px = ws.packed.data();
-  const bool has_revealed = ws.revealed_first.size() >= N;
-  // Revealed fragments of pixel p: [first, first + count) of ws.revealed, one per bit of
-  // ws.revealed_bits[p] (layer j), in layer order.
-  auto first_fragment = [&](size_t p) { return has_revealed ? ws.revealed_first[p] : -1; };
-  auto fragments_end = [&](size_t p, int first) {
-    return first < 0 ? first : first + popcount64(ws.revealed_bits[p]);
-  };
-  auto fragment_of_layer = [&](size_t p, int j) {  // index of p's fragment of A_j, or -1
-    const int f = first_fragment(p);
-    if (f < 0 || !((ws.revealed_bits[p] >> j) & 1)) return -1;
-    return f + popcount64(ws.revealed_bits[p] & ((std::uint64_t{1} << j) - 1));
-  };
-  const size_t fragment_count = has_revealed ? ws.revealed_count : 0;
+  // The layered pipeline has indexed the revealed fragments (ws.revealed_first, revealed_bits;
+  // pixels without any have no bits set).
+  const size_t fragment_count = ws.revealed_count;
 
   // The CoC range of every fragment (the plan holds the pinhole's), and its bins.
   float lo = static_cast<float>(plan.coc_min), hi = static_cast<float>(plan.coc_max);
@@ -239,21 +229,18 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
             float back = 0;
             for (size_t q : nbs) back = extend(back, c, coc[q]);
             std::uint64_t m = occ[2 * p + 1] = run(c, back);
-            const int f = first_fragment(p);
-            if (f >= 0) {
-              int k = f;
-              for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
-                const int j = ctz64(b);
-                const float fc = ws.revealed[k].a;
-                float fback = 0;
-                for (size_t q : nbs) {
-                  fback = extend(fback, fc, coc[q]);
-                  const int g = fragment_of_layer(q, j);
-                  if (g >= 0) fback = extend(fback, fc, ws.revealed[g].a);
-                }
-                frag_run[k] = run(fc, fback);
-                m |= frag_run[k];
+            int k = ws.revealed_first[p];
+            for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
+              const int j = ctz64(b);
+              const float fc = ws.revealed[k].a;
+              float fback = 0;
+              for (size_t q : nbs) {
+                fback = extend(fback, fc, coc[q]);
+                const int g = ws.fragment_of_layer(q, j);
+                if (g >= 0) fback = extend(fback, fc, ws.revealed[g].a);
               }
+              frag_run[k] = run(fc, fback);
+              m |= frag_run[k];
             }
             occ[2 * p] = m;
             tile_row[x / kTile] |= m;
@@ -340,8 +327,7 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
       if (!(occupancy[2 * q] & bit)) continue;
       // The pinhole surface is nearer than any fragment revealed behind it.
       if (occupancy[2 * q + 1] & bit) return &px[q];
-      const int g0 = first_fragment(q);
-      for (int g = g0, end = fragments_end(q, g0); g < end; ++g)
+      for (int g = ws.revealed_first[q], end = g + popcount64(ws.revealed_bits[q]); g < end; ++g)
         if (frag_run[g] & bit) return &ws.revealed[g];
     }
     return nullptr;

@@ -196,9 +196,9 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   // The revealed fragment that fills pixel p in a layer that may use the A_j in `usable`: the
   // nearest one, or none.
   auto fragment = [&](size_t p, std::uint64_t usable) -> const Rgba* {
-    const std::uint64_t all = usable ? ws.revealed_bits[p] : 0, b = all & usable;
+    const std::uint64_t b = usable ? ws.revealed_bits[p] & usable : 0;
     if (!b) return nullptr;
-    return &ws.revealed[ws.revealed_first[p] + popcount64(all & ((b & (~b + 1)) - 1))];
+    return &ws.revealed[ws.fragment_of_layer(p, ctz64(b))];
   };
 
   // Slab composite: the hat's halves of layer i are blurred separately; the far half joins the

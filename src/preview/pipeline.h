@@ -24,6 +24,13 @@ struct PreviewWorkspace::Impl {
   std::vector<int> revealed_first;           // index of the pixel's first fragment, or -1
   std::vector<detail::Rgba> revealed;        // fragments {r, g, b, c}, by pixel then layer
   size_t revealed_count = 0;                 // fragments of this call (revealed may hold more)
+  // Pixel p's fragments are revealed[revealed_first[p] + k], one per bit of revealed_bits[p]
+  // (layer j), in layer order. The index of p's fragment of A_j, or -1.
+  int fragment_of_layer(size_t p, int j) const {
+    const std::uint64_t bits = revealed_bits[p];
+    if (!((bits >> j) & 1)) return -1;
+    return revealed_first[p] + detail::popcount64(bits & ((std::uint64_t{1} << j) - 1));
+  }
   struct Block {                             // 2x2 pixels
     detail::Rgba mean;                       // of {r, g, b, c}
     float cmin, cmax;

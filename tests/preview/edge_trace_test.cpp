@@ -20,6 +20,29 @@ constexpr double kRadius = 6.0;                // its CoC radius (pixels)
 
 bool in_square(int x, int y) { return x >= kLo && x < kHi && y >= kLo && y < kHi; }
 
+// Pixels from the square's outline: 1 for the ring just outside it, 0 for its own border pixels,
+// negative further in (Chebyshev).
+int from_outline(int x, int y) {
+  return std::max({kLo - x, x - (kHi - 1), kLo - y, y - (kHi - 1)});
+}
+
+// The mean of f(ux, uy) (RGB, added into its third argument) over the unit disk, on a fine grid:
+// the lens integral the tests compare with.
+template <class F>
+void disk_mean(const F& f, double rgb[3]) {
+  constexpr int kGrid = 64;
+  double sum[3] = {0, 0, 0};
+  int n = 0;
+  for (int a = 0; a < kGrid; ++a)
+    for (int b = 0; b < kGrid; ++b) {
+      const double ux = 2.0 * (a + 0.5) / kGrid - 1, uy = 2.0 * (b + 0.5) / kGrid - 1;
+      if (ux * ux + uy * uy > 1) continue;
+      ++n;
+      f(ux, uy, sum);
+    }
+  for (int c = 0; c < 3; ++c) rgb[c] = sum[c] / n;
+}
+
 struct Scene {
   SyntheticScene synthetic;
   PreviewInputs inputs;  // with the revealed layers of the occlusion fix
@@ -58,26 +81,20 @@ void background(int x, int y, float rgb[3]) {
 // The lens integral, by a fine sum over the lens: a lens point u (unit disk) sees the square if
 // the square covers p + u c / 2 at the square's depth (c = -2 kRadius), otherwise the in-focus
 // background at p itself.
-void lens_sees(int x, int y, float rgb[3]) {
-  constexpr int kGrid = 64;
-  double sum[3] = {0, 0, 0};
-  int n = 0;
+void lens_sees(int x, int y, double rgb[3]) {
   float bg[3];
   background(x, y, bg);
-  for (int a = 0; a < kGrid; ++a)
-    for (int b = 0; b < kGrid; ++b) {
-      const double ux = 2.0 * (a + 0.5) / kGrid - 1, uy = 2.0 * (b + 0.5) / kGrid - 1;
-      if (ux * ux + uy * uy > 1) continue;
-      ++n;
-      const double sx = x + 0.5 - ux * kRadius, sy = y + 0.5 - uy * kRadius;
-      const bool square = sx >= kLo && sx < kHi && sy >= kLo && sy < kHi;
-      for (int c = 0; c < 3; ++c) sum[c] += square ? (c == 0 ? 1.0 : 0.0) : bg[c];
-    }
-  for (int c = 0; c < 3; ++c) rgb[c] = static_cast<float>(sum[c] / n);
+  disk_mean(
+      [&](double ux, double uy, double* sum) {
+        const double sx = x + 0.5 - ux * kRadius, sy = y + 0.5 - uy * kRadius;
+        const bool square = sx >= kLo && sx < kHi && sy >= kLo && sy < kHi;
+        for (int c = 0; c < 3; ++c) sum[c] += square ? (c == 0 ? 1.0 : 0.0) : bg[c];
+      },
+      rgb);
 }
 
 double squared_error(const image::Image& img, int x, int y) {
-  float want[3];
+  double want[3];
   lens_sees(x, y, want);
   double e = 0;
   for (int c = 0; c < 3; ++c) e += std::pow(img.at(x, y, c) - want[c], 2);
@@ -99,8 +116,7 @@ TEST(EdgeTrace, FollowsTheLensAtOccludingEdges) {
   int ring = 0;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
-      const int d = std::max({kLo - x, x - (kHi - 1), kLo - y, y - (kHi - 1)});
-      if (std::abs(d) > kRadius) continue;
+      if (std::abs(from_outline(x, y)) > kRadius) continue;
       ++ring;
       err_layers += squared_error(a, x, y);
       const double e = squared_error(b, x, y);
@@ -120,10 +136,7 @@ TEST(EdgeTrace, FollowsTheLensAtOccludingEdges) {
   // Far from every edge nothing is traced: the two images are the same there.
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
-      const bool far_from_square =
-          std::max({kLo - x, x - (kHi - 1), kLo - y, y - (kHi - 1)}) > 2 * kRadius + 4 ||
-          (in_square(x, y) &&
-           std::min({x - kLo, kHi - 1 - x, y - kLo, kHi - 1 - y}) > 2 * kRadius + 4);
+      const bool far_from_square = std::abs(from_outline(x, y)) > 2 * kRadius + 4;
       if (!far_from_square || std::abs(x - kSize / 2) < 4) continue;
       for (int c = 0; c < 3; ++c) ASSERT_EQ(a.at(x, y, c), b.at(x, y, c)) << x << "," << y;
     }
@@ -162,34 +175,34 @@ TEST(EdgeTrace, NoTraceAroundASharpForeground) {
 
   // The lens integral outside the square: the background (green behind the square) averaged over
   // the disk of radius kBlur around the pixel.
-  auto lens_sees = [&](int x, int y, int c) {
-    constexpr int kGrid = 64;
-    double sum = 0;
-    int n = 0;
-    for (int a = 0; a < kGrid; ++a)
-      for (int b = 0; b < kGrid; ++b) {
-        const double ux = 2.0 * (a + 0.5) / kGrid - 1, uy = 2.0 * (b + 0.5) / kGrid - 1;
-        if (ux * ux + uy * uy > 1) continue;
-        const double sx = x + 0.5 + ux * kBlur, sy = y + 0.5 + uy * kBlur;
-        const bool patch = sx >= kLo && sx < kHi && sy >= kLo && sy < kHi;
-        const float rgb[3][3] = {{0.0f, 1.0f, 0.0f}, {0.1f, 0.2f, 0.9f}, {0.5f, 0.5f, 0.5f}};
-        sum += rgb[patch ? 0 : sx >= kSize / 2 ? 1 : 2][c];
-        ++n;
-      }
-    return sum / n;
+  auto lens_sees = [&](int x, int y, double rgb[3]) {
+    disk_mean(
+        [&](double ux, double uy, double* sum) {
+          const double sx = x + 0.5 + ux * kBlur, sy = y + 0.5 + uy * kBlur;
+          const bool patch = sx >= kLo && sx < kHi && sy >= kLo && sy < kHi;
+          const float colours[3][3] = {{0.0f, 1.0f, 0.0f}, {0.1f, 0.2f, 0.9f}, {0.5f, 0.5f, 0.5f}};
+          const float* seen = colours[patch ? 0 : sx >= kSize / 2 ? 1 : 2];
+          for (int c = 0; c < 3; ++c) sum[c] += seen[c];
+        },
+        rgb);
   };
   // Pixels 4 to kBlur px outside the square: in the error band, beyond the trace's band (1 px,
-  // a 2 px feather and a pixel of slack in the band's distance).
+  // a 2 px feather and a pixel of slack in the band's distance). And the pixels within 4 px of
+  // the outline either side, which bound where the trace may run.
   double err = 0;
   int ring = 0;
+  long near_outline = 0;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
-      const int d = std::max({kLo - x, x - (kHi - 1), kLo - y, y - (kHi - 1)});
+      const int d = from_outline(x, y);
+      near_outline += d >= -3 && d <= 4;
       if (d < 4 || d > kBlur) continue;
       ++ring;
+      double want[3];
+      lens_sees(x, y, want);
       for (int c = 0; c < 3; ++c) {
         ASSERT_EQ(traced.at(x, y, c), layers.at(x, y, c)) << x << "," << y;
-        err += std::pow(layers.at(x, y, c) - lens_sees(x, y, c), 2) / 3;
+        err += std::pow(layers.at(x, y, c) - want[c], 2) / 3;
       }
     }
   ASSERT_GT(ring, 800);
@@ -199,12 +212,6 @@ TEST(EdgeTrace, NoTraceAroundASharpForeground) {
   EXPECT_LT(err, 0.04 * 0.04) << err;
   // The trace runs along the outline only: within the square's 1 px band, its feather and a pixel
   // of slack (at most 4 px either side), not across the 8 px of the background's blur.
-  long near_outline = 0;
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      const int d = std::max({kLo - x, x - (kHi - 1), kLo - y, y - (kHi - 1)});
-      near_outline += d >= -3 && d <= 4;
-    }
   RecordProperty("traced_pixels", std::to_string(timings.traced_pixels));
   EXPECT_GT(timings.traced_pixels, 0);
   EXPECT_LE(timings.traced_pixels, near_outline);
