@@ -202,9 +202,9 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
     const std::uint64_t upto = b >= 63 ? ~std::uint64_t{0} : (std::uint64_t{2} << b) - 1;
     return upto & ~((std::uint64_t{1} << a) - 1);
   };
-  auto extend = [](float back, float c, float nb) {
+  auto extend = [](float back, float c, float nb) {  // back >= 0; without a branch
     const float d = nb - c;
-    return d > back && d <= kEdgeJump ? d : back;
+    return std::max(back, d <= kEdgeJump ? d : 0.0f);
   };
   ensure_size(ws.trace_bins, 2 * N + fragment_count);
   // Per pixel {every fragment's bins, the pinhole fragment's bins} side by side (a ray reads
@@ -222,15 +222,23 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
           const size_t row = static_cast<size_t>(y) * W;
           const size_t up = y > 0 ? row - W : row, down = y + 1 < H ? row + W : row;
           std::uint64_t* tile_row = tiles.data() + static_cast<size_t>(y / kTile) * tw;
+          // The pinhole fragments first, a loop without branches; then the revealed ones.
           for (int x = 0; x < W; ++x) {
             const size_t p = row + x;
-            const size_t nbs[4] = {x > 0 ? p - 1 : p, x + 1 < W ? p + 1 : p, up + x, down + x};
             const float c = coc[p];
             float back = 0;
-            for (size_t q : nbs) back = extend(back, c, coc[q]);
-            std::uint64_t m = occ[2 * p + 1] = run(c, back);
+            back = extend(back, c, coc[row + std::max(x - 1, 0)]);
+            back = extend(back, c, coc[row + std::min(x + 1, W - 1)]);
+            back = extend(back, c, coc[up + x]);
+            back = extend(back, c, coc[down + x]);
+            occ[2 * p + 1] = run(c, back);
+          }
+          for (int x = 0; x < W; ++x) {
+            const size_t p = row + x;
+            std::uint64_t m = occ[2 * p + 1];
             int k = ws.revealed_first[p];
             for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
+              const size_t nbs[4] = {x > 0 ? p - 1 : p, x + 1 < W ? p + 1 : p, up + x, down + x};
               const int j = ctz64(b);
               const float fc = ws.revealed[k].a;
               float fback = 0;

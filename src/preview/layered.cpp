@@ -420,7 +420,10 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
             std::fill(o + x, o + xe, Rgba{0, 0, 0, 0});
             break;
           case kKept:
-            for (int k = x; k < xe; ++k) o[k] = premultiply(src[k], m.weight(src[k].a));
+            if (m.part == MattePart::kTrapezoid)
+              m.premultiply_trapezoid(src + x, o + x, xe - x);
+            else
+              for (int k = x; k < xe; ++k) o[k] = premultiply(src[k], m.weight(src[k].a));
             break;
           case kCulled: {
             if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
