@@ -462,17 +462,22 @@ int run(const Options& o) {
 
   // 4. Refocus at 640x480 on colour bars: render and save inputs (cheap shading: only the
   // post-process is timed), then load + post-process as `dofcache refocus` does (fresh workspace),
-  // with the saved lens and with another one; and the post-process alone on 2 threads.
+  // with the saved lens and with another one; and the post-process alone on 2 threads, on every
+  // shipped scene.
   bench::Table tref({"what", "size", "threads", "load [ms]", "post-process [ms]", "total [ms]",
                      "target [ms]", "met"});
   if (!o.skip_refocus) {
+    auto cheap_preview = [&](const SceneSetup& s) {
+      render::RenderSettings r = s.base;
+      r.spp = 1;
+      r.shading.gather_rays = 4;
+      r.shading.light_samples = 1;
+      return preview::render_scene_preview(s.scene, *s.accel, s.camera(), r,
+                                           PreviewMethod::LayeredOcclusion, options);
+    };
     SceneSetup s = load("color_bars.gltf", o.refocus_width, o);
-    render::RenderSettings r = s.base;
-    r.spp = 1;
-    r.shading.gather_rays = 4;
-    r.shading.light_samples = 1;
-    preview::ScenePreview p = preview::render_scene_preview(
-        s.scene, *s.accel, s.camera(), r, PreviewMethod::LayeredOcclusion, options);
+    const render::RenderSettings& r = s.base;
+    preview::ScenePreview p = cheap_preview(s);
     const std::string size = std::to_string(r.width) + "x" + std::to_string(r.height);
     fs::path file = fs::temp_directory_path() / "dofcache_preview_table_bench_inputs.exr";
     preview::save_preview_inputs(file.string(), p.inputs, p.coverage, options);
@@ -500,7 +505,7 @@ int run(const Options& o) {
                     100, best_total < 100.0});
     }
     // The post-process alone on 2 threads, its workspace reused: the fastest of the runs.
-    auto post_process_row = [&](const char* label, const preview::PreviewInputs& in,
+    auto post_process_row = [&](const std::string& label, const preview::PreviewInputs& in,
                                 PreviewMethod m) {
       preview::PreviewOptions two = options;
       two.threads = 2;
@@ -511,10 +516,20 @@ int run(const Options& o) {
         image::Image img = preview::render_preview(in, m, two, ws);
         best = std::min(best, ms_since(t0));
       }
-      tref.add_row({label, size, 2, Cell(0.0, 1), Cell(best, 1), Cell(best, 1), 20, best < 20.0});
+      tref.add_row({label,
+                    std::to_string(in.color.width()) + "x" + std::to_string(in.color.height()), 2,
+                    Cell(0.0, 1), Cell(best, 1), Cell(best, 1), 20, best < 20.0});
     };
-    post_process_row("post-process, Kraus", p.inputs, PreviewMethod::Layered);
-    post_process_row("post-process, occlusion fix", p.inputs, PreviewMethod::LayeredOcclusion);
+    auto post_process_rows = [&](const std::string& scene, const preview::PreviewInputs& in) {
+      post_process_row("post-process, Kraus, " + scene, in, PreviewMethod::Layered);
+      post_process_row("post-process, occlusion fix, " + scene, in,
+                       PreviewMethod::LayeredOcclusion);
+    };
+    post_process_rows(s.name, p.inputs);
+    for (const char* other : {"color_spheres.gltf", "cornell_box.gltf"}) {
+      SceneSetup so = load(other, o.refocus_width, o);
+      post_process_rows(so.name, cheap_preview(so).inputs);
+    }
     // The same post-process on the synthetic demo scene of preview_postprocess_bench, in the same
     // conditions: docs/preview.md lists 10.7 ms (layered) and 12.1 ms (occlusion fix) for it on
     // two uncontended cores, so this row tells how much the machine was contended.
@@ -525,9 +540,7 @@ int run(const Options& o) {
       din.revealed =
           demo.revealed_layers(plan, preview::build_occlusion_masks(demo.id_layers(plan), din.depth,
                                                                     plan, din.imaging, options));
-      post_process_row("post-process, Kraus, synthetic demo scene", din, PreviewMethod::Layered);
-      post_process_row("post-process, occlusion fix, synthetic demo scene", din,
-                       PreviewMethod::LayeredOcclusion);
+      post_process_rows("synthetic demo scene", din);
     }
     fs::remove(file);
     std::printf("\nsaved inputs at %s: %.2f MB (%d revealed layers, %llu revealed px)\n",
