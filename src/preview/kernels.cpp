@@ -159,8 +159,8 @@ void push_level(PullPushLevel& fine, const PullPushLevel& coarse) {
 }
 
 template <int C>
-void pull_push_levels_c(std::vector<PullPushLevel>& levels, int n, PullFilter filter) {
-  for (int l = 1; l + 1 < n; ++l) {
+void pull_push_levels_c(std::vector<PullPushLevel>& levels, int n, PullFilter filter, int base) {
+  for (int l = base; l + 1 < n; ++l) {
     if (filter == PullFilter::kTent)
       pull_level_tent<C>(levels[l], levels[l + 1]);
     else
@@ -171,7 +171,7 @@ void pull_push_levels_c(std::vector<PullPushLevel>& levels, int n, PullFilter fi
   if (!(p[C] > 0))
     for (int k = 0; k < C; ++k) p[k] = 0;
   p[C] = 1;
-  for (int l = n - 2; l >= 1; --l) push_level<C>(levels[l], levels[l + 1]);
+  for (int l = n - 2; l >= base; --l) push_level<C>(levels[l], levels[l + 1]);
 }
 
 template <class F>
@@ -208,9 +208,10 @@ void dispatch_channels(int channels, const F& f) {
 
 }  // namespace
 
-void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels, PullFilter filter) {
-  dispatch_channels(channels,
-                    [&](auto c) { pull_push_levels_c<decltype(c)::value>(levels, n, filter); });
+void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels, PullFilter filter,
+                      int base) {
+  dispatch_channels(
+      channels, [&](auto c) { pull_push_levels_c<decltype(c)::value>(levels, n, filter, base); });
 }
 
 void pull_push_sample(const PullPushLevel& l1, int channels, int x, int y, float* out) {

@@ -121,26 +121,31 @@ struct PullPushLevel {
 // pixels comes from them even where the hole's edge falls on cell boundaries (the slab composite's
 // backing along a contour needs that; it costs about 1.5 ms per 640x480 frame).
 enum class PullFilter { kBox, kTent };
-// Pulls levels 2 .. n-1 (1x1) from `levels[1]` (already filled by the caller), then pushes back
-// down to level 1 so that every level-1 pixel holds a normalised filled value with weight 1.
-// Needs n >= 2; channels 1..8.
-void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels, PullFilter filter);
+// Pulls levels base+1 .. n-1 (1x1) from `levels[base]` (already filled by the caller), then pushes
+// back down to `base` so that every pixel there holds a normalised filled value with weight 1.
+// Needs n > base >= 1; channels 1..8.
+void pull_push_levels(std::vector<PullPushLevel>& levels, int n, int channels, PullFilter filter,
+                      int base = 1);
 // Size the pull-push levels for a width x height level 0; returns the number of levels.
 int prepare_pull_push(std::vector<PullPushLevel>& levels, int width, int height, int channels);
-// Bilinear lookup of the filled level 1 at fine pixel (x, y): coarse coordinate (x + 1/2)/2 - 1/2,
-// so the weights are 3/4 and 1/4 (edges clamped). Vertical first, then horizontal.
+// Bilinear lookup of a filled level 2^shift times coarser than the image (level `shift`) at fine
+// pixel (x, y): coarse coordinate (x + 1/2) / 2^shift - 1/2 (on level 1 the weights are 3/4 and
+// 1/4), edges clamped. Vertical first, then horizontal.
 struct PullPushTaps {
   int i0, i1;  // coarse indices (clamped)
   float f;     // weight of i1
 };
-inline PullPushTaps pull_push_taps(int fine, int coarse_size) {
-  int m = fine >> 1, i0 = (fine & 1) ? m : m - 1;
-  return {std::max(i0, 0), std::min(i0 + 1, coarse_size - 1), (fine & 1) ? 0.25f : 0.75f};
+inline PullPushTaps pull_push_taps(int fine, int coarse_size, int shift = 1) {
+  const int num = 2 * fine + 1 - (1 << shift);  // 2^(shift+1) times the coarse coordinate
+  const int i0 = num >> (shift + 1);            // floor, also of the negative first half cell
+  const float f = static_cast<float>(num & ((2 << shift) - 1)) / static_cast<float>(2 << shift);
+  return {std::max(i0, 0), std::min(i0 + 1, coarse_size - 1), f};
 }
 template <int C>
-inline void pull_push_sample(const PullPushLevel& l1, int x, int y, float* out) {
+inline void pull_push_sample(const PullPushLevel& l1, int x, int y, float* out, int shift = 1) {
   constexpr int stride = C + 1;
-  const PullPushTaps tx = pull_push_taps(x, l1.width), ty = pull_push_taps(y, l1.height);
+  const PullPushTaps tx = pull_push_taps(x, l1.width, shift),
+                     ty = pull_push_taps(y, l1.height, shift);
   const float* r0 = l1.data.data() + static_cast<size_t>(ty.i0) * l1.width * stride;
   const float* r1 = l1.data.data() + static_cast<size_t>(ty.i1) * l1.width * stride;
   for (int k = 0; k < C; ++k) {
@@ -152,11 +157,12 @@ inline void pull_push_sample(const PullPushLevel& l1, int x, int y, float* out) 
 // The same for the first four channels of pixels [xa, xb) of row y at once (identical values);
 // `tmp` holds at least (xb - xa) / 2 + 3 entries.
 inline void pull_push_sample_row(const PullPushLevel& l1, int y, int xa, int xb, Rgba* out,
-                                 Rgba* tmp) {
-  const PullPushTaps ty = pull_push_taps(y, l1.height);
+                                 Rgba* tmp, int shift = 1) {
+  const PullPushTaps ty = pull_push_taps(y, l1.height, shift);
   const float* r0 = l1.data.data() + static_cast<size_t>(ty.i0) * l1.width * 5;
   const float* r1 = l1.data.data() + static_cast<size_t>(ty.i1) * l1.width * 5;
-  const int ca = std::max((xa >> 1) - 1, 0), cb = std::min(((xb - 1) >> 1) + 1, l1.width - 1);
+  const int ca = std::max((xa >> shift) - 1, 0),
+            cb = std::min(((xb - 1) >> shift) + 1, l1.width - 1);
   const Float4 w0 = {1 - ty.f, 1 - ty.f, 1 - ty.f, 1 - ty.f}, w1 = {ty.f, ty.f, ty.f, ty.f};
   for (int c = ca; c <= cb; ++c) {
     Float4 a, b;
@@ -165,7 +171,7 @@ inline void pull_push_sample_row(const PullPushLevel& l1, int y, int xa, int xb,
     tmp[c - ca] = as_rgba(w0 * a + w1 * b);
   }
   for (int x = xa; x < xb; ++x) {
-    const PullPushTaps tx = pull_push_taps(x, l1.width);
+    const PullPushTaps tx = pull_push_taps(x, l1.width, shift);
     out[x - xa] = as_rgba(as_vec(tmp[tx.i0 - ca]) * (1 - tx.f) + as_vec(tmp[tx.i1 - ca]) * tx.f);
   }
 }

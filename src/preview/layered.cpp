@@ -2,11 +2,11 @@
 // and back-to-front blending, one layer at a time (see preview.h and docs/preview.md).
 //
 // Cost control: per frame the pinhole colour and CoC are packed into one RGBA stream and
-// summarised per 2x2 block (for the pull of the disocclusion) and per 16x16 tile. Per layer the
-// tiles are classified (wholly behind the layer: skipped; nothing culled; wholly culled; mixed),
-// the matted layer is produced row by row straight into the first pyramid reduce (it is never
-// stored at full resolution), and the pyramid runs on the bounding box of the tiles whose matte
-// can be non-zero, plus the kernel's reach.
+// summarised per 2x2 block and 4x4 cell (for the pull of the disocclusion) and per 16x16 tile. Per
+// layer the tiles are classified (wholly behind the layer: skipped; nothing culled; wholly culled;
+// mixed), the matted layer is produced row by row straight into the first pyramid reduce (it is
+// never stored at full resolution), and the pyramid runs on the bounding box of the tiles whose
+// matte can be non-zero, plus the kernel's reach.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -47,7 +47,6 @@ inline Rgba premultiply(const Rgba& v, float alpha) {
   r[3] = alpha;
   return as_rgba(r);
 }
-
 
 }  // namespace
 
@@ -161,6 +160,42 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         ws.blocks[static_cast<size_t>(by) * bw + bx] = blk;
       }
   });
+  // The fill's base: pull-push level 2 (4x4 pixels), or level 1 on images too small for it.
+  // Cells of 4x4 rather than 2x2 blocks: a quarter of the cells to sort into kept, culled and
+  // mixed per layer (the fill was the pass that read the most memory per layer), and no more
+  // error (slightly less for Kraus & Strengert on the shipped scenes: docs/preview.md). The slab
+  // composite keeps level 1: its backing along a contour needs the finer fill (silhouette_test).
+  const int pp_levels = prepare_pull_push(ws.pull_push, W, H, 4);
+  const bool slabs = options.layer_composite == LayerComposite::kSlabs;
+  const int fill_level = pp_levels >= 3 && !slabs ? 2 : 1;
+  auto block_pixels = [W, H](int bx, int by) {  // 4, or fewer on the last row or column
+    return (std::min(2 * bx + 2, W) - 2 * bx) * (std::min(2 * by + 2, H) - 2 * by);
+  };
+  // 4x4 cells (2x2 blocks): the summary of the fill's base on level 2.
+  const int cw4 = (bw + 1) / 2, ch4 = fill_level == 2 ? (bh + 1) / 2 : 0;
+  ensure_size(ws.cells, static_cast<size_t>(cw4) * ch4);
+  parallel_rows(ch4, [&](int y0, int y1) {
+    for (int cy = y0; cy < y1; ++cy)
+      for (int cx = 0; cx < cw4; ++cx) {
+        Block cell{{0, 0, 0, 0},
+                   std::numeric_limits<float>::infinity(),
+                   -std::numeric_limits<float>::infinity(),
+                   0};
+        int count = 0;
+        for (int by = 2 * cy; by < std::min(2 * cy + 2, bh); ++by)
+          for (int bx = 2 * cx; bx < std::min(2 * cx + 2, bw); ++bx) {
+            const Block& blk = ws.blocks[static_cast<size_t>(by) * bw + bx];
+            const int n = block_pixels(bx, by);
+            cell.mean = cell.mean + blk.mean * static_cast<float>(n);
+            cell.cmin = std::min(cell.cmin, blk.cmin);
+            cell.cmax = std::max(cell.cmax, blk.cmax);
+            cell.bits |= blk.bits;
+            count += n;
+          }
+        cell.mean = cell.mean * (1.0f / count);
+        ws.cells[static_cast<size_t>(cy) * cw4 + cx] = cell;
+      }
+  });
   const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
   ensure_size(ws.tiles, static_cast<size_t>(tw) * th);
   parallel_rows(
@@ -185,7 +220,6 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   ensure_size(ws.acc, N);
   std::fill(ws.acc.begin(), ws.acc.begin() + N, Rgba{0, 0, 0, 0});
   ensure_size(ws.tile_class, static_cast<size_t>(tw) * th);
-  const int pp_levels = prepare_pull_push(ws.pull_push, W, H, 4);
   const int max_level = pyramid_max_level(W, H);
   timings.setup_ms += ms_since(t0);
 
@@ -204,7 +238,6 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   // Slab composite: the hat's halves of layer i are blurred separately; the far half joins the
   // pending near half of layer i+1 (the same slab [c_i, c_{i+1}]) by addition, and the slab goes
   // "over" what lies behind. `pending` holds that near half, inside `pending_box`.
-  const bool slabs = options.layer_composite == LayerComposite::kSlabs;
   Rgba* pending = nullptr;
   Box pending_box{W, H, 0, 0};
   if (slabs) {
@@ -244,7 +277,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
 
   // Culling and disocclusion state of the layer whose fill ws.pull_push holds: its cull threshold,
   // the revealed layers it may use, whether anything was filled.
-  const PullPushLevel& l1 = ws.pull_push[std::min(1, pp_levels - 1)];
+  const PullPushLevel& fill_base = ws.pull_push[std::min(fill_level, pp_levels - 1)];
   float cull = -kInf, reveal_cut = -kInf;
   std::uint64_t usable = 0;
   bool any_unknown = false;
@@ -266,45 +299,65 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
 
     auto t1 = clock::now();
     any_unknown = false;
-    if (i >= cull_rank && cull > static_cast<float>(plan.coc_min) && pp_levels >= 2) {
-      PullPushLevel& l1 = ws.pull_push[1];
+    if (i >= cull_rank && cull > static_cast<float>(plan.coc_min) && pp_levels > fill_level) {
+      PullPushLevel& lf = ws.pull_push[fill_level];
+      const int span = 1 << (fill_level - 1);  // 2x2 blocks per fill cell, each way
+      const std::vector<Block>& summary = fill_level == 2 ? ws.cells : ws.blocks;
       std::atomic<long> unknown{0};
       parallel_rows(
-          bh,
+          lf.height,
           [&](int y0, int y1) {
             long local_unknown = 0;
-            for (int by = y0; by < y1; ++by)
-              for (int bx = 0; bx < bw; ++bx) {
-                const Block& blk = ws.blocks[static_cast<size_t>(by) * bw + bx];
-                float* q = l1.data.data() + (static_cast<size_t>(by) * bw + bx) * 5;
-                if (blk.cmin >= cull) {  // wholly kept
-                  q[0] = blk.mean.r;
-                  q[1] = blk.mean.g;
-                  q[2] = blk.mean.b;
-                  q[3] = blk.mean.a;
-                  q[4] = 1;
-                  continue;
-                }
-                if (blk.cmax < cull && !(blk.bits & usable)) {  // wholly culled, nothing revealed
-                  q[4] = 0;
-                  ++local_unknown;
-                  continue;
+            for (int cy = y0; cy < y1; ++cy)
+              for (int cx = 0; cx < lf.width; ++cx) {
+                float* q = lf.data.data() + (static_cast<size_t>(cy) * lf.width + cx) * 5;
+                {  // the whole cell at once
+                  const Block& cell = summary[static_cast<size_t>(cy) * lf.width + cx];
+                  if (cell.cmin >= cull) {  // wholly kept
+                    q[0] = cell.mean.r;
+                    q[1] = cell.mean.g;
+                    q[2] = cell.mean.b;
+                    q[3] = cell.mean.a;
+                    q[4] = 1;
+                    continue;
+                  }
+                  if (cell.cmax < cull &&
+                      !(cell.bits & usable)) {  // wholly culled, nothing revealed
+                    q[4] = 0;
+                    ++local_unknown;
+                    continue;
+                  }
                 }
                 Rgba sum{0, 0, 0, 0};
                 int known = 0;
-                for (int y = 2 * by; y < std::min(2 * by + 2, H); ++y)
-                  for (int x = 2 * bx; x < std::min(2 * bx + 2, W); ++x) {
-                    size_t p = static_cast<size_t>(y) * W + x;
-                    const Rgba* v = &px[p];
-                    if (px[p].a < cull) {
-                      v = fragment(p, usable);
-                      if (!v) {
-                        ++local_unknown;
-                        continue;
-                      }
+                for (int by = cy * span; by < std::min((cy + 1) * span, bh); ++by)
+                  for (int bx = cx * span; bx < std::min((cx + 1) * span, bw); ++bx) {
+                    const Block& blk = ws.blocks[static_cast<size_t>(by) * bw + bx];
+                    const int count = block_pixels(bx, by);
+                    if (blk.cmin >= cull) {  // wholly kept
+                      sum = sum + blk.mean * static_cast<float>(count);
+                      known += count;
+                      continue;
                     }
-                    sum = sum + *v;
-                    ++known;
+                    if (blk.cmax < cull &&
+                        !(blk.bits & usable)) {  // wholly culled, nothing revealed
+                      local_unknown += count;
+                      continue;
+                    }
+                    for (int y = 2 * by; y < std::min(2 * by + 2, H); ++y)
+                      for (int x = 2 * bx; x < std::min(2 * bx + 2, W); ++x) {
+                        size_t p = static_cast<size_t>(y) * W + x;
+                        const Rgba* v = &px[p];
+                        if (px[p].a < cull) {
+                          v = fragment(p, usable);
+                          if (!v) {
+                            ++local_unknown;
+                            continue;
+                          }
+                        }
+                        sum = sum + *v;
+                        ++known;
+                      }
                   }
                 float inv = known ? 1.0f / known : 0.0f;
                 q[0] = sum.r * inv;
@@ -318,7 +371,8 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           8);
       any_unknown = unknown.load() > 0;
       if (any_unknown)
-        pull_push_levels(ws.pull_push, pp_levels, 4, slabs ? PullFilter::kTent : PullFilter::kBox);
+        pull_push_levels(ws.pull_push, pp_levels, 4, slabs ? PullFilter::kTent : PullFilter::kBox,
+                         fill_level);
     }
     timings.fill_ms += ms_since(t1);
   };
@@ -375,13 +429,15 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                 nonzero = any_unknown;
                 if (any_unknown) {  // the filled CoC over the tile's footprint on level 1
                   float fmin = std::numeric_limits<float>::infinity(), fmax = -fmin;
-                  const int cx0 = std::max(tx * kTile / 2 - 1, 0),
-                            cx1 = std::min((tx + 1) * kTile / 2 + 1, l1.width);
-                  const int cy0 = std::max(ty * kTile / 2 - 1, 0),
-                            cy1 = std::min((ty + 1) * kTile / 2 + 1, l1.height);
+                  const int f = 1 << fill_level;
+                  const int cx0 = std::max(tx * kTile / f - 1, 0),
+                            cx1 = std::min((tx + 1) * kTile / f + 1, fill_base.width);
+                  const int cy0 = std::max(ty * kTile / f - 1, 0),
+                            cy1 = std::min((ty + 1) * kTile / f + 1, fill_base.height);
                   for (int cy = cy0; cy < cy1; ++cy)
                     for (int cx = cx0; cx < cx1; ++cx) {
-                      float c = l1.data[(static_cast<size_t>(cy) * l1.width + cx) * 5 + 3];
+                      float c =
+                          fill_base.data[(static_cast<size_t>(cy) * fill_base.width + cx) * 5 + 3];
                       fmin = std::min(fmin, c);
                       fmax = std::max(fmax, c);
                     }
@@ -427,7 +483,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
             break;
           case kCulled: {
             if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
-            pull_push_sample_row(l1, y, x, xe, o + x, culled_tmp);
+            pull_push_sample_row(fill_base, y, x, xe, o + x, culled_tmp, fill_level);
             for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.fill_weight(o[k].a));
             break;
           }
@@ -444,7 +500,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                   v = *r;
                   alpha = m.revealed_weight(v.a);
                 } else if (any_unknown) {
-                  pull_push_sample<4>(l1, k, y, &v.r);
+                  pull_push_sample<4>(fill_base, k, y, &v.r, fill_level);
                   alpha = m.fill_weight(v.a);
                 } else {
                   alpha = 0;

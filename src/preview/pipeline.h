@@ -31,13 +31,14 @@ struct PreviewWorkspace::Impl {
     if (!((bits >> j) & 1)) return -1;
     return revealed_first[p] + detail::popcount64(bits & ((std::uint64_t{1} << j) - 1));
   }
-  struct Block {                             // 2x2 pixels
-    detail::Rgba mean;                       // of {r, g, b, c}
+  struct Block {        // 2x2 pixels
+    detail::Rgba mean;  // of {r, g, b, c}
     float cmin, cmax;
     std::uint64_t bits;  // revealed layers present in the block
   };
   std::vector<Block> blocks;
-  struct Tile {  // 16x16 pixels
+  std::vector<Block> cells;  // 4x4 pixels (2x2 blocks)
+  struct Tile {              // 16x16 pixels
     float cmin, cmax;
     std::uint64_t bits;  // revealed layers present in the tile
   };
