@@ -30,6 +30,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 #include "dofcache/lens/thin_lens.h"
 #include "pipeline.h"
@@ -310,9 +311,11 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   // Fewer rotations for very many rays keep the table small (at most about 1.6 MB).
   const int rotations = std::clamp(400000 / (kBins * rays), 1, kRotations);
   struct Step {
+    std::int32_t offset;  // dy W + dx
     std::int16_t dx, dy;
   };
   std::vector<Step> steps(static_cast<size_t>(rotations) * kBins * rays);
+  int margin = 0;  // the longest step: pixels at least this far inside need no bounds checks
   for (int r = 0; r < rotations; ++r) {
     const glm::vec2 rot{std::cos(2.3999632f * r), std::sin(2.3999632f * r)};
     for (int i = 0; i < rays; ++i) {
@@ -320,11 +323,11 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
       const glm::vec2 u{0.5f * (rot.x * l.x - rot.y * l.y), 0.5f * (rot.y * l.x + rot.x * l.y)};
       for (int k = 0; k < kBins; ++k) {  // floor() without a library call
         const float c = bins.centre(k);
+        const int dx = static_cast<int>(0.5f + u.x * c + kFloorOffset) - kFloorOffsetInt;
+        const int dy = static_cast<int>(0.5f + u.y * c + kFloorOffset) - kFloorOffsetInt;
         steps[(static_cast<size_t>(r) * kBins + k) * rays + i] = {
-            static_cast<std::int16_t>(static_cast<int>(0.5f + u.x * c + kFloorOffset) -
-                                      kFloorOffsetInt),
-            static_cast<std::int16_t>(static_cast<int>(0.5f + u.y * c + kFloorOffset) -
-                                      kFloorOffsetInt)};
+            dy * W + dx, static_cast<std::int16_t>(dx), static_cast<std::int16_t>(dy)};
+        margin = std::max({margin, std::abs(dx), std::abs(dy)});
       }
     }
   }
@@ -333,16 +336,18 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
   // the bins in `visit`; null if it meets none.
   const std::uint64_t* const occupancy = occ;
   const int width = W, height = H;
-  auto first_hit = [&, occupancy, width, height, rays](int x, int y, const Step* s,
+  auto first_hit = [&, occupancy, width, height, rays](auto checked, int x, int y, size_t p,
+                                                       const Step* s,
                                                        std::uint64_t visit) -> const Rgba* {
     for (std::uint64_t v = visit; v; v &= v - 1) {
       const int k = ctz64(v);
       const Step st = s[k * rays];
-      const int qx = x + st.dx, qy = y + st.dy;
-      if (static_cast<unsigned>(qx) >= static_cast<unsigned>(width) ||
-          static_cast<unsigned>(qy) >= static_cast<unsigned>(height))
-        continue;
-      const size_t q = static_cast<size_t>(qy) * width + qx;
+      if constexpr (decltype(checked)::value) {
+        if (static_cast<unsigned>(x + st.dx) >= static_cast<unsigned>(width) ||
+            static_cast<unsigned>(y + st.dy) >= static_cast<unsigned>(height))
+          continue;
+      }
+      const size_t q = static_cast<size_t>(static_cast<std::ptrdiff_t>(p) + st.offset);
       const std::uint64_t bit = std::uint64_t{1} << k;
       if (!(occupancy[2 * q] & bit)) continue;
       // The pinhole surface is nearer than any fragment revealed behind it.
@@ -366,13 +371,15 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
         const std::uint64_t visit = tiles[(y / kTile) * tw + x / kTile];
         const Step* s =
             steps.data() + static_cast<size_t>((x * 7 + y * 13) % rotations) * kBins * rays;
+        const bool inside = x >= margin && x < W - margin && y >= margin && y < H - margin;
         float sum[3] = {0, 0, 0};
         bool own_surface_only = true;
         for (int i = 0; i < rays; ++i) {
           // The probes at the lens's rim (the first ones) all meeting the pixel's own surface
           // mean that the whole lens does: the layer composite blurs that surface like the lens.
           if (i == probes && own_surface_only) break;
-          const Rgba* hit = first_hit(x, y, s + i, visit);
+          const Rgba* hit = inside ? first_hit(std::false_type{}, x, y, p, s + i, visit)
+                                   : first_hit(std::true_type{}, x, y, p, s + i, visit);
           own_surface_only = own_surface_only && hit && std::abs(hit->a - px[p].a) <= kEdgeJump;
           const float* rgb = hit ? &hit->r : o + 3 * p;  // a miss keeps the layer composite
           sum[0] += rgb[0], sum[1] += rgb[1], sum[2] += rgb[2];
