@@ -315,8 +315,13 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
     std::int16_t dx, dy;
   };
   std::vector<Step> steps(static_cast<size_t>(rotations) * kBins * rays);
-  int margin = 0;  // the longest step: pixels at least this far inside need no bounds checks
-  for (int r = 0; r < rotations; ++r) {
+  // A step is at most |c| / 2 + 1/2 long (|u| <= 1): pixels at least `margin` inside the image
+  // need no bounds checks.
+  const int margin =
+      static_cast<int>(
+          std::ceil(0.5f * std::max(std::abs(bins.lo), std::abs(bins.lo + kBins * bins.width)))) +
+      1;
+  tbb::parallel_for(0, rotations, [&](int r) {
     const glm::vec2 rot{std::cos(2.3999632f * r), std::sin(2.3999632f * r)};
     for (int i = 0; i < rays; ++i) {
       const glm::vec2 l = lens[i];
@@ -327,10 +332,9 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
         const int dy = static_cast<int>(0.5f + u.y * c + kFloorOffset) - kFloorOffsetInt;
         steps[(static_cast<size_t>(r) * kBins + k) * rays + i] = {
             dy * W + dx, static_cast<std::int16_t>(dx), static_cast<std::int16_t>(dy)};
-        margin = std::max({margin, std::abs(dx), std::abs(dy)});
       }
     }
-  }
+  });
 
   // The first fragment along the ray from pixel (x, y) whose bin steps are s[k * rays], visiting
   // the bins in `visit`; null if it meets none.
