@@ -487,7 +487,9 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
             for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.fill_weight(o[k].a));
             break;
           }
-          case kMixed:
+          case kMixed: {
+            Rgba filled[kTile];  // the fill along the tile's row, sampled once if needed
+            bool sampled = false;
             for (int k = x; k < xe; ++k) {
               Rgba v = src[k];
               float alpha;
@@ -500,7 +502,12 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                   v = *r;
                   alpha = m.revealed_weight(v.a);
                 } else if (any_unknown) {
-                  pull_push_sample<4>(fill_base, k, y, &v.r, fill_level);
+                  if (!sampled) {
+                    if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
+                    pull_push_sample_row(fill_base, y, x, xe, filled, culled_tmp, fill_level);
+                    sampled = true;
+                  }
+                  v = filled[k - x];
                   alpha = m.fill_weight(v.a);
                 } else {
                   alpha = 0;
@@ -509,6 +516,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
               o[k] = alpha > 0 ? premultiply(v, alpha) : Rgba{0, 0, 0, 0};
             }
             break;
+          }
         }
         x = xe;
       }
