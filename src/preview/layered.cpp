@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include "dofcache/core/error.h"
 #include "dofcache/preview/pyramid.h"
@@ -39,6 +40,22 @@ Box crop_for(const Box& b, int top_level, int width, int height) {
   auto down = [&](int v) { return v <= 0 ? 0 : (v / a) * a; };
   auto up = [&](int v, int limit) { return std::min(limit, ((v + a - 1) / a) * a); };
   return {down(b.x0 - m), down(b.y0 - m), up(b.x1 + m, width), up(b.y1 + m, height)};
+}
+
+// f(std::integral_constant<int, R>) for the direct blur's usual radii (so that its tap loops
+// unroll), f(std::integral_constant<int, 0>) for any other.
+template <class F>
+void with_radius(int R, const F& f) {
+  switch (R) {
+    case 1:
+      return f(std::integral_constant<int, 1>{});
+    case 2:
+      return f(std::integral_constant<int, 2>{});
+    case 3:
+      return f(std::integral_constant<int, 3>{});
+    default:
+      return f(std::integral_constant<int, 0>{});
+  }
 }
 
 // {r, g, b, c} -> {r a, g a, b a, a}.
@@ -558,11 +575,15 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
             row[cw - 1 + k] = row[cw - 1];
           }
           Rgba* h = hbuf + static_cast<size_t>(y) * cw;
-          for (int x = 0; x < cw; ++x) {
-            Float4 sum = as_vec(row[x - R]) * taps[0];
-            for (int k = 1; k <= 2 * R; ++k) sum += as_vec(row[x - R + k]) * taps[k];
-            h[x] = as_rgba(sum);
-          }
+          with_radius(R, [&](auto r) {
+            const int n = decltype(r)::value > 0 ? decltype(r)::value : R;
+            for (int x = 0; x < cw; ++x) {  // symmetric taps: the pairs at +-k share a product
+              Float4 sum = as_vec(row[x]) * taps[n];
+              for (int k = 1; k <= n; ++k)
+                sum += (as_vec(row[x - k]) + as_vec(row[x + k])) * taps[n + k];
+              h[x] = as_rgba(sum);
+            }
+          });
         }
       });
       parallel_rows(ch, [&](int r0, int r1) {
@@ -571,11 +592,15 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           const Rgba* rows[2 * kMaxDirectBlurRadius + 1];
           for (int k = 0; k <= 2 * R; ++k)
             rows[k] = hbuf + static_cast<size_t>(std::clamp(y - R + k, 0, ch - 1)) * cw;
-          for (int x = 0; x < cw; ++x) {
-            Float4 sum = as_vec(rows[0][x]) * taps[0];
-            for (int k = 1; k <= 2 * R; ++k) sum += as_vec(rows[k][x]) * taps[k];
-            over(d[x], as_rgba(sum));
-          }
+          with_radius(R, [&](auto r) {
+            const int n = decltype(r)::value > 0 ? decltype(r)::value : R;
+            for (int x = 0; x < cw; ++x) {
+              Float4 sum = as_vec(rows[n][x]) * taps[n];
+              for (int k = 1; k <= n; ++k)
+                sum += (as_vec(rows[n - k][x]) + as_vec(rows[n + k][x])) * taps[n + k];
+              over(d[x], as_rgba(sum));
+            }
+          });
         }
       });
     } else if (top == 0) {  // sharp layer: matte straight into the composite

@@ -56,8 +56,8 @@ std::vector<float> disk_profile_taps(double radius) {
   std::vector<double> w(2 * R + 1);
   double sum = 0;
   for (int k = -R; k <= R; ++k) sum += w[k + R] = cdf(k + 0.5) - cdf(k - 0.5);
-  std::vector<float> taps(w.size());
-  for (size_t k = 0; k < w.size(); ++k) taps[k] = static_cast<float>(w[k] / sum);
+  std::vector<float> taps(w.size());  // exactly symmetric (the blur sums the pairs at +-k first)
+  for (int k = 0; k <= 2 * R; ++k) taps[k] = static_cast<float>((w[k] + w[2 * R - k]) / (2 * sum));
   return taps;
 }
 
