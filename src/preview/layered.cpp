@@ -159,21 +159,33 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   parallel_rows(bh, [&](int y0, int y1) {
     for (int by = y0; by < y1; ++by)
       for (int bx = 0; bx < bw; ++bx) {
-        Block blk{{0, 0, 0, 0},
-                  std::numeric_limits<float>::infinity(),
-                  -std::numeric_limits<float>::infinity(),
-                  0};
-        int count = 0;
-        for (int y = 2 * by; y < std::min(2 * by + 2, H); ++y)
-          for (int x = 2 * bx; x < std::min(2 * bx + 2, W); ++x) {
-            size_t p = static_cast<size_t>(y) * W + x;
-            blk.mean = blk.mean + px[p];
-            blk.cmin = std::min(blk.cmin, px[p].a);
-            blk.cmax = std::max(blk.cmax, px[p].a);
-            if (occlusion) blk.bits |= ws.revealed_bits[p];
-            ++count;
-          }
-        blk.mean = blk.mean * (1.0f / count);
+        Block blk;
+        const size_t p = static_cast<size_t>(2 * by) * W + 2 * bx;
+        if (2 * bx + 2 <= W && 2 * by + 2 <= H) {  // a whole block
+          const Rgba &a = px[p], &b = px[p + 1], &c = px[p + W], &d = px[p + W + 1];
+          blk.mean = (((a + b) + c) + d) * 0.25f;  // the order of the general case below
+          blk.cmin = std::min(std::min(a.a, b.a), std::min(c.a, d.a));
+          blk.cmax = std::max(std::max(a.a, b.a), std::max(c.a, d.a));
+          blk.bits = occlusion ? (ws.revealed_bits[p] | ws.revealed_bits[p + 1]) |
+                                     (ws.revealed_bits[p + W] | ws.revealed_bits[p + W + 1])
+                               : 0;
+        } else {  // on the last row or column
+          blk = {{0, 0, 0, 0},
+                 std::numeric_limits<float>::infinity(),
+                 -std::numeric_limits<float>::infinity(),
+                 0};
+          int count = 0;
+          for (int y = 2 * by; y < std::min(2 * by + 2, H); ++y)
+            for (int x = 2 * bx; x < std::min(2 * bx + 2, W); ++x) {
+              const size_t q = static_cast<size_t>(y) * W + x;
+              blk.mean = blk.mean + px[q];
+              blk.cmin = std::min(blk.cmin, px[q].a);
+              blk.cmax = std::max(blk.cmax, px[q].a);
+              if (occlusion) blk.bits |= ws.revealed_bits[q];
+              ++count;
+            }
+          blk.mean = blk.mean * (1.0f / count);
+        }
         ws.blocks[static_cast<size_t>(by) * bw + bx] = blk;
       }
   });
@@ -222,12 +234,13 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           for (int tx = 0; tx < tw; ++tx) {
             Tile t{std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
                    0};
-            for (int y = ty * kTile; y < std::min((ty + 1) * kTile, H); ++y)
-              for (int x = tx * kTile; x < std::min((tx + 1) * kTile, W); ++x) {
-                size_t p = static_cast<size_t>(y) * W + x;
-                t.cmin = std::min(t.cmin, px[p].a);
-                t.cmax = std::max(t.cmax, px[p].a);
-                if (occlusion) t.bits |= ws.revealed_bits[p];
+            // From the 2x2 blocks: min, max and union are the same over either.
+            for (int by = ty * kTile / 2; by < std::min((ty + 1) * kTile / 2, bh); ++by)
+              for (int bx = tx * kTile / 2; bx < std::min((tx + 1) * kTile / 2, bw); ++bx) {
+                const Block& blk = ws.blocks[static_cast<size_t>(by) * bw + bx];
+                t.cmin = std::min(t.cmin, blk.cmin);
+                t.cmax = std::max(t.cmax, blk.cmax);
+                t.bits |= blk.bits;
               }
             ws.tiles[static_cast<size_t>(ty) * tw + tx] = t;
           }
