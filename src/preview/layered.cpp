@@ -248,7 +248,10 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       1);
 
   ensure_size(ws.acc, N);
-  std::fill(ws.acc.begin(), ws.acc.begin() + N, Rgba{0, 0, 0, 0});
+  parallel_rows(H, [&](int y0, int y1) {
+    std::fill(ws.acc.begin() + static_cast<size_t>(y0) * W,
+              ws.acc.begin() + static_cast<size_t>(y1) * W, Rgba{0, 0, 0, 0});
+  });
   ensure_size(ws.tile_class, static_cast<size_t>(tw) * th);
   const int max_level = pyramid_max_level(W, H);
   timings.setup_ms += ms_since(t0);
