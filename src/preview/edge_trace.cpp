@@ -67,6 +67,25 @@ struct Bins {
 // whole lens, which the layers (with the revealed fill) blur correctly. This is narrower than the
 // error band's occluding_edge_radius (max(|a|, |b|) / 2) where the farther side is the more
 // defocused: a sharp foreground before a blurred background has no partial occlusion around it.
+// Sets every flag within r of a set one (a (2r + 1) x (2r + 1) square), in O(1) per flag.
+void dilate_flags(std::vector<unsigned char>& f, int w, int h, int r) {
+  std::vector<unsigned char> rows(f.size());
+  std::vector<int> count(std::max(w, h) + 1);
+  for (int y = 0; y < h; ++y) {
+    const unsigned char* src = f.data() + static_cast<size_t>(y) * w;
+    for (int x = 0; x < w; ++x) count[x + 1] = count[x] + src[x];
+    for (int x = 0; x < w; ++x)
+      rows[static_cast<size_t>(y) * w + x] =
+          count[std::min(w, x + r + 1)] - count[std::max(0, x - r)] > 0;
+  }
+  for (int x = 0; x < w; ++x) {
+    for (int y = 0; y < h; ++y) count[y + 1] = count[y] + rows[static_cast<size_t>(y) * w + x];
+    for (int y = 0; y < h; ++y)
+      f[static_cast<size_t>(y) * w + x] =
+          count[std::min(h, y + r + 1)] - count[std::max(0, y - r)] > 0;
+  }
+}
+
 inline float partial_occlusion_radius(float a, float b) {
   const float r = std::max(1.0f, 0.5f * std::abs(std::min(a, b)));
   return std::abs(a - b) > kEdgeJump ? r : 0.0f;
@@ -208,13 +227,33 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
     const float d = nb - c;
     return std::max(back, d <= kEdgeJump ? d : 0.0f);
   };
+  // A ray meets bin k within |c_k| / 2 + 1/2 of its pixel (its step, rounded to a pixel): the
+  // bin's reach in tiles.
+  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
+  auto reach_of = [&](int k) {
+    return static_cast<int>(std::ceil((0.5f * std::abs(bins.centre(k)) + 0.5f) / kTile));
+  };
+  int max_reach = 0;
+  for (int k = 0; k < kBins; ++k) max_reach = std::max(max_reach, reach_of(k));
+  // Rays land only in tiles within max_reach of the band's: occupancy is needed only there
+  // (about half the tiles on the shipped scenes).
+  std::vector<unsigned char> needed(static_cast<size_t>(tw) * th, 0);
+  parallel_rows(th, [&](int ty0, int ty1) {
+    for (int ty = ty0; ty < ty1; ++ty) {
+      unsigned char* t = needed.data() + static_cast<size_t>(ty) * tw;
+      for (int y = ty * kTile; y < std::min(H, (ty + 1) * kTile); ++y)
+        for (int x = 0; x < W; ++x)
+          t[x / kTile] |= reach[static_cast<size_t>(y) * W + x] > -kFeather;
+    }
+  });
+  dilate_flags(needed, tw, th, max_reach);
+
   ensure_size(ws.trace_bins, 2 * N + fragment_count);
   // Per pixel {every fragment's bins, the pinhole fragment's bins} side by side (a ray reads
   // both), then one entry per revealed fragment.
   std::uint64_t* occ = ws.trace_bins.data();
   std::uint64_t* frag_run = occ + 2 * N;
   // ... and per tile, the union of its pixels' bins (each task owns whole tile rows).
-  const int tw = (W + kTile - 1) / kTile, th = (H + kTile - 1) / kTile;
   std::vector<std::uint64_t> tiles(static_cast<size_t>(tw) * th, 0), tmp(tiles.size(), 0);
   const float* coc = ws.coc.data();  // px[p].a, contiguous
   parallel_rows(
@@ -224,48 +263,54 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
           const size_t row = static_cast<size_t>(y) * W;
           const size_t up = y > 0 ? row - W : row, down = y + 1 < H ? row + W : row;
           std::uint64_t* tile_row = tiles.data() + static_cast<size_t>(y / kTile) * tw;
-          // The pinhole fragments first, a loop without branches; then the revealed ones.
-          for (int x = 0; x < W; ++x) {
-            const size_t p = row + x;
-            const float c = coc[p];
-            float back = 0;
-            back = extend(back, c, coc[row + std::max(x - 1, 0)]);
-            back = extend(back, c, coc[row + std::min(x + 1, W - 1)]);
-            back = extend(back, c, coc[up + x]);
-            back = extend(back, c, coc[down + x]);
-            occ[2 * p + 1] = run(c, back);
-          }
-          for (int x = 0; x < W; ++x) {
-            const size_t p = row + x;
-            std::uint64_t m = occ[2 * p + 1];
-            int k = ws.revealed_first[p];
-            for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
-              const size_t nbs[4] = {x > 0 ? p - 1 : p, x + 1 < W ? p + 1 : p, up + x, down + x};
-              const int j = ctz64(b);
-              const float fc = ws.revealed[k].a;
-              float fback = 0;
-              for (size_t q : nbs) {
-                fback = extend(fback, fc, coc[q]);
-                const int g = ws.fragment_of_layer(q, j);
-                if (g >= 0) fback = extend(fback, fc, ws.revealed[g].a);
-              }
-              frag_run[k] = run(fc, fback);
-              m |= frag_run[k];
+          // Over runs of needed tiles: the pinhole fragments first, a loop without branches; then
+          // the revealed ones.
+          const unsigned char* need = needed.data() + static_cast<size_t>(y / kTile) * tw;
+          for (int t0 = 0; t0 < tw;) {
+            if (!need[t0]) {
+              ++t0;
+              continue;
             }
-            occ[2 * p] = m;
-            tile_row[x / kTile] |= m;
+            int t1 = t0;
+            while (t1 < tw && need[t1]) ++t1;
+            const int xa = t0 * kTile, xb = std::min(W, t1 * kTile);
+            t0 = t1;
+            for (int x = xa; x < xb; ++x) {
+              const size_t p = row + x;
+              const float c = coc[p];
+              float back = 0;
+              back = extend(back, c, coc[row + std::max(x - 1, 0)]);
+              back = extend(back, c, coc[row + std::min(x + 1, W - 1)]);
+              back = extend(back, c, coc[up + x]);
+              back = extend(back, c, coc[down + x]);
+              occ[2 * p + 1] = run(c, back);
+            }
+            for (int x = xa; x < xb; ++x) {
+              const size_t p = row + x;
+              std::uint64_t m = occ[2 * p + 1];
+              int k = ws.revealed_first[p];
+              for (std::uint64_t b = ws.revealed_bits[p]; b; b &= b - 1, ++k) {
+                const size_t nbs[4] = {x > 0 ? p - 1 : p, x + 1 < W ? p + 1 : p, up + x, down + x};
+                const int j = ctz64(b);
+                const float fc = ws.revealed[k].a;
+                float fback = 0;
+                for (size_t q : nbs) {
+                  fback = extend(fback, fc, coc[q]);
+                  const int g = ws.fragment_of_layer(q, j);
+                  if (g >= 0) fback = extend(fback, fc, ws.revealed[g].a);
+                }
+                frag_run[k] = run(fc, fback);
+                m |= frag_run[k];
+              }
+              occ[2 * p] = m;
+              tile_row[x / kTile] |= m;
+            }
           }
         }
       },
       1);
-  // Bin k is met only within |c_k| / 2 of the pixel: dilate each bin's tiles by its own reach,
-  // one tile ring per step, from the farthest-reaching bins in.
-  auto reach_of = [&](int k) {
-    return static_cast<int>(
-        std::ceil((0.5f * std::abs(bins.centre(k)) + 0.5f * bins.width) / kTile));
-  };
-  int max_reach = 0;
-  for (int k = 0; k < kBins; ++k) max_reach = std::max(max_reach, reach_of(k));
+  // Bin k is met only within its reach: dilate each bin's tiles by it, one tile ring per step,
+  // from the farthest-reaching bins in.
   std::vector<std::uint64_t> with_reach(max_reach + 1, 0);
   for (int k = 0; k < kBins; ++k) with_reach[reach_of(k)] |= std::uint64_t{1} << k;
   std::vector<std::uint64_t> dilated(tiles.size());
