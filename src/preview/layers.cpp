@@ -21,18 +21,6 @@ CocMap::CocMap(const lens::LensImaging& imaging, double max_coc_radius)
                     : 0.0;
 }
 
-float CocMap::operator()(double depth) const {
-  double c;
-  if (std::isnan(depth) || std::isinf(depth)) {
-    c = k_;  // background / miss: the limit D -> inf
-  } else if (depth <= 0) {
-    c = -limit_;
-  } else {
-    c = k_ * (1.0 - focus_ / depth);
-  }
-  return static_cast<float>(std::clamp(c, -limit_, limit_));
-}
-
 LayerPlan plan_layers(const image::Image& depth, const lens::LensImaging& imaging,
                       const PreviewOptions& options) {
   CocMap coc(imaging, options.max_coc_radius);

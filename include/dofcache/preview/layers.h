@@ -54,7 +54,17 @@ class CocMap {
   CocMap(const lens::LensImaging& imaging, double max_coc_radius);
   // +inf, NaN and depths beyond the far limit give the background value c(inf) = k (clamped);
   // depths at or in front of the lens give the near clamp.
-  float operator()(double depth) const;
+  float operator()(double depth) const {  // inline: called per pixel and per revealed fragment
+    double c;
+    if (std::isnan(depth) || std::isinf(depth)) {
+      c = k_;  // background / miss: the limit D -> inf
+    } else if (depth <= 0) {
+      c = -limit_;
+    } else {
+      c = k_ * (1.0 - focus_ / depth);
+    }
+    return static_cast<float>(std::clamp(c, -limit_, limit_));
+  }
   double k() const { return k_; }
   double limit() const { return limit_; }  // |c| <= limit = 2 max_coc_radius
 
