@@ -119,18 +119,18 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       for (int y = y0; y < y1; ++y) {
         std::uint64_t* bits = ws.revealed_bits.data() + static_cast<size_t>(y) * W;
         std::fill(bits, bits + W, 0);
+        int c = 0;  // the row's fragments
         for (int j = 1; j < n; ++j) {
           if (!by_layer[j]) continue;
           const float* m = by_layer[j]->mask.data().data() + static_cast<size_t>(y) * W;
-          // Most rows of a mask are empty: a vectorised scan finds them before any bit is set.
-          int any = 0;
-          for (int x = 0; x < W; ++x) any |= m[x] > 0.5f;
-          if (!any) continue;
+          // Most rows of a mask are empty: a vectorised count finds them before any bit is set.
+          int count = 0;
+          for (int x = 0; x < W; ++x) count += m[x] > 0.5f;
+          if (!count) continue;
+          c += count;
           const std::uint64_t bit = std::uint64_t{1} << j;
           for (int x = 0; x < W; ++x) bits[x] |= m[x] > 0.5f ? bit : 0;
         }
-        int c = 0;
-        for (int x = 0; x < W; ++x) c += popcount64(bits[x]);
         row_start[y + 1] = c;
       }
     });
