@@ -517,7 +517,10 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           case kCulled: {
             if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
             pull_push_sample_row(fill_base, y, x, xe, o + x, culled_tmp, fill_level);
-            for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.fill_weight(o[k].a));
+            if (m.part == MattePart::kTrapezoid)  // fill_weight is the trapezoid there
+              m.premultiply_trapezoid(o + x, o + x, xe - x);
+            else
+              for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.fill_weight(o[k].a));
             break;
           }
           case kMixed: {
