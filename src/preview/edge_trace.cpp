@@ -45,7 +45,7 @@ constexpr float kNotNear = -1e30f;        // band reach of a pixel no edge reach
 constexpr int kRotations = 97;            // distinct rotations of the lens grid over the pixels
 constexpr int kFloorOffsetInt = 1 << 12;  // > the largest CoC radius (clamped to 128 px)
 constexpr float kFloorOffset = static_cast<float>(kFloorOffsetInt);
-constexpr float kEdgeJump = 1.0f;  // CoC jump of an occluding edge (occluding_edge_radius)
+constexpr float kEdgeJump = kOccludingEdgeJump;  // CoC jump of an occluding edge (layers.h)
 
 // 64 equal bins over the signed CoC range of the fragments. Thin bins keep the fragments thin, so a
 // ray passes behind a foreground edge as closely as the lens lets it (bins of at least 1 px, the
@@ -60,13 +60,6 @@ struct Bins {
   float centre(int b) const { return lo + (static_cast<float>(b) + 0.5f) * width; }
 };
 
-// How far from an occluding edge between 4-neighbours of signed CoC a and b (0: none) a pixel's
-// lens rays can pass the nearer side's boundary: at the nearer side's depth (CoC min(a, b)) the
-// rays of a pixel spread over that CoC's radius (eq. 2.6) around it. Farther away either every ray
-// meets the nearer surface or none does, and behind it every ray sees the same surface through the
-// whole lens, which the layers (with the revealed fill) blur correctly. This is narrower than the
-// error band's occluding_edge_radius (max(|a|, |b|) / 2) where the farther side is the more
-// defocused: a sharp foreground before a blurred background has no partial occlusion around it.
 // Sets every flag within r of a set one (a (2r + 1) x (2r + 1) square), in O(1) per flag.
 void dilate_flags(std::vector<unsigned char>& f, int w, int h, int r) {
   std::vector<unsigned char> rows(f.size());
@@ -86,6 +79,13 @@ void dilate_flags(std::vector<unsigned char>& f, int w, int h, int r) {
   }
 }
 
+// How far from an occluding edge between 4-neighbours of signed CoC a and b (0: none) a pixel's
+// lens rays can pass the nearer side's boundary: at the nearer side's depth (CoC min(a, b)) the
+// rays of a pixel spread over that CoC's radius (eq. 2.6) around it. Farther away either every ray
+// meets the nearer surface or none does, and behind it every ray sees the same surface through the
+// whole lens, which the layers (with the revealed fill) blur correctly. This is narrower than the
+// error band's occluding_edge_radius (max(|a|, |b|) / 2) where the farther side is the more
+// defocused: a sharp foreground before a blurred background has no partial occlusion around it.
 inline float partial_occlusion_radius(float a, float b) {
   const float r = std::max(1.0f, 0.5f * std::abs(std::min(a, b)));
   return std::abs(a - b) > kEdgeJump ? r : 0.0f;
@@ -360,12 +360,8 @@ long trace_edge_band(const PreviewOptions& options, const LayerPlan& plan, int W
     std::int16_t dx, dy;
   };
   std::vector<Step> steps(static_cast<size_t>(rotations) * kBins * rays);
-  // A step is at most |c| / 2 + 1/2 long (|u| <= 1): pixels at least `margin` inside the image
-  // need no bounds checks.
-  const int margin =
-      static_cast<int>(
-          std::ceil(0.5f * std::max(std::abs(bins.lo), std::abs(bins.lo + kBins * bins.width)))) +
-      1;
+  // Pixels at least the longest bin reach inside the image need no bounds checks.
+  const int margin = max_reach * kTile;
   tbb::parallel_for(0, rotations, [&](int r) {
     const glm::vec2 rot{std::cos(2.3999632f * r), std::sin(2.3999632f * r)};
     for (int i = 0; i < rays; ++i) {

@@ -58,6 +58,12 @@ void with_radius(int R, const F& f) {
   }
 }
 
+// The summary of no pixels, to accumulate into: min and max start at +inf and -inf.
+constexpr Block kNoPixels{{0, 0, 0, 0},
+                          std::numeric_limits<float>::infinity(),
+                          -std::numeric_limits<float>::infinity(),
+                          0};
+
 // {r, g, b, c} -> {r a, g a, b a, a}.
 inline Rgba premultiply(const Rgba& v, float alpha) {
   Float4 r = as_vec(v) * alpha;
@@ -170,10 +176,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                                      (ws.revealed_bits[p + W] | ws.revealed_bits[p + W + 1])
                                : 0;
         } else {  // on the last row or column
-          blk = {{0, 0, 0, 0},
-                 std::numeric_limits<float>::infinity(),
-                 -std::numeric_limits<float>::infinity(),
-                 0};
+          blk = kNoPixels;
           int count = 0;
           for (int y = 2 * by; y < std::min(2 * by + 2, H); ++y)
             for (int x = 2 * bx; x < std::min(2 * bx + 2, W); ++x) {
@@ -206,10 +209,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   parallel_rows(ch4, [&](int y0, int y1) {
     for (int cy = y0; cy < y1; ++cy)
       for (int cx = 0; cx < cw4; ++cx) {
-        Block cell{{0, 0, 0, 0},
-                   std::numeric_limits<float>::infinity(),
-                   -std::numeric_limits<float>::infinity(),
-                   0};
+        Block cell = kNoPixels;
         int count = 0;
         for (int by = 2 * cy; by < std::min(2 * cy + 2, bh); ++by)
           for (int bx = 2 * cx; bx < std::min(2 * cx + 2, bw); ++bx) {
@@ -314,6 +314,10 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   float cull = -kInf, reveal_cut = -kInf;
   std::uint64_t usable = 0;
   bool any_unknown = false;
+  // Of a block, cell or tile summary: every pixel kept; every pixel culled with no revealed
+  // fragment to show (what pull-push must fill).
+  auto all_kept = [&](const auto& s) { return s.cmin >= cull; };
+  auto all_unknown = [&](const auto& s) { return s.cmax < cull && !(s.bits & usable); };
 
   // ------------------------------------------------------- culling + disocclusion (pull)
   auto disocclude = [&](int i) {
@@ -344,22 +348,19 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
             for (int cy = y0; cy < y1; ++cy)
               for (int cx = 0; cx < lf.width; ++cx) {
                 float* q = lf.data.data() + (static_cast<size_t>(cy) * lf.width + cx) * 5;
-                {  // the whole cell at once
-                  const Block& cell = summary[static_cast<size_t>(cy) * lf.width + cx];
-                  if (cell.cmin >= cull) {  // wholly kept
-                    q[0] = cell.mean.r;
-                    q[1] = cell.mean.g;
-                    q[2] = cell.mean.b;
-                    q[3] = cell.mean.a;
-                    q[4] = 1;
-                    continue;
-                  }
-                  if (cell.cmax < cull &&
-                      !(cell.bits & usable)) {  // wholly culled, nothing revealed
-                    q[4] = 0;
-                    ++local_unknown;
-                    continue;
-                  }
+                const Block& cell = summary[static_cast<size_t>(cy) * lf.width + cx];
+                if (all_kept(cell)) {
+                  q[0] = cell.mean.r;
+                  q[1] = cell.mean.g;
+                  q[2] = cell.mean.b;
+                  q[3] = cell.mean.a;
+                  q[4] = 1;
+                  continue;
+                }
+                if (all_unknown(cell)) {
+                  q[4] = 0;
+                  ++local_unknown;
+                  continue;
                 }
                 Rgba sum{0, 0, 0, 0};
                 int known = 0;
@@ -367,13 +368,12 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                   for (int bx = cx * span; bx < std::min((cx + 1) * span, bw); ++bx) {
                     const Block& blk = ws.blocks[static_cast<size_t>(by) * bw + bx];
                     const int count = block_pixels(bx, by);
-                    if (blk.cmin >= cull) {  // wholly kept
+                    if (all_kept(blk)) {
                       sum = sum + blk.mean * static_cast<float>(count);
                       known += count;
                       continue;
                     }
-                    if (blk.cmax < cull &&
-                        !(blk.bits & usable)) {  // wholly culled, nothing revealed
+                    if (all_unknown(blk)) {
                       local_unknown += count;
                       continue;
                     }
@@ -454,13 +454,13 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
               if (tile.cmin >= behind) {
                 cls = kSkip;
                 nonzero = false;
-              } else if (tile.cmin >= cull && !(tile.cmin < reveal_cut && (tile.bits & usable))) {
+              } else if (all_kept(tile) && !(tile.cmin < reveal_cut && (tile.bits & usable))) {
                 cls = kKept;
                 nonzero = tile.cmax > lo;  // some c in (lo, behind)
-              } else if (tile.cmax < cull && !(tile.bits & usable)) {
+              } else if (all_unknown(tile)) {
                 cls = any_unknown ? kCulled : kSkip;
                 nonzero = any_unknown;
-                if (any_unknown) {  // the filled CoC over the tile's footprint on level 1
+                if (any_unknown) {  // the filled CoC over the tile's footprint on the fill's base
                   float fmin = std::numeric_limits<float>::infinity(), fmax = -fmin;
                   const int f = 1 << fill_level;
                   const int cx0 = std::max(tx * kTile / f - 1, 0),

@@ -111,11 +111,11 @@ float hat_weight(const LayerPlan& plan, int i, double c);
 // (clamped, CocMap) form an occluding edge if they differ by more than 1 px, and the blur of either
 // side reaches R = max(1, max(|a|, |b|) / 2) px around it. Returns R, or 0 for no edge. The
 // preview benchmark measures error in this band; the occlusion fix's edge trace traces the part of
-// it where lens rays can pass the edge (edge_trace.cpp).
-// (Inline and without branches: the edge trace calls it four times per pixel, in vectorised loops.)
+// it where lens rays can pass the edge (edge_trace.cpp), with the same jump.
+inline constexpr float kOccludingEdgeJump = 1.0f;  // px of signed CoC
 inline float occluding_edge_radius(float a, float b) {
   const float r = std::max(1.0f, 0.5f * std::max(std::abs(a), std::abs(b)));
-  return std::abs(a - b) > 1.0f ? r : 0.0f;
+  return std::abs(a - b) > kOccludingEdgeJump ? r : 0.0f;
 }
 
 // sum_i w_i(c) prod_{j<i} (1 - w_j(c)): the coverage of the unblurred composite (1 for every c).
