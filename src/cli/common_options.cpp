@@ -96,4 +96,10 @@ void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options) {
       ->check(CLI::Range(0, 1024));
 }
 
+void apply_composite_options(const preview::PreviewOptions& flags,
+                             preview::PreviewOptions& options) {
+  options.layer_composite = flags.layer_composite;
+  options.edge_rays = flags.edge_rays;
+}
+
 }  // namespace dofcache::cli

@@ -33,5 +33,8 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
 // The layered previews' composite (render and refocus): --layer-composite over|slabs and
 // --edge-rays N, into options.layer_composite and options.edge_rays.
 void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options);
+// Copies the fields add_composite_options sets from `flags` into `options`.
+void apply_composite_options(const preview::PreviewOptions& flags,
+                             preview::PreviewOptions& options);
 
 }  // namespace dofcache::cli

@@ -44,8 +44,7 @@ int run_refocus(const RefocusOptions& o) {
                                             : preview::PreviewMethod::Layered;
   preview::PreviewOptions options = saved.options;
   options.threads = o.threads;
-  options.layer_composite = o.composite.layer_composite;
-  options.edge_rays = o.composite.edge_rays;
+  apply_composite_options(o.composite, options);
 
   t0 = std::chrono::steady_clock::now();
   preview::RefocusedInputs in =

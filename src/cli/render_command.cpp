@@ -55,8 +55,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
                 preview::PreviewMethod method) {
   preview::PreviewOptions options;
   options.threads = o.threads;
-  options.layer_composite = o.composite.layer_composite;
-  options.edge_rays = o.composite.edge_rays;
+  apply_composite_options(o.composite, options);
   preview::ScenePreview p =
       preview::render_scene_preview(scene, accel, camera, s, method, options);
   image::write_image(o.out, p.image, {{{"Z"}, p.inputs.depth}, {{"id"}, p.inputs.ids}});
