@@ -8,7 +8,7 @@
 namespace dofcache::preview::detail {
 
 void reduce_box4(const RgbaView& fine, const RgbaView& coarse, ScratchRows& scratch,
-                 const Span* spans) {
+                 const Runs* runs) {
   const int fw = fine.width, fh = fine.height, cw = coarse.width;
   parallel_rows(
       coarse.height,
@@ -18,35 +18,44 @@ void reduce_box4(const RgbaView& fine, const RgbaView& coarse, ScratchRows& scra
           reduce_box4_row(fine.row(std::max(2 * y - 1, 0)), fine.row(std::min(2 * y, fh - 1)),
                           fine.row(std::min(2 * y + 1, fh - 1)),
                           fine.row(std::min(2 * y + 2, fh - 1)), tmp, fw, coarse.row(y), cw,
-                          spans ? spans[y] : Span{0, cw});
+                          runs ? runs[y] : Runs::whole(cw));
         }
       },
       2);
 }
 
-void reduce_spans(const Span* fine, int fine_height, int coarse_width, int coarse_height,
-                  std::vector<Span>& coarse) {
-  coarse.assign(coarse_height, Span{});
+Runs unite(const Runs& a, const Runs& b) {
+  Runs out;
+  int i = 0, j = 0;
+  while (i < a.n || j < b.n)
+    out.append(j == b.n || (i < a.n && a.run[i].x0 <= b.run[j].x0) ? a.run[i++] : b.run[j++]);
+  return out;
+}
+
+void reduce_runs(const Runs* fine, int fine_height, int coarse_width, int coarse_height,
+                 std::vector<Runs>& coarse) {
+  coarse.assign(coarse_height, Runs{});
   for (int y = 0; y < coarse_height; ++y) {
-    const Span u =
+    const Runs u =
         unite(unite(fine[std::max(2 * y - 1, 0)], fine[std::min(2 * y, fine_height - 1)]),
               unite(fine[std::min(2 * y + 1, fine_height - 1)],
                     fine[std::min(2 * y + 2, fine_height - 1)]));
     // Coarse m sees fine 2m-1 .. 2m+2: some of [x0, x1) iff ceil(x0 / 2) - 1 <= m <= floor(x1 / 2).
-    if (!u.empty())
-      coarse[y] = {std::max((u.x0 + 1) / 2 - 1, 0), std::min(u.x1 / 2 + 1, coarse_width)};
+    for (const Span& s : u)
+      coarse[y].append({std::max((s.x0 + 1) / 2 - 1, 0), std::min(s.x1 / 2 + 1, coarse_width)});
   }
 }
 
-void expand_spans(const Span* coarse, int coarse_height, int fine_width, int fine_height,
-                  std::vector<Span>& fine) {
-  fine.assign(fine_height, Span{});
+void expand_runs(const Runs* coarse, int coarse_height, int fine_width, int fine_height,
+                 std::vector<Runs>& fine) {
+  fine.assign(fine_height, Runs{});
   for (int y = 0; y < fine_height; ++y) {
     const int m = y >> 1;
-    const Span u = unite(unite(coarse[std::max(m - 1, 0)], coarse[std::min(m, coarse_height - 1)]),
+    const Runs u = unite(unite(coarse[std::max(m - 1, 0)], coarse[std::min(m, coarse_height - 1)]),
                          coarse[std::min(m + 1, coarse_height - 1)]);
     // Fine x sees coarse x/2 - 1 .. x/2 + 1: some of [x0, x1) iff x0 - 1 <= x/2 <= x1.
-    if (!u.empty()) fine[y] = {std::max(2 * u.x0 - 2, 0), std::min(2 * u.x1 + 2, fine_width)};
+    for (const Span& s : u)
+      fine[y].append({std::max(2 * s.x0 - 2, 0), std::min(2 * s.x1 + 2, fine_width)});
   }
 }
 

@@ -80,8 +80,7 @@ class ScratchRows {
   tbb::enumerable_thread_specific<std::vector<std::vector<Rgba>>> local_;
 };
 
-// A row's run [x0, x1) of pixels outside which it is zero. A layer's pyramid follows them: most
-// layers cover a few bars or the floor, and the rest of each row would reduce and expand zeros.
+// A run [x0, x1) of pixels.
 struct Span {
   int x0 = 0, x1 = 0;
   bool empty() const { return x0 >= x1; }
@@ -90,59 +89,106 @@ struct Span {
 inline void zero_run(Rgba* row, int a, int b) {
   if (a < b) std::fill(row + a, row + b, Rgba{0, 0, 0, 0});
 }
-inline Span unite(const Span& a, const Span& b) {
-  if (a.empty()) return b;
-  if (b.empty()) return a;
-  return {std::min(a.x0, b.x0), std::max(a.x1, b.x1)};
-}
-// The spans of a reduce_box4 level from those of the finer level (coarse pixel m sees fine pixels
+
+// A row's runs of pixels outside which it is zero: left to right, disjoint, at most kMax (beyond
+// that the nearest two merge), and runs less than kJoin pixels apart merge (a few zeros cost less
+// than another loop). A layer's pyramid follows them: most layers hold a few bars or the floor,
+// and the rest of each row would reduce and expand zeros.
+struct Runs {
+  static constexpr int kMax = 4, kJoin = 8;
+  int n = 0;
+  Span run[kMax];
+
+  static Runs whole(int width) {
+    Runs r;
+    if (width > 0) r.run[r.n++] = {0, width};
+    return r;
+  }
+  bool empty() const { return n == 0; }
+  const Span* begin() const { return run; }
+  const Span* end() const { return run + n; }
+  Span bounds() const { return n ? Span{run[0].x0, run[n - 1].x1} : Span{}; }
+  // Adds non-empty s, which starts at or after every run so far.
+  void append(const Span& s) {
+    if (n && s.x0 <= run[n - 1].x1 + kJoin) {
+      run[n - 1].x1 = std::max(run[n - 1].x1, s.x1);
+      return;
+    }
+    if (n == kMax) {  // close the narrowest gap, s's included
+      int k = n - 1;  // gap k lies after run k; gap n - 1 is s's
+      auto gap = [&](int g) { return (g + 1 < n ? run[g + 1].x0 : s.x0) - run[g].x1; };
+      for (int g = 0; g + 1 < n; ++g)
+        if (gap(g) < gap(k)) k = g;
+      if (k == n - 1) {
+        run[n - 1].x1 = std::max(run[n - 1].x1, s.x1);
+        return;
+      }
+      run[k].x1 = run[k + 1].x1;
+      for (int g = k + 1; g + 1 < n; ++g) run[g] = run[g + 1];
+      --n;
+    }
+    run[n++] = s;
+  }
+  // Sets row[a, b) to zero outside the runs.
+  void zero_outside(Rgba* row, int a, int b) const {
+    int x = a;
+    for (const Span& r : *this) {
+      zero_run(row, x, std::min(r.x0, b));
+      x = std::max(x, r.x1);
+    }
+    zero_run(row, x, b);
+  }
+};
+// The union of two rows' runs (merged as Runs::append merges).
+Runs unite(const Runs& a, const Runs& b);
+// The runs of a reduce_box4 level from those of the finer level (coarse pixel m sees fine pixels
 // 2m-1 .. 2m+2 on each axis), and of an expand_bspline2 level from those of the coarser level (fine
 // pixel x sees coarse pixels x/2 - 1 .. x/2 + 1): each a superset of where the result can be
-// non-zero. A reduce followed by an expand gives a superset of the spans it started from.
-void reduce_spans(const Span* fine, int fine_height, int coarse_width, int coarse_height,
-                  std::vector<Span>& coarse);
-void expand_spans(const Span* coarse, int coarse_height, int fine_width, int fine_height,
-                  std::vector<Span>& fine);
+// non-zero. A reduce followed by an expand gives a superset of the runs it started from.
+void reduce_runs(const Runs* fine, int fine_height, int coarse_width, int coarse_height,
+                 std::vector<Runs>& coarse);
+void expand_runs(const Runs* coarse, int coarse_height, int fine_width, int fine_height,
+                 std::vector<Runs>& fine);
 
 // One coarse row of the 4x4 box reduce from the four fine rows r0..r3 it covers: vertical sums
 // into tmp (with tmp[-1], tmp[fw], tmp[fw+1] writable for the repeated edges), then horizontal sums
-// into out. Only the coarse pixels of `span` are computed (from the fine pixels they see); the rest
+// into out. Only the coarse pixels of `runs` are computed (from the fine pixels they see); the rest
 // of out is set to zero. Shared by both reduce_box4 variants.
 inline void reduce_box4_row(const Rgba* r0, const Rgba* r1, const Rgba* r2, const Rgba* r3,
-                            Rgba* tmp, int fw, Rgba* out, int cw, Span span) {
-  if (span.empty()) return zero_run(out, 0, cw);
-  zero_run(out, 0, span.x0);
-  zero_run(out, span.x1, cw);
-  const int fa = std::max(2 * span.x0 - 1, 0), fb = std::min(2 * span.x1 + 1, fw);
-  for (int x = fa; x < fb; ++x) tmp[x] = (r0[x] + r1[x]) + (r2[x] + r3[x]);
-  if (fa == 0) tmp[-1] = tmp[0];
-  if (fb == fw) tmp[fw] = tmp[fw + 1] = tmp[fw - 1];
-  for (int x = span.x0; x < span.x1; ++x)
-    out[x] = ((tmp[2 * x - 1] + tmp[2 * x]) + (tmp[2 * x + 1] + tmp[2 * x + 2])) * 0.0625f;
+                            Rgba* tmp, int fw, Rgba* out, int cw, const Runs& runs) {
+  runs.zero_outside(out, 0, cw);
+  for (const Span& s : runs) {
+    const int fa = std::max(2 * s.x0 - 1, 0), fb = std::min(2 * s.x1 + 1, fw);
+    for (int x = fa; x < fb; ++x) tmp[x] = (r0[x] + r1[x]) + (r2[x] + r3[x]);
+    if (fa == 0) tmp[-1] = tmp[0];
+    if (fb == fw) tmp[fw] = tmp[fw + 1] = tmp[fw - 1];
+    for (int x = s.x0; x < s.x1; ++x)
+      out[x] = ((tmp[2 * x - 1] + tmp[2 * x]) + (tmp[2 * x + 1] + tmp[2 * x + 2])) * 0.0625f;
+  }
 }
 
 // 4x4 box reduce (Kraus & Strengert 2007): coarse pixel m covers fine pixels 2m-1 .. 2m+2 on each
-// axis (clamped to the edge). coarse must be ceil(fine/2) in each dimension. With `spans` (one
-// per coarse row, from reduce_spans) only those pixels are computed; the rest of coarse is zero.
+// axis (clamped to the edge). coarse must be ceil(fine/2) in each dimension. With `runs` (one per
+// coarse row, from reduce_runs) only those pixels are computed; the rest of coarse is zero.
 void reduce_box4(const RgbaView& fine, const RgbaView& coarse, ScratchRows& scratch,
-                 const Span* spans = nullptr);
+                 const Runs* runs = nullptr);
 
 // reduce_box4 from rows produced on demand: src(y, x0, x1, out) writes pixels [x0, x1) of fine
-// row y into out[x0, x1); the fine row is zero outside fine_spans[y] (the other pixels are
-// zeroed here). Each fine row is produced about once (a ring of four rows per task), so the fine
-// level never has to exist as a whole.
+// row y into out[x0, x1), for each of fine_runs[y]; the fine row is zero outside them (the other
+// pixels are zeroed here). Each fine row is produced about once (a ring of four rows per task),
+// so the fine level never has to exist as a whole.
 template <class RowSource>
 void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, ScratchRows& scratch,
-                      const Span* fine_spans, const Span* coarse_spans, const RowSource& src);
+                      const Runs* fine_runs, const Runs* coarse_runs, const RowSource& src);
 
 // Biquadratic B-spline expand: fine pixel x lies at coarse coordinate x/2 - 1/4; taps (m-1, m,
 // m+1) with m = x/2 have weights (9/32, 22/32, 1/32) for even x and (1/32, 22/32, 9/32) for odd x
-// (the quadratic B-spline at distances 3/4, 1/4, 5/4). store(y, row, span) receives every fine
-// row: row[x] for x in span, zero elsewhere (not written); without `spans` (one per fine row, from
-// expand_spans) the span is the whole row.
+// (the quadratic B-spline at distances 3/4, 1/4, 5/4). store(y, row, runs) receives every fine
+// row: row[x] for x in the runs, zero elsewhere (not written); without `runs` (one per fine row,
+// from expand_runs) the run is the whole row.
 template <class Store>
 void expand_bspline2(const RgbaView& coarse, int fine_width, int fine_height, ScratchRows& scratch,
-                     const Store& store, const Span* spans = nullptr);
+                     const Store& store, const Runs* runs = nullptr);
 
 // Pull-push levels for C channels plus a weight (interleaved, C + 1 floats per pixel).
 struct PullPushLevel {
@@ -214,7 +260,7 @@ void pull_push_sample(const PullPushLevel& l1, int channels, int x, int y, float
 
 template <class RowSource>
 void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, ScratchRows& scratch,
-                      const Span* fine_spans, const Span* coarse_spans, const RowSource& src) {
+                      const Runs* fine_runs, const Runs* coarse_runs, const RowSource& src) {
   const int fw = fine_width, fh = fine_height, cw = coarse.width;
   parallel_rows(
       coarse.height,
@@ -222,7 +268,7 @@ void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, S
         Rgba* tmp = scratch.get(0, fw + 3) + 1;  // tmp[-1], tmp[fw], tmp[fw+1] repeat the edges
         Rgba* ring[4];
         int tag[4] = {-1, -1, -1, -1};
-        Span dirty[4];  // the slot's pixels that may be non-zero (the scratch is reused)
+        Span dirty[4];  // where the slot may hold non-zero pixels (the scratch is reused)
         for (int k = 0; k < 4; ++k) {
           ring[k] = scratch.get(2 + k, fw);
           dirty[k] = {0, fw};
@@ -230,24 +276,17 @@ void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, S
         auto fetch = [&](int fy) -> const Rgba* {
           int slot = fy & 3;  // rows 2y-1 .. 2y+2 of one coarse row never share a slot
           if (tag[slot] != fy) {
-            const Span s = fine_spans[fy];
-            Rgba* row = ring[slot];
-            const Span& d = dirty[slot];
-            if (s.empty()) {
-              zero_run(row, d.x0, d.x1);
-            } else {
-              zero_run(row, d.x0, std::min(d.x1, s.x0));
-              zero_run(row, std::max(d.x0, s.x1), d.x1);
-              src(fy, s.x0, s.x1, row);
-            }
-            dirty[slot] = s;
+            const Runs& r = fine_runs[fy];
+            r.zero_outside(ring[slot], dirty[slot].x0, dirty[slot].x1);
+            for (const Span& s : r) src(fy, s.x0, s.x1, ring[slot]);
+            dirty[slot] = r.bounds();
             tag[slot] = fy;
           }
           return ring[slot];
         };
         for (int y = y0; y < y1; ++y) {
-          const Span span = coarse_spans[y];
-          if (span.empty()) {  // its fine rows need not be produced
+          const Runs& runs = coarse_runs[y];
+          if (runs.empty()) {  // its fine rows need not be produced
             zero_run(coarse.row(y), 0, cw);
             continue;
           }
@@ -255,7 +294,7 @@ void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, S
           const Rgba* r1 = fetch(std::min(2 * y, fh - 1));
           const Rgba* r2 = fetch(std::min(2 * y + 1, fh - 1));
           const Rgba* r3 = fetch(std::min(2 * y + 2, fh - 1));
-          reduce_box4_row(r0, r1, r2, r3, tmp, fw, coarse.row(y), cw, span);
+          reduce_box4_row(r0, r1, r2, r3, tmp, fw, coarse.row(y), cw, runs);
         }
       },
       4);
@@ -263,41 +302,40 @@ void reduce_box4_rows(int fine_width, int fine_height, const RgbaView& coarse, S
 
 template <class Store>
 void expand_bspline2(const RgbaView& coarse, int fine_width, int fine_height, ScratchRows& scratch,
-                     const Store& store, const Span* spans) {
+                     const Store& store, const Runs* runs) {
   constexpr float kNear = 22.0f / 32.0f, kFar = 9.0f / 32.0f, kOut = 1.0f / 32.0f;
   const int cw = coarse.width, ch = coarse.height;
+  const Runs whole = Runs::whole(fine_width);
   parallel_rows(
       fine_height,
       [&](int y0, int y1) {
         Rgba* tmp = scratch.get(0, cw + 2) + 1;  // tmp[-1] and tmp[cw] repeat the edges
         Rgba* out = scratch.get(1, fine_width + 1);
         for (int y = y0; y < y1; ++y) {
-          const Span span = spans ? spans[y] : Span{0, fine_width};
-          if (span.empty()) {
-            store(y, static_cast<const Rgba*>(out), span);
-            continue;
-          }
-          // Whole pairs of fine pixels, from the coarse pixels they see.
-          const int xa = span.x0 & ~1, xb = std::min(span.x1 + (span.x1 & 1), fine_width);
-          const int ta = std::max((xa >> 1) - 1, 0), tb = std::min(((xb - 1) >> 1) + 2, cw);
-          int m = y >> 1;
+          const Runs& row_runs = runs ? runs[y] : whole;
+          const int m = y >> 1;
           const Rgba* rm = coarse.row(std::max(m - 1, 0));
           const Rgba* r0 = coarse.row(std::min(m, ch - 1));
           const Rgba* rp = coarse.row(std::min(m + 1, ch - 1));
-          float wm = (y & 1) ? kOut : kFar, wp = (y & 1) ? kFar : kOut;
-          for (int x = ta; x < tb; ++x) tmp[x] = rm[x] * wm + r0[x] * kNear + rp[x] * wp;
-          if (ta == 0) tmp[-1] = tmp[0];
-          if (tb == cw) tmp[cw] = tmp[cw - 1];
-          const int pairs = xb >> 1;
-          for (int k = xa >> 1; k < pairs; ++k) {
-            out[2 * k] = tmp[k - 1] * kFar + tmp[k] * kNear + tmp[k + 1] * kOut;
-            out[2 * k + 1] = tmp[k - 1] * kOut + tmp[k] * kNear + tmp[k + 1] * kFar;
+          const float wm = (y & 1) ? kOut : kFar, wp = (y & 1) ? kFar : kOut;
+          for (const Span& s : row_runs) {
+            // Whole pairs of fine pixels, from the coarse pixels they see.
+            const int xa = s.x0 & ~1, xb = std::min(s.x1 + (s.x1 & 1), fine_width);
+            const int ta = std::max((xa >> 1) - 1, 0), tb = std::min(((xb - 1) >> 1) + 2, cw);
+            for (int x = ta; x < tb; ++x) tmp[x] = rm[x] * wm + r0[x] * kNear + rp[x] * wp;
+            if (ta == 0) tmp[-1] = tmp[0];
+            if (tb == cw) tmp[cw] = tmp[cw - 1];
+            const int pairs = xb >> 1;
+            for (int k = xa >> 1; k < pairs; ++k) {
+              out[2 * k] = tmp[k - 1] * kFar + tmp[k] * kNear + tmp[k + 1] * kOut;
+              out[2 * k + 1] = tmp[k - 1] * kOut + tmp[k] * kNear + tmp[k + 1] * kFar;
+            }
+            if (xb & 1) {  // the last pixel of an odd width: then pairs = cw - 1, tmp[cw] the edge
+              const int k = pairs;
+              out[2 * k] = tmp[k - 1] * kFar + tmp[k] * kNear + tmp[k + 1] * kOut;
+            }
           }
-          if (xb & 1) {  // the last pixel of an odd width: then pairs = cw - 1, tmp[cw] the edge
-            int k = pairs;
-            out[2 * k] = tmp[k - 1] * kFar + tmp[k] * kNear + tmp[k + 1] * kOut;
-          }
-          store(y, static_cast<const Rgba*>(out), span);
+          store(y, static_cast<const Rgba*>(out), row_runs);
         }
       },
       2);

@@ -7,8 +7,8 @@
 // mixed), the matted layer is produced row by row straight into the first pyramid reduce (it is
 // never stored at full resolution), and the pyramid runs on the bounding box of the tiles whose
 // matte can be non-zero, plus the kernel's reach; within it, each row of each level is computed
-// only over its run that can be non-zero (a layer that holds a few bars and the floor spans the
-// whole image, but most of its rows are empty: kernels.h, Span).
+// only over its runs that can be non-zero (a layer that holds a few bars and the floor spans the
+// whole image, but most of its pixels are zero: kernels.h, Runs).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -443,6 +443,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         break;
     }
     std::vector<Box> band_box(th);
+    std::vector<Runs> band_runs(th);  // per tile row, its runs of tiles whose matte can be non-zero
     parallel_rows(
         th,
         [&](int ty0, int ty1) {
@@ -484,9 +485,11 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                 nonzero = true;
               }
               ws.tile_class[ti] = cls;
-              if (nonzero)
+              if (nonzero) {
                 grow(b, {tx * kTile, ty * kTile, std::min((tx + 1) * kTile, W),
                          std::min((ty + 1) * kTile, H)});
+                band_runs[ty].append({tx * kTile, std::min((tx + 1) * kTile, W)});
+              }
             }
             band_box[ty] = b;
           }
@@ -494,14 +497,14 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         1);
     Box box{W, H, 0, 0};
     for (const Box& b : band_box) grow(box, b);
-    // Per row of `crop`, its run of tiles whose matte can be non-zero (relative to the crop).
-    auto matte_spans = [&](const Box& crop, std::vector<Span>& spans) {
-      spans.assign(crop.y1 - crop.y0, Span{});
-      for (int y = crop.y0; y < crop.y1; ++y) {
-        const Box& b = band_box[y / kTile];
-        const Span s{std::max(b.x0, crop.x0) - crop.x0, std::min(b.x1, crop.x1) - crop.x0};
-        if (!b.empty() && !s.empty()) spans[y - crop.y0] = s;
-      }
+    // Per row of `crop`, its runs of tiles whose matte can be non-zero (relative to the crop).
+    auto matte_runs = [&](const Box& crop, std::vector<Runs>& runs) {
+      runs.assign(crop.y1 - crop.y0, Runs{});
+      for (int y = crop.y0; y < crop.y1; ++y)
+        for (const Span& r : band_runs[y / kTile]) {
+          const Span s{std::max(r.x0, crop.x0) - crop.x0, std::min(r.x1, crop.x1) - crop.x0};
+          if (!s.empty()) runs[y - crop.y0].append(s);
+        }
     };
 
     // Premultiplied layer pixels [xa, xb) of row y into out.
@@ -574,7 +577,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
 
     // ------------------------------------------------------- blur + blend ("over")
     auto t3 = clock::now();
-    if (ws.spans.size() < 32) ws.spans.resize(32);
+    if (ws.runs.size() < 32) ws.runs.resize(32);
     LevelBlend lb =
         level_blend_for_radius(plan.layers[i].blur_radius, max_level, options.blend_pyramid_levels);
     const int top = lb.t > 0 ? lb.level + 1 : lb.level;
@@ -597,74 +600,73 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       const int cw = crop.x1 - crop.x0, ch = crop.y1 - crop.y0;
       ensure_size(ws.direct, static_cast<size_t>(cw) * ch);
       Rgba* hbuf = ws.direct.data();
-      std::vector<Span>& mspans = ws.spans[0];  // of the matte, then of the horizontal pass
-      matte_spans(crop, mspans);
+      std::vector<Runs>& mruns = ws.runs[0];  // of the matte, then of the horizontal pass
+      matte_runs(crop, mruns);
       parallel_rows(ch, [&](int r0, int r1) {
         Rgba* row = ws.scratch.get(2, cw + 2 * R) + R;
         for (int y = r0; y < r1; ++y) {
           Rgba* h = hbuf + static_cast<size_t>(y) * cw;
-          const Span s = mspans[y];
-          if (s.empty()) {
-            zero_run(h, 0, cw);
-            continue;
-          }
-          // The matte's run, with zeros as far as the taps of the pixels it reaches read.
-          const Span hs{std::max(s.x0 - R, 0), std::min(s.x1 + R, cw)};
-          zero_run(row, std::max(hs.x0 - R, 0), s.x0);
-          zero_run(row, s.x1, std::min(hs.x1 + R, cw));
-          matte_row(crop.y0 + y, crop.x0 + s.x0, crop.x0 + s.x1, row + s.x0);
+          const Runs& m = mruns[y];
+          Runs hr;  // the pixels the matte's runs reach
+          for (const Span& s : m) hr.append({std::max(s.x0 - R, 0), std::min(s.x1 + R, cw)});
+          hr.zero_outside(h, 0, cw);
+          if (m.empty()) continue;
+          // The matte, with zeros as far as the taps of those pixels read.
+          const Span b = hr.bounds();
+          m.zero_outside(row, std::max(b.x0 - R, 0), std::min(b.x1 + R, cw));
+          for (const Span& s : m)
+            matte_row(crop.y0 + y, crop.x0 + s.x0, crop.x0 + s.x1, row + s.x0);
           for (int k = 1; k <= R; ++k) {  // clamp to edge
             row[-k] = row[0];
             row[cw - 1 + k] = row[cw - 1];
           }
-          zero_run(h, 0, hs.x0);
-          zero_run(h, hs.x1, cw);
           with_radius(R, [&](auto r) {
             const int n = decltype(r)::value > 0 ? decltype(r)::value : R;
-            for (int x = hs.x0; x < hs.x1; ++x) {  // symmetric taps: +-k pairs share a product
-              Float4 sum = as_vec(row[x]) * taps[n];
-              for (int k = 1; k <= n; ++k)
-                sum += (as_vec(row[x - k]) + as_vec(row[x + k])) * taps[n + k];
-              h[x] = as_rgba(sum);
-            }
+            for (const Span& s : hr)
+              for (int x = s.x0; x < s.x1; ++x) {  // symmetric taps: +-k pairs share a product
+                Float4 sum = as_vec(row[x]) * taps[n];
+                for (int k = 1; k <= n; ++k)
+                  sum += (as_vec(row[x - k]) + as_vec(row[x + k])) * taps[n + k];
+                h[x] = as_rgba(sum);
+              }
           });
-          mspans[y] = hs;
+          mruns[y] = hr;
         }
       });
       parallel_rows(ch, [&](int r0, int r1) {
         for (int y = r0; y < r1; ++y) {
           Rgba* d = target + static_cast<size_t>(crop.y0 + y) * W + crop.x0;
           const Rgba* rows[2 * kMaxDirectBlurRadius + 1];
-          Span span;  // where any of the rows read is non-zero
+          Runs runs;  // where any of the rows read is non-zero
           for (int k = 0; k <= 2 * R; ++k) {
             const int yk = std::clamp(y - R + k, 0, ch - 1);
             rows[k] = hbuf + static_cast<size_t>(yk) * cw;
-            span = unite(span, mspans[yk]);
+            runs = unite(runs, mruns[yk]);
           }
           with_radius(R, [&](auto r) {
             const int n = decltype(r)::value > 0 ? decltype(r)::value : R;
-            for (int x = span.x0; x < span.x1; ++x) {
-              Float4 sum = as_vec(rows[n][x]) * taps[n];
-              for (int k = 1; k <= n; ++k)
-                sum += (as_vec(rows[n - k][x]) + as_vec(rows[n + k][x])) * taps[n + k];
-              over(d[x], as_rgba(sum));
-            }
+            for (const Span& s : runs)
+              for (int x = s.x0; x < s.x1; ++x) {
+                Float4 sum = as_vec(rows[n][x]) * taps[n];
+                for (int k = 1; k <= n; ++k)
+                  sum += (as_vec(rows[n - k][x]) + as_vec(rows[n + k][x])) * taps[n + k];
+                over(d[x], as_rgba(sum));
+              }
           });
         }
       });
     } else if (top == 0) {  // sharp layer: matte straight into the composite
       wrote(box);
-      std::vector<Span>& mspans = ws.spans[0];
-      matte_spans(box, mspans);
+      std::vector<Runs>& mruns = ws.runs[0];
+      matte_runs(box, mruns);
       parallel_rows(box.y1 - box.y0, [&](int r0, int r1) {
         Rgba* tmp = ws.scratch.get(2, box.x1 - box.x0);
-        for (int y = r0; y < r1; ++y) {
-          const Span s = mspans[y];
-          if (s.empty()) continue;
-          matte_row(box.y0 + y, box.x0 + s.x0, box.x0 + s.x1, tmp + s.x0);
-          Rgba* d = target + static_cast<size_t>(box.y0 + y) * W + box.x0;
-          for (int x = s.x0; x < s.x1; ++x) over(d[x], tmp[x]);
-        }
+        for (int y = r0; y < r1; ++y)
+          for (const Span& s : mruns[y]) {
+            matte_row(box.y0 + y, box.x0 + s.x0, box.x0 + s.x1, tmp + s.x0);
+            Rgba* d = target + static_cast<size_t>(box.y0 + y) * W + box.x0;
+            for (int x = s.x0; x < s.x1; ++x) over(d[x], tmp[x]);
+          }
       });
     } else {
       const Box crop = options.crop_layers ? crop_for(box, top, W, H) : Box{0, 0, W, H};
@@ -675,41 +677,43 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       views[0] = {nullptr, cw0, ch0, 0};  // level 0 is produced row by row by matte_row
       // The rows' runs that can be non-zero, per level: every level is zero outside them (the
       // reduces and expands compute only there, and zero the rest of the rows they write).
-      std::vector<std::vector<Span>>& spans = ws.spans;
-      matte_spans(crop, spans[0]);
+      std::vector<std::vector<Runs>>& runs = ws.runs;
+      matte_runs(crop, runs[0]);
       for (int k = 1; k <= top; ++k) {
         int w = (views[k - 1].width + 1) / 2, h = (views[k - 1].height + 1) / 2;
         ensure_size(ws.pyramid[k], static_cast<size_t>(w) * h);
         views[k] = {ws.pyramid[k].data(), w, h, w};
-        reduce_spans(spans[k - 1].data(), views[k - 1].height, w, h, spans[k]);
+        reduce_runs(runs[k - 1].data(), views[k - 1].height, w, h, runs[k]);
         if (k == 1)
-          reduce_box4_rows(cw0, ch0, views[1], ws.scratch, spans[0].data(), spans[1].data(),
+          reduce_box4_rows(cw0, ch0, views[1], ws.scratch, runs[0].data(), runs[1].data(),
                            [&](int y, int x0, int x1, Rgba* out) {
                              matte_row(crop.y0 + y, crop.x0 + x0, crop.x0 + x1, out + x0);
                            });
         else
-          reduce_box4(views[k - 1], views[k], ws.scratch, spans[k].data());
+          reduce_box4(views[k - 1], views[k], ws.scratch, runs[k].data());
       }
-      // The spans of an expand from level k (whose spans are spans[k]) to level k - 1.
-      std::vector<Span>& expanded = ws.expanded_spans;
+      // The runs of an expand from level k (whose runs are runs[k]) to level k - 1.
+      std::vector<Runs>& expanded = ws.expanded_runs;
       auto expand_from = [&](int k) {
-        expand_spans(spans[k].data(), views[k].height, k == 1 ? cw0 : views[k - 1].width,
-                     k == 1 ? ch0 : views[k - 1].height, expanded);
+        expand_runs(runs[k].data(), views[k].height, k == 1 ? cw0 : views[k - 1].width,
+                    k == 1 ? ch0 : views[k - 1].height, expanded);
         return expanded.data();
       };
       Rgba* acc0 = target + static_cast<size_t>(crop.y0) * W + crop.x0;
       const float t = lb.t, s = 1.0f - lb.t;
-      // Outside an expand's spans both the expand and the level it joins (whose spans it covers)
-      // are zero, and "over" zero leaves the composite as it is.
+      // Outside an expand's runs both the expand and the level it joins (whose runs it covers) are
+      // zero, and "over" zero leaves the composite as it is.
       if (lb.t > 0 && lb.level == 0) {
         // Blend level 0 (the sharp layer) with level 1 and composite.
         expand_bspline2(
             views[1], cw0, ch0, ws.scratch,
-            [&](int y, const Rgba* e, Span sp) {
+            [&](int y, const Rgba* e, const Runs& er) {
               Rgba* l = ws.scratch.get(2, cw0);
-              matte_row(crop.y0 + y, crop.x0 + sp.x0, crop.x0 + sp.x1, l + sp.x0);
               Rgba* d = acc0 + static_cast<size_t>(y) * W;
-              for (int x = sp.x0; x < sp.x1; ++x) over(d[x], l[x] * s + e[x] * t);
+              for (const Span& sp : er) {
+                matte_row(crop.y0 + y, crop.x0 + sp.x0, crop.x0 + sp.x1, l + sp.x0);
+                for (int x = sp.x0; x < sp.x1; ++x) over(d[x], l[x] * s + e[x] * t);
+              }
             },
             expand_from(1));
       } else {
@@ -717,31 +721,32 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           const RgbaView& dst = views[lb.level];
           expand_bspline2(
               views[lb.level + 1], dst.width, dst.height, ws.scratch,
-              [&](int y, const Rgba* e, Span sp) {
+              [&](int y, const Rgba* e, const Runs& er) {
                 Rgba* d = dst.row(y);
-                for (int x = sp.x0; x < sp.x1; ++x) d[x] = d[x] * s + e[x] * t;
+                for (const Span& sp : er)
+                  for (int x = sp.x0; x < sp.x1; ++x) d[x] = d[x] * s + e[x] * t;
               },
               expand_from(lb.level + 1));
-          spans[lb.level].swap(expanded);
+          runs[lb.level].swap(expanded);
         }
         for (int k = lb.level; k >= 2; --k) {  // expand in place into the level below
           const RgbaView& dst = views[k - 1];
           expand_bspline2(
               views[k], dst.width, dst.height, ws.scratch,
-              [&](int y, const Rgba* e, Span sp) {
+              [&](int y, const Rgba* e, const Runs& er) {
                 Rgba* d = dst.row(y);
-                zero_run(d, 0, sp.x0);
-                std::copy(e + sp.x0, e + sp.x1, d + sp.x0);
-                zero_run(d, std::max(sp.x0, sp.x1), dst.width);
+                er.zero_outside(d, 0, dst.width);
+                for (const Span& sp : er) std::copy(e + sp.x0, e + sp.x1, d + sp.x0);
               },
               expand_from(k));
-          spans[k - 1].swap(expanded);
+          runs[k - 1].swap(expanded);
         }
         expand_bspline2(
             views[1], cw0, ch0, ws.scratch,
-            [&](int y, const Rgba* e, Span sp) {
+            [&](int y, const Rgba* e, const Runs& er) {
               Rgba* d = acc0 + static_cast<size_t>(y) * W;
-              for (int x = sp.x0; x < sp.x1; ++x) over(d[x], e[x]);
+              for (const Span& sp : er)
+                for (int x = sp.x0; x < sp.x1; ++x) over(d[x], e[x]);
             },
             expand_from(1));
       }

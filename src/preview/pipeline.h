@@ -50,8 +50,8 @@ struct PreviewWorkspace::Impl {
   bool pending_zero = false;          // every flush zeroes it: set after a complete composite
   std::vector<std::vector<detail::Rgba>> pyramid;
   std::vector<detail::Rgba> direct;  // horizontal pass of the direct (small-radius) blur
-  std::vector<std::vector<detail::Span>> spans;  // per pyramid level, its rows' non-zero runs
-  std::vector<detail::Span> expanded_spans;      // those of the expand under way
+  std::vector<std::vector<detail::Runs>> runs;  // per pyramid level, its rows' non-zero runs
+  std::vector<detail::Runs> expanded_runs;      // those of the expand under way
 
   // occlusion fix: edge trace (edge_trace.cpp)
   std::vector<std::uint64_t> trace_bins;      // CoC bins occupied per pixel and per fragment

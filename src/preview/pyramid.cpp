@@ -133,7 +133,8 @@ void pyramid_expand(const image::Image& coarse, int fine_width, int fine_height,
                             dst(static_cast<size_t>(fine_width) * fine_height);
   detail::ScratchRows scratch;
   detail::expand_bspline2({src.data(), coarse.width(), coarse.height(), coarse.width()}, fine_width,
-                          fine_height, scratch, [&](int y, const detail::Rgba* row, detail::Span) {
+                          fine_height, scratch,
+                          [&](int y, const detail::Rgba* row, const detail::Runs&) {
                             std::copy(row, row + fine_width,
                                       dst.data() + static_cast<size_t>(y) * fine_width);
                           });
