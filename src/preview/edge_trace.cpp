@@ -40,7 +40,7 @@ namespace {
 
 constexpr int kBins = 64;
 constexpr int kTile = 4;                  // tiles of the reach masks
-constexpr float kFeather = 2.0f;          // pixels outside the band over which the trace fades out
+constexpr float kFeather = 1.0f;          // pixels outside the band over which the trace fades out
 constexpr float kNotNear = -1e30f;        // band reach of a pixel no edge reaches
 constexpr int kRotations = 97;            // distinct rotations of the lens grid over the image
 constexpr int kFloorOffsetInt = 1 << 12;  // > the largest CoC radius (clamped to 128 px)

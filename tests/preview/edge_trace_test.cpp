@@ -187,7 +187,7 @@ TEST(EdgeTrace, NoTraceAroundASharpForeground) {
         rgb);
   };
   // Pixels 4 to kBlur px outside the square: in the error band, beyond the trace's band (1 px,
-  // a 2 px feather and a pixel of slack in the band's distance). And the pixels within 4 px of
+  // a 1 px feather and a pixel of slack in the band's distance). And the pixels within 4 px of
   // the outline either side, which bound where the trace may run.
   double err = 0;
   int ring = 0;
