@@ -75,8 +75,12 @@ json git_description() {
   const std::string git = "git -C " + shell_quote(DOFCACHE_SOURCE_DIR);
   std::string commit = run(git + " rev-parse HEAD 2>/dev/null");
   if (commit.empty()) return json();
-  // Uncommitted changes to tracked files make the commit alone an incomplete description.
-  bool dirty = !run(git + " status --porcelain --untracked-files=no 2>/dev/null").empty();
+  // Uncommitted changes to tracked files make the commit alone an incomplete description. The
+  // benchmarks' own outputs (results, figures) do not: a run rewrites them before it records.
+  bool dirty = !run(git +
+                    " status --porcelain --untracked-files=no -- . ':!bench/results' ':!docs/images'"
+                    " 2>/dev/null")
+                    .empty();
   return {{"commit", commit}, {"dirty", dirty}};
 }
 
