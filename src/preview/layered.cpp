@@ -497,8 +497,11 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         1);
     Box box{W, H, 0, 0};
     for (const Box& b : band_box) grow(box, b);
-    // Per row of `crop`, its runs of tiles whose matte can be non-zero (relative to the crop).
+    // Per row of `crop`, its runs of tiles whose matte can be non-zero (relative to the crop); the
+    // whole row without crop_layers.
     auto matte_runs = [&](const Box& crop, std::vector<Runs>& runs) {
+      if (!options.crop_layers)
+        return runs.assign(crop.y1 - crop.y0, Runs::whole(crop.x1 - crop.x0));
       runs.assign(crop.y1 - crop.y0, Runs{});
       for (int y = crop.y0; y < crop.y1; ++y)
         for (const Span& r : band_runs[y / kTile]) {

@@ -54,8 +54,9 @@ struct PreviewOptions {
   // directly costs a third more post-process time at 640x480. 0 always uses the pyramid; values
   // above 24 px act as 24.
   double direct_blur_radius = 3.0;
-  // Blur and composite each layer only inside the box its matte covers (plus the kernel support).
-  // Gives the same image as processing the whole frame; false is for testing that.
+  // Blur and composite each layer only inside the box its matte covers (plus the kernel support),
+  // and there only over each row's runs that can be non-zero. Gives the same image as processing
+  // every row of the whole frame; false is for testing that.
   bool crop_layers = true;
 
   // --- occlusion fix (occlusion.h) ---------------------------------------------------------------
