@@ -442,13 +442,11 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
         lo = n > 1 ? static_cast<float>(plan.anchor(i)) : kInf;
         break;
     }
-    std::vector<Box> band_box(th);
     std::vector<Runs> band_runs(th);  // per tile row, its runs of tiles whose matte can be non-zero
     parallel_rows(
         th,
         [&](int ty0, int ty1) {
           for (int ty = ty0; ty < ty1; ++ty) {
-            Box b{W, H, 0, 0};
             for (int tx = 0; tx < tw; ++tx) {
               const size_t ti = static_cast<size_t>(ty) * tw + tx;
               const Tile& tile = ws.tiles[ti];
@@ -485,18 +483,16 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                 nonzero = true;
               }
               ws.tile_class[ti] = cls;
-              if (nonzero) {
-                grow(b, {tx * kTile, ty * kTile, std::min((tx + 1) * kTile, W),
-                         std::min((ty + 1) * kTile, H)});
-                band_runs[ty].append({tx * kTile, std::min((tx + 1) * kTile, W)});
-              }
+              if (nonzero) band_runs[ty].append({tx * kTile, std::min((tx + 1) * kTile, W)});
             }
-            band_box[ty] = b;
           }
         },
         1);
-    Box box{W, H, 0, 0};
-    for (const Box& b : band_box) grow(box, b);
+    Box box{W, H, 0, 0};  // of the tiles whose matte can be non-zero
+    for (int ty = 0; ty < th; ++ty) {
+      const Span b = band_runs[ty].bounds();
+      if (!b.empty()) grow(box, {b.x0, ty * kTile, b.x1, std::min((ty + 1) * kTile, H)});
+    }
     // Per row of `crop`, its runs of tiles whose matte can be non-zero (relative to the crop); the
     // whole row without crop_layers.
     auto matte_runs = [&](const Box& crop, std::vector<Runs>& runs) {
@@ -580,7 +576,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
 
     // ------------------------------------------------------- blur + blend ("over")
     auto t3 = clock::now();
-    if (ws.runs.size() < 32) ws.runs.resize(32);
+    ensure_size(ws.runs, 32);  // a level's runs per pyramid level (views[32] below)
     LevelBlend lb =
         level_blend_for_radius(plan.layers[i].blur_radius, max_level, options.blend_pyramid_levels);
     const int top = lb.t > 0 ? lb.level + 1 : lb.level;
