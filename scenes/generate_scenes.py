@@ -14,6 +14,7 @@ Outputs:
   color_bars.gltf + color_bars.bin   external buffer, interleaved vertex data (byteStride)
   color_spheres.gltf                 self-contained; one KHR_lights_punctual spot light
   glossy_closeup.glb                 binary glTF with embedded PNG textures
+  hanging_light_box.gltf             self-contained; a two-sided panel 2 cm below the ceiling, f/0.2
 """
 import base64
 import json
@@ -854,7 +855,45 @@ def glossy_closeup():
     return g
 
 
+def hanging_light_box():
+    """A 2 m room lit by a 0.5 m square panel hanging 2 cm below the ceiling, emitting on both sides,
+    so the ceiling right above it and the walls' nearest points see a light centimetres away; two
+    diffuse spheres; every material diffuse (roughness 1, metallic 0); a very wide aperture. The
+    kind of scene the shipped ones are not: it punishes light sampling by area (1/d^2 spikes next
+    to the panel) and any estimator without multiple importance sampling."""
+    g = Gltf("hanging_light_box")
+    white = g.material("white", (0.73, 0.73, 0.73), double_sided=True)
+    red = g.material("red", (0.63, 0.065, 0.05), double_sided=True)
+    green = g.material("green", (0.14, 0.45, 0.091), double_sided=True)
+    panel = g.material("panel", (0.78, 0.78, 0.78), emissive=(1.0, 0.9, 0.75), strength=10.0,
+                       double_sided=True)
+    blue = g.material("blue", (0.12, 0.2, 0.6))
+    ivory = g.material("ivory", (0.8, 0.75, 0.6))
+    q = quad()
+    w, h, d = 2.0, 2.0, 2.0
+    flip = rot_x(math.pi)  # +Y normal to -Y
+    to_plus_x = ((0, 1, 0), (-1, 0, 0), (0, 0, 1))
+    to_minus_x = ((0, -1, 0), (1, 0, 0), (0, 0, 1))
+    g.add("floor", q, white, (0.0, 0.0, -d / 2), None, (w, 1.0, d))
+    g.add("ceiling", q, white, (0.0, h, -d / 2), flip, (w, 1.0, d))
+    g.add("back_wall", q, white, (0.0, h / 2, -d), rot_x(math.pi / 2), (w, 1.0, h))
+    g.add("left_wall", q, red, (-w / 2, h / 2, -d / 2), to_plus_x, (h, 1.0, d))
+    g.add("right_wall", q, green, (w / 2, h / 2, -d / 2), to_minus_x, (h, 1.0, d))
+    g.add("panel", q, panel, (0.0, h - 0.02, -d / 2), flip, (0.5, 1.0, 0.5))
+    s = uv_sphere()
+    g.add("near_sphere", s, ivory, (-0.45, 0.35, -0.75), None, (0.35, 0.35, 0.35))
+    g.add("far_sphere", s, blue, (0.5, 0.3, -1.45), None, (0.3, 0.3, 0.3))
+    # 50 mm f/0.2: a 0.125 m aperture radius, focused on the near sphere's centre (3.65 m).
+    g.add_camera(eye=(0.0, 1.0, 2.9), target=(0.0, 0.95, 0.0), yfov=0.72, focal_length=0.05,
+                 fstop=0.2, focus_object="near_sphere")
+    return g
+
+
 def main():
+    g = hanging_light_box()
+    g.write_gltf_embedded(os.path.join(HERE, "hanging_light_box.gltf"))
+    report(g, g.finish())
+
     g = cornell_box()
     g.write_gltf_embedded(os.path.join(HERE, "cornell_box.gltf"))
     report(g, g.finish())

@@ -32,15 +32,19 @@ void add_seed_and_threads(CLI::App* cmd, std::uint64_t& seed, int& threads,
 
 void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading) {
   cmd->add_option("--light-samples", shading.light_samples,
-                  "Shadow rays to area lights per shading point")
+                  "Light samples (shadow rays) per camera hit, combined with the gather rays by "
+                  "multiple importance sampling")
       ->capture_default_str()->check(CLI::Range(0, 4096));
   cmd->add_option("--gather-rays", shading.gather_rays,
-                  "Final-gather rays for diffuse indirect light per shading point")
+                  "Cosine-weighted rays per camera hit: indirect light, and direct light where "
+                  "they meet an emitter (1 with 1 light sample is a plain path tracer)")
       ->capture_default_str()->check(CLI::Range(0, 65536));
-  cmd->add_option("--bounces", shading.bounces, "Diffuse indirect bounces")
+  cmd->add_option("--bounces", shading.bounces,
+                  "Indirect bounces, diffuse or glossy, as Blender Cycles' max bounces (0: direct "
+                  "light only)")
       ->capture_default_str()->check(CLI::Range(0, 16));
   cmd->add_option("--specular-depth", shading.specular_depth,
-                  "Maximum chain of glossy/mirror reflections")
+                  "Maximum chain of glossy/mirror reflections (0: no specular lobe)")
       ->capture_default_str()->check(CLI::Range(0, 16));
 }
 

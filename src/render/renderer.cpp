@@ -46,25 +46,6 @@ struct Context {
   ThinLensCamera camera;
   Shader shader;
   Shader sample_shader;  // for cache samples: more light and gather samples
-  const DiffuseLookup* reflections;  // cached diffuse light for reflected surfaces, or null
-};
-
-// Diffuse illumination of surfaces seen in reflections, from the cache as it was at the start of
-// the pass (never the tile buffers: a read-only view keeps the result thread-count independent).
-class CacheView final : public DiffuseLookup {
- public:
-  CacheView(const cache::RadianceCache* cache, const cache::LookupOptions& options)
-      : cache_(cache), options_(options) {}
-  bool lookup(const ShadingPoint& p, glm::vec3* e) const override {
-    cache::LookupResult r;
-    if (!cache_->lookup(p.surface.position, p.n, options_, &r)) return false;
-    *e = r.value;
-    return true;
-  }
-
- private:
-  const cache::RadianceCache* cache_;
-  cache::LookupOptions options_;
 };
 
 // Per-pixel cache statistics (debug images); each pixel is written by its own tile only.
@@ -142,7 +123,7 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
     e = c.settings.cache.cache ? cached_diffuse(c, p, key, rng, work, density)
                                : c.shader.diffuse_illumination(p, key, rng, work.rays);
   }
-  return c.shader.shade(p, e, rng, work.rays, c.reflections);
+  return c.shader.shade(p, e, rng, work.rays);
 }
 
 // The film position and lens point of sample `s` of pixel (x, y).
@@ -296,8 +277,6 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   settings.validate();
   auto start = std::chrono::steady_clock::now();
   cache::RadianceCache* cache = settings.cache.cache;
-  std::unique_ptr<CacheView> reflections;
-  if (cache) reflections = std::make_unique<CacheView>(cache, settings.cache.lookup);
   const ShadingSettings sample_shading =
       cache_sample_shading(settings.shading, settings.cache.sample_quality);
   Context c{scene,
@@ -305,8 +284,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
             settings,
             make_camera(camera, settings),
             Shader(scene, accel, settings.shading),
-            Shader(scene, accel, sample_shading),
-            reflections.get()};
+            Shader(scene, accel, sample_shading)};
   const int w = settings.width, h = settings.height;
   RenderOutput out;
   out.color = image::Image(w, h, 3, 0.0f);

@@ -124,18 +124,6 @@ TEST(LightSampler, ManyLightsAreClustered) {
   for (std::size_t e = 0; e < s.emitters.size(); ++e) EXPECT_GT(ls.probability(x, n, e), 0.0f);
 }
 
-// Irradiance / (pi L) at the origin (normal +Z) from a parallel rectangle [x0, x1] x [y0, y1] at
-// height h: the corner form factor F(a, b) = (1 / 2pi) [A / sqrt(1 + A^2) atan(B / sqrt(1 + A^2)) +
-// B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = a / h, B = b / h, is odd in a and b, so any
-// rectangle is a signed sum of four corners.
-double rectangle_form_factor(double x0, double x1, double y0, double y1, double h) {
-  auto corner = [h](double a, double b) {
-    double A = a / h, B = b / h, sa = std::sqrt(1 + A * A), sb = std::sqrt(1 + B * B);
-    return (A / sa * std::atan(B / sa) + B / sb * std::atan(A / sb)) / (2 * M_PI);
-  };
-  return corner(x1, y1) - corner(x0, y1) - corner(x1, y0) + corner(x0, y0);
-}
-
 TEST(LightSampler, DirectLightMatchesClosedFormWithoutFireflies) {
   scene::Scene s = two_lights();
   scene::Accel accel(s);
@@ -152,8 +140,8 @@ TEST(LightSampler, DirectLightMatchesClosedFormWithoutFireflies) {
   ShadingPoint p = shader.prepare(ray, hit);
   ASSERT_NEAR(glm::length(p.surface.position), 0.0f, 1e-4f);
 
-  const double expected = rectangle_form_factor(-0.02, 0.02, -0.02, 0.02, 0.1) +
-                          rectangle_form_factor(2, 4, -1, 1, 5);  // E / pi, radiance 1
+  const double expected = testing::rectangle_form_factor(-0.02, 0.02, -0.02, 0.02, 0.1) +
+                          testing::rectangle_form_factor(2, 4, -1, 1, 5);  // E / pi, radiance 1
   ASSERT_NEAR(expected, 0.0757, 5e-4);                            // small 0.0484, large 0.0273
   const int kEstimates = 2000;
   double sum = 0, sum2 = 0;

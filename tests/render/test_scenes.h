@@ -86,4 +86,16 @@ inline void build_emitters(scene::Scene& s) {
   for (float& c : s.emitter_cdf) c /= total;
 }
 
+// Irradiance / (pi L) at the origin (normal +Z) from a parallel rectangle [x0, x1] x [y0, y1] at
+// height h: the corner form factor F(a, b) = (1 / 2pi) [A / sqrt(1 + A^2) atan(B / sqrt(1 + A^2)) +
+// B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = a / h, B = b / h, is odd in a and b, so any
+// rectangle is a signed sum of four corners.
+inline double rectangle_form_factor(double x0, double x1, double y0, double y1, double h) {
+  auto corner = [h](double a, double b) {
+    double A = a / h, B = b / h, sa = std::sqrt(1 + A * A), sb = std::sqrt(1 + B * B);
+    return (A / sa * std::atan(B / sa) + B / sb * std::atan(A / sb)) / (2 * 3.14159265358979323846);
+  };
+  return corner(x1, y1) - corner(x0, y1) - corner(x1, y0) + corner(x0, y0);
+}
+
 }  // namespace dofcache::testing

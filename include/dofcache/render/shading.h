@@ -1,11 +1,20 @@
 #pragma once
-// Physically based shading of glTF metallic-roughness surfaces, expensive in the way the paper's
-// photon-mapped shading is, so that caching it pays:
+// Physically based shading of glTF metallic-roughness surfaces:
 //   L_o = L_e + (1 - F(n.v)) c_diff * E/pi + specular(v)
-// E/pi, the diffuse illumination with the albedo factored out, is view independent: direct light
-// from emissive triangles (soft shadows, several samples) and punctual lights, plus a final gather
-// of cosine-weighted rays that evaluate direct light where they land. It is what the radiance cache
-// stores. The GGX specular lobe is view dependent and is traced per ray, never cached.
+// E/pi, the diffuse illumination with the albedo factored out, is view independent: it is what the
+// radiance cache stores. The GGX specular lobe is view dependent and is traced per ray.
+//
+// Light transport is a path tracer in the pbrt / Cycles sense, with bounded variance:
+// * next-event estimation at every vertex, triangle lights sampled by solid angle where that is
+//   well conditioned (render/triangle_sampling.h), so points next to a light see no 1/d^2 spikes;
+// * every emitter a BSDF-sampled ray meets (gather rays, reflection rays, path continuations) is
+//   weighted against light sampling by the power heuristic (Veach 1997), and every light sample
+//   against the BSDF strategy, counting each strategy's sample count and, for the specular lobe,
+//   the probability with which its ray is traced at all;
+// * `bounces` is the number of indirect bounces, diffuse or glossy, as Cycles' max bounces:
+//   0 is direct light only; Russian roulette from the third vertex on.
+// E/pi at a camera hit uses `light_samples` light samples and `gather_rays` cosine-weighted rays
+// (a final gather); deeper vertices take one light sample and one continuation.
 #include <cstdint>
 #include <vector>
 
@@ -13,6 +22,7 @@
 
 #include "dofcache/core/rng.h"
 #include "dofcache/render/light_sampler.h"
+#include "dofcache/render/triangle_sampling.h"
 #include "dofcache/scene/accel.h"
 #include "dofcache/scene/scene.h"
 
@@ -21,8 +31,8 @@ namespace dofcache::render {
 struct ShadingSettings {
   int light_samples = 4;   // shadow rays to area lights per shading point
   int gather_rays = 32;    // final-gather rays for diffuse indirect light
-  int bounces = 1;         // diffuse indirect bounces (1: the gather sees direct light only)
-  int specular_depth = 3;  // maximum chain of glossy/mirror reflections
+  int bounces = 1;         // indirect bounces, diffuse or glossy (Cycles' max bounces; 0: direct)
+  int specular_depth = 3;  // maximum chain of glossy/mirror reflections (0: no specular lobe)
 
   void validate() const;   // throws dofcache::Error on absurd values
 };
@@ -43,14 +53,6 @@ struct ShadingPoint {
   bool front_face = true;
 };
 
-// Read-only access to cached diffuse illumination, for surfaces seen in reflections (view
-// independent there too). Must be deterministic and thread-safe.
-class DiffuseLookup {
- public:
-  virtual ~DiffuseLookup() = default;
-  virtual bool lookup(const ShadingPoint& p, glm::vec3* e_over_pi) const = 0;
-};
-
 class Shader {
  public:
   Shader(const scene::Scene& scene, const scene::Accel& accel, const ShadingSettings& settings);
@@ -63,11 +65,10 @@ class Shader {
   glm::vec3 diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
                                  RayCounters& counters, float* harmonic_distance = nullptr) const;
 
-  // Outgoing radiance towards p.wo given the diffuse illumination at p (computed or cached).
-  // `cached` (optional) serves the diffuse illumination of surfaces seen in reflections.
+  // Outgoing radiance towards p.wo at a camera hit given its diffuse illumination (computed or
+  // cached).
   glm::vec3 shade(const ShadingPoint& p, glm::vec3 diffuse_illumination, Rng& rng,
-                  RayCounters& counters, const DiffuseLookup* cached = nullptr,
-                  int depth = 0) const;
+                  RayCounters& counters) const;
 
   // The diffuse-lobe multiplier (1 - F(n.v)) c_diff that turns E/pi into outgoing radiance.
   static glm::vec3 diffuse_reflectance(const ShadingPoint& p);
@@ -79,22 +80,54 @@ class Shader {
   const scene::Accel& accel() const { return accel_; }
 
  private:
-  glm::vec3 direct_light(const ShadingPoint& p, int samples, std::uint64_t key, Rng& rng,
-                         RayCounters& counters) const;
-  glm::vec3 indirect_light(const ShadingPoint& p, int rays, int bounces_left, std::uint64_t key,
-                           Rng& rng, RayCounters& counters,
-                           float* harmonic_distance = nullptr) const;
-  glm::vec3 specular(const ShadingPoint& p, Rng& rng, RayCounters& counters,
-                     const DiffuseLookup* cached, int depth) const;
+  struct LightSample {  // a direction towards an emissive triangle
+    glm::vec3 wi{0.0f};
+    float distance = 0.0f;
+    float pdf = 0.0f;  // solid angle, the choice of emitter included
+    glm::vec3 radiance{0.0f};
+  };
+  // Where a path is: bounces taken to reach the vertex, bounces still allowed, and the length of
+  // the chain of specular reflections that reached it.
+  struct PathDepth {
+    int taken = 0;
+    int left = 0;
+    int glossy = 0;
+  };
+
+  // E/pi at p from `light_samples` light samples and `gather_rays` cosine-weighted rays, combined
+  // by multiple importance sampling; `key` seeds their stratified patterns.
+  glm::vec3 diffuse_estimate(const ShadingPoint& p, int light_samples, int gather_rays,
+                             PathDepth depth, std::uint64_t key, Rng& rng, RayCounters& counters,
+                             float* harmonic_distance) const;
+  // Radiance leaving a path vertex q towards q.wo, emission excluded (the caller weights it).
+  glm::vec3 reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
+                      RayCounters& counters) const;
+  // The GGX lobe at p: a light sample and a reflection ray. At a camera hit (`primary`) the light
+  // sample is always taken and the ray with probability `keep`; deeper, both with probability keep.
+  glm::vec3 specular(const ShadingPoint& p, PathDepth depth, bool primary, Rng& rng,
+                     RayCounters& counters) const;
+  // Light leaving a BSDF-sampled hit towards p: its emission weighted against `light_samples`
+  // light samples at p (bsdf_density is the ray strategy's density times its sample count), the
+  // rest by reflected() if bounces are left.
+  // `survival`: the step's throughput, the Russian-roulette probability from the third vertex on.
+  glm::vec3 continuation(const ShadingPoint& p, const scene::Ray& ray, const scene::Hit& hit,
+                         float bsdf_density, float light_samples, PathDepth next, float survival,
+                         Rng& rng, RayCounters& counters) const;
+  // Punctual lights' E/pi at p (one shadow ray each; they cannot be hit, so no MIS).
+  glm::vec3 punctual_diffuse(const ShadingPoint& p, RayCounters& counters) const;
+  bool sample_light(const ShadingPoint& p, float u_pick, glm::vec2 u, LightSample* s) const;
+  Triangle triangle(std::uint32_t index) const;
+  // Solid-angle density with which sample_light at `p` picks direction `wi` reaching emitter
+  // triangle `triangle` at distance `distance`.
+  float light_pdf(const ShadingPoint& p, std::uint32_t triangle, glm::vec3 wi,
+                  float distance) const;
+  // A ray leaving p along `direction` (p's own surface excluded).
+  scene::Ray spawn(const ShadingPoint& p, glm::vec3 direction) const;
   bool visible(glm::vec3 from, glm::vec3 normal, glm::vec3 to_dir, float distance,
                RayCounters& counters) const;
   // Unit direction from x towards a punctual light and its distance (false if x is on it).
   bool direction_to(const scene::PunctualLight& light, glm::vec3 x, glm::vec3* wi,
                     float* distance) const;
-  // Solid-angle density with which light sampling at `p` picks direction `wi` reaching emitter
-  // triangle `triangle` at distance `distance` (for multiple importance sampling).
-  float emitter_pdf(const ShadingPoint& p, std::uint32_t triangle, glm::vec3 wi,
-                    float distance) const;
 
   std::vector<int> triangle_emitter_;  // emitter index of each triangle, -1 if it emits nothing
 
