@@ -865,7 +865,7 @@ def hanging_light_box():
     white = g.material("white", (0.73, 0.73, 0.73), double_sided=True)
     red = g.material("red", (0.63, 0.065, 0.05), double_sided=True)
     green = g.material("green", (0.14, 0.45, 0.091), double_sided=True)
-    panel = g.material("panel", (0.78, 0.78, 0.78), emissive=(1.0, 0.9, 0.75), strength=10.0,
+    panel = g.material("panel", (0.78, 0.78, 0.78), emissive=(1.0, 0.9, 0.75), strength=16.0,
                        double_sided=True)
     blue = g.material("blue", (0.12, 0.2, 0.6))
     ivory = g.material("ivory", (0.8, 0.75, 0.6))
@@ -884,7 +884,7 @@ def hanging_light_box():
     g.add("near_sphere", s, ivory, (-0.45, 0.35, -0.75), None, (0.35, 0.35, 0.35))
     g.add("far_sphere", s, blue, (0.5, 0.3, -1.45), None, (0.3, 0.3, 0.3))
     # 50 mm f/0.2: a 0.125 m aperture radius, focused on the near sphere's centre (3.65 m).
-    g.add_camera(eye=(0.0, 1.0, 2.9), target=(0.0, 0.95, 0.0), yfov=0.72, focal_length=0.05,
+    g.add_camera(eye=(0.0, 1.0, 2.9), target=(0.0, 0.98, 0.0), yfov=0.62, focal_length=0.05,
                  fstop=0.2, focus_object="near_sphere")
     return g
 

@@ -170,4 +170,11 @@ float LightSampler::probability(glm::vec3 x, glm::vec3 n, std::size_t emitter) c
   return w[light_of_[emitter]] / sum * pick;
 }
 
+float LightSampler::nearest_light_distance(glm::vec3 x) const {
+  float nearest = std::numeric_limits<float>::infinity();
+  for (const Light& l : lights_)
+    nearest = std::min(nearest, std::max(0.0f, glm::length(x - l.center) - l.radius));
+  return nearest;
+}
+
 }  // namespace dofcache::render

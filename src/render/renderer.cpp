@@ -100,8 +100,13 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
     const double depth = c.camera.depth(x);
     double radius = cache::sample_radius(c.camera.imaging(), depth, cs.min_factor);
     if (cs.radius_rule == RadiusRule::Adaptive) {
-      double cap = cs.max_radius_pixels * c.camera.imaging().pixel_footprint(depth);
-      radius = std::max(radius, std::min(cs.accuracy * static_cast<double>(harmonic), cap));
+      // Gather rays measure how near the geometry is, not how near the lights are: next to a
+      // lamp, direct light changes as 1/d^2 while the surroundings may be far, so the widening is
+      // also bounded by the distance to the nearest light.
+      const double light = c.shader.light_sampler().nearest_light_distance(x);
+      const double smooth = std::min(static_cast<double>(harmonic), light);
+      const double cap = cs.max_radius_pixels * c.camera.imaging().pixel_footprint(depth);
+      radius = std::max(radius, std::min(cs.accuracy * smooth, cap));
     }
     sample.radius = static_cast<float>(radius);
     sample.frame = cs.frame;

@@ -8,6 +8,7 @@
 #include "dofcache/core/error.h"
 #include "dofcache/image/metrics.h"
 #include "dofcache/render/renderer.h"
+#include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
 #include "test_scenes.h"
 
@@ -78,6 +79,41 @@ TEST(CachedRender, CloseToUncachedReferenceAndCheaper) {
   // Full shading happens only on misses.
   EXPECT_LT(cached.stats.shading_points, cached.stats.cache_lookups / 4);
   EXPECT_EQ(cached.cache_hits.width(), 48);
+}
+
+// The cache must never spread an outlier over a circle of confusion: with the default sample
+// quality rule (recommended_sample_quality), a cached render's error falls as the lens samples
+// rise, on every shipped scene, against an uncached path-traced reference.
+TEST(CachedRender, ErrorFallsWithSamplesOnEveryShippedScene) {
+  for (const char* file : {"cornell_box.gltf", "color_bars.gltf", "color_spheres.gltf",
+                           "glossy_closeup.glb", "hanging_light_box.gltf"}) {
+    scene::Scene s = load_scene(std::string(DOFCACHE_SOURCE_DIR) + "/scenes/" + file);
+    scene::Accel accel(s);
+    const scene::Camera& camera = s.cameras[0];
+    RenderSettings base;
+    base.width = 32;
+    base.height = height_for_width(camera, base.width);
+    base.threads = 2;
+    base.progress = Progress::Display::Never;
+    base.lens = resolve_lens(s, accel, camera, {}).lens;
+    RenderSettings ref = base;
+    ref.spp = 2048;
+    ref.seed = 101;
+    ref.shading.light_samples = 1;
+    ref.shading.gather_rays = 1;
+    const image::Image reference = render(s, accel, camera, ref).color;
+    double previous = 1e30;
+    for (int spp : {8, 32, 128}) {
+      auto vdb = cache::make_radiance_cache("vdb");
+      RenderSettings r = base;
+      r.spp = spp;
+      r.cache.cache = vdb.get();
+      r.cache.sample_quality = recommended_sample_quality(spp);
+      const double error = image::compare(render(s, accel, camera, r).color, reference).rel_mse;
+      EXPECT_LT(error, previous) << file << " at " << spp << " spp";
+      previous = error;
+    }
+  }
 }
 
 TEST(CachedRender, LargerMinFactorStoresFewerSamples) {

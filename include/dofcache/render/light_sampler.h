@@ -36,6 +36,9 @@ class LightSampler {
   bool sample(glm::vec3 x, glm::vec3 n, float u, std::size_t* emitter, float* probability) const;
   // The probability with which sample(x, n, .) picks `emitter`.
   float probability(glm::vec3 x, glm::vec3 n, std::size_t emitter) const;
+  // A lower bound on the distance from x to the nearest emissive triangle (0 within a light's
+  // bounding sphere; +inf without emitters): how far direct light may be assumed smooth.
+  float nearest_light_distance(glm::vec3 x) const;
 
  private:
   struct Light {

@@ -9,8 +9,7 @@
 //   well conditioned (render/triangle_sampling.h), so points next to a light see no 1/d^2 spikes;
 // * every emitter a BSDF-sampled ray meets (gather rays, reflection rays, path continuations) is
 //   weighted against light sampling by the power heuristic (Veach 1997), and every light sample
-//   against the BSDF strategy, counting each strategy's sample count and, for the specular lobe,
-//   the probability with which its ray is traced at all;
+//   against the BSDF strategy, counting each strategy's sample count;
 // * `bounces` is the number of indirect bounces, diffuse or glossy, as Cycles' max bounces:
 //   0 is direct light only; Russian roulette from the third vertex on.
 // E/pi at a camera hit uses `light_samples` light samples and `gather_rays` cosine-weighted rays
@@ -76,6 +75,7 @@ class Shader {
   glm::vec3 emitted(const ShadingPoint& p) const;
 
   const ShadingSettings& settings() const { return settings_; }
+  const LightSampler& light_sampler() const { return light_sampler_; }
   const scene::Scene& scene() const { return scene_; }
   const scene::Accel& accel() const { return accel_; }
 
@@ -102,9 +102,8 @@ class Shader {
   // Radiance leaving a path vertex q towards q.wo, emission excluded (the caller weights it).
   glm::vec3 reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
                       RayCounters& counters) const;
-  // The GGX lobe at p: a light sample and a reflection ray. At a camera hit (`primary`) the light
-  // sample is always taken and the ray with probability `keep`; deeper, both with probability keep.
-  glm::vec3 specular(const ShadingPoint& p, PathDepth depth, bool primary, Rng& rng,
+  // The GGX lobe at p: a light sample and a reflection ray, combined by MIS.
+  glm::vec3 specular(const ShadingPoint& p, PathDepth depth, Rng& rng,
                      RayCounters& counters) const;
   // Light leaving a BSDF-sampled hit towards p: its emission weighted against `light_samples`
   // light samples at p (bsdf_density is the ray strategy's density times its sample count), the
