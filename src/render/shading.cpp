@@ -101,10 +101,12 @@ std::uint64_t draw_key(Rng& rng) {
   return (static_cast<std::uint64_t>(rng.next_u32()) << 32) | rng.next_u32();
 }
 
+}  // namespace
+
 // The GGX lobe of one shading point: F0, roughness, and how likely its ray is traced.
 struct GgxLobe {
-  float alpha, n_v;
-  glm::vec3 f0;
+  float alpha = 1.0f, n_v = 0.0f, keep = 0.0f;  // keep 0: no lobe here
+  glm::vec3 f0{0.0f};
   // f_s(wi) (n.wi) and the density of sampling wi by the lobe's ray, for a light direction.
   glm::vec3 eval(const glm::vec3& n, const glm::vec3& wo, const glm::vec3& wi, float* pdf) const {
     const float n_l = glm::dot(n, wi);
@@ -118,7 +120,6 @@ struct GgxLobe {
   }
 };
 
-}  // namespace
 
 void ShadingSettings::validate() const {
   auto check = [](int v, int lo, int hi, const char* name) {
@@ -268,14 +269,11 @@ glm::vec3 Shader::punctual_diffuse(const ShadingPoint& p, RayCounters& counters)
 glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int gather_rays,
                                    PathDepth depth, std::uint64_t key, Rng& rng,
                                    RayCounters& counters, float* harmonic_distance) const {
-  if (harmonic_distance) *harmonic_distance = std::numeric_limits<float>::infinity();
   const glm::vec3 x = p.surface.position;
   glm::vec3 sum = punctual_diffuse(p, counters);
   // Each strategy's density is weighed with its sample count (Veach's n_i p_i).
   const float n_light = scene_.emitters.empty() ? 0.0f : static_cast<float>(light_samples);
   const float n_gather = static_cast<float>(gather_rays);
-
-  // Light sampling: the cosine-weighted integrand over the chosen emitter's solid-angle density.
   if (n_light > 0.0f) {
     const std::uint64_t light_key = hash_combine(key, 11);
     glm::vec3 acc(0.0f);
@@ -283,42 +281,51 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
       LightSample ls;
       if (!sample_light(p, rng.uniform(), sobol_2d(static_cast<std::uint32_t>(k), light_key), &ls))
         continue;
-      const float cos_x = glm::dot(p.n, ls.wi);
-      if (cos_x <= 0.0f || glm::dot(p.ng, ls.wi) <= 0.0f) continue;
+      if (glm::dot(p.n, ls.wi) <= 0.0f || glm::dot(p.ng, ls.wi) <= 0.0f) continue;
       if (!visible(x, p.ng, ls.wi, ls.distance, counters)) continue;
-      const float cosine_pdf = cos_x * kInvPi;
-      acc += ls.radiance *
-             (cosine_pdf / ls.pdf * power_heuristic(n_light * ls.pdf, n_gather * cosine_pdf));
+      acc += diffuse_light(p, ls, n_light, n_gather);
     }
     sum += acc / n_light;
   }
+  return sum + gather(p, gather_rays, n_light, depth, hash_combine(key, 12), rng, counters,
+                      harmonic_distance);
+}
 
-  // BSDF sampling: cosine-weighted rays, whose pdf cos/pi cancels the integrand's cos/pi.
-  if (gather_rays > 0) {
-    const std::uint64_t gather_key = hash_combine(key, 12);
-    const PathDepth next{depth.taken + 1, depth.left - 1, 0};
-    const float survival = max_component(diffuse_reflectance(p));
-    Frame frame(p.n);
-    glm::vec3 acc(0.0f);
-    float inverse_sum = 0.0f;
-    for (int k = 0; k < gather_rays; ++k) {
-      const glm::vec3 local =
-          cosine_hemisphere(sobol_2d(static_cast<std::uint32_t>(k), gather_key));
-      const glm::vec3 dir = frame.to_world(local);
-      if (glm::dot(dir, p.ng) <= 0.0f) continue;
-      const scene::Ray ray = spawn(p, dir);
-      ++counters.rays;
-      const scene::Hit hit = accel_.intersect(ray);
-      if (!hit.valid()) continue;
-      inverse_sum += 1.0f / std::max(hit.t, epsilon_);
-      acc += continuation(p, ray, hit, n_gather * local.z * kInvPi, n_light, next, survival, rng,
-                          counters);
-    }
-    if (harmonic_distance && inverse_sum > 0.0f)
-      *harmonic_distance = static_cast<float>(gather_rays) / inverse_sum;
-    sum += acc / n_gather;
+glm::vec3 Shader::diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,
+                                float n_gather) const {
+  // The cosine-weighted integrand over the light sample's solid-angle density.
+  const float cosine_pdf = std::max(glm::dot(p.n, ls.wi), 0.0f) * kInvPi;
+  return ls.radiance *
+         (cosine_pdf / ls.pdf * power_heuristic(n_light * ls.pdf, n_gather * cosine_pdf));
+}
+
+glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDepth depth,
+                         std::uint64_t key, Rng& rng, RayCounters& counters,
+                         float* harmonic_distance) const {
+  if (harmonic_distance) *harmonic_distance = std::numeric_limits<float>::infinity();
+  if (rays <= 0) return glm::vec3(0.0f);
+  // Cosine-weighted rays, whose pdf cos/pi cancels the integrand's cos/pi.
+  const PathDepth next{depth.taken + 1, depth.left - 1, 0};
+  const float survival = max_component(diffuse_reflectance(p));
+  const float n_gather = static_cast<float>(rays);
+  Frame frame(p.n);
+  glm::vec3 acc(0.0f);
+  float inverse_sum = 0.0f;
+  for (int k = 0; k < rays; ++k) {
+    const glm::vec3 local = cosine_hemisphere(sobol_2d(static_cast<std::uint32_t>(k), key));
+    const glm::vec3 dir = frame.to_world(local);
+    if (glm::dot(dir, p.ng) <= 0.0f) continue;
+    const scene::Ray ray = spawn(p, dir);
+    ++counters.rays;
+    const scene::Hit hit = accel_.intersect(ray);
+    if (!hit.valid()) continue;
+    inverse_sum += 1.0f / std::max(hit.t, epsilon_);
+    acc += continuation(p, ray, hit, n_gather * local.z * kInvPi, n_light, next, survival, rng,
+                        counters);
   }
-  return sum;
+  if (harmonic_distance && inverse_sum > 0.0f)
+    *harmonic_distance = n_gather / inverse_sum;
+  return acc / n_gather;
 }
 
 glm::vec3 Shader::continuation(const ShadingPoint& p, const scene::Ray& ray,
@@ -344,13 +351,27 @@ glm::vec3 Shader::continuation(const ShadingPoint& p, const scene::Ray& ray,
 
 glm::vec3 Shader::reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
                             RayCounters& counters) const {
+  // One light sample serves both lobes (one shadow ray), each lobe weighted against its own ray.
+  const bool diffuse = has_diffuse(q);
+  const GgxLobe lobe = specular_lobe(q, depth);
+  const float n_gather = diffuse && depth.left >= 1 ? 1.0f : 0.0f;
+  const glm::vec3 rho = diffuse ? diffuse_reflectance(q) : glm::vec3(0.0f);
   glm::vec3 l(0.0f);
-  if (has_diffuse(q)) {
-    const PathDepth diffuse{depth.taken, depth.left, 0};
-    l += diffuse_reflectance(q) * diffuse_estimate(q, 1, depth.left >= 1 ? 1 : 0, diffuse,
-                                                   draw_key(rng), rng, counters, nullptr);
+  if (diffuse) l += rho * punctual_diffuse(q, counters);
+  if (lobe.keep > 0.0f) l += specular_punctual(q, lobe, counters);
+  LightSample ls;
+  if (!scene_.emitters.empty() &&
+      sample_light(q, rng.uniform(), glm::vec2(rng.uniform(), rng.uniform()), &ls) &&
+      glm::dot(q.n, ls.wi) > 0.0f && glm::dot(q.ng, ls.wi) > 0.0f &&
+      visible(q.surface.position, q.ng, ls.wi, ls.distance, counters)) {
+    if (diffuse) l += rho * diffuse_light(q, ls, 1.0f, n_gather);
+    if (lobe.keep > 0.0f) l += specular_light(q, lobe, ls);
   }
-  return l + specular(q, depth, rng, counters);
+  if (n_gather > 0.0f)
+    l += rho * gather(q, 1, 1.0f, PathDepth{depth.taken, depth.left, 0}, draw_key(rng), rng,
+                      counters, nullptr);
+  if (lobe.keep > 0.0f) l += specular_ray(q, lobe, depth, rng, counters);
+  return l;
 }
 
 glm::vec3 Shader::diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
@@ -365,31 +386,43 @@ glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng
                         RayCounters& counters) const {
   glm::vec3 l = emitted(p);
   if (has_diffuse(p)) l += diffuse_reflectance(p) * diffuse_illum;
-  return l + specular(p, PathDepth{0, settings_.bounces, 0}, rng, counters);
+  // The specular lobe at a camera hit, where no diffuse light sample is taken to share (the
+  // diffuse light may come from the cache): a light sample of its own and the lobe's ray.
+  const PathDepth depth{0, settings_.bounces, 0};
+  const GgxLobe lobe = specular_lobe(p, depth);
+  if (lobe.keep <= 0.0f) return l;
+  l += specular_punctual(p, lobe, counters);
+  LightSample ls;
+  if (!scene_.emitters.empty() &&
+      sample_light(p, rng.uniform(), glm::vec2(rng.uniform(), rng.uniform()), &ls) &&
+      glm::dot(p.ng, ls.wi) > 0.0f) {
+    const glm::vec3 f = specular_light(p, lobe, ls);
+    if (luminance(f) > 0.0f && visible(p.surface.position, p.ng, ls.wi, ls.distance, counters))
+      l += f;
+  }
+  return l + specular_ray(p, lobe, depth, rng, counters);
 }
 
-glm::vec3 Shader::specular(const ShadingPoint& p, PathDepth depth, Rng& rng,
-                           RayCounters& counters) const {
-  if (depth.glossy >= settings_.specular_depth) return glm::vec3(0.0f);
-  const float n_v = glm::dot(p.n, p.wo);
-  if (n_v <= 1e-6f) return glm::vec3(0.0f);
+GgxLobe Shader::specular_lobe(const ShadingPoint& p, PathDepth depth) const {
   GgxLobe lobe;
+  lobe.n_v = glm::dot(p.n, p.wo);
+  if (depth.glossy >= settings_.specular_depth || lobe.n_v <= 1e-6f) return lobe;  // keep 0
   lobe.alpha = ggx_alpha(p.material.roughness);
-  lobe.n_v = n_v;
   lobe.f0 = specular_f0(p.material);
-  // A rough dielectric reflects about 4% (F0 = 0.04) yet would cost a shadow ray and a reflection
-  // ray at every vertex, so the lobe is evaluated with probability `keep` and weighted by 1/keep
-  // (metals and grazing angles, F -> 1, keep 1). Both its strategies are under the same roulette,
-  // so their MIS weights are those without it: a reflection ray that meets a light is weighted
-  // against the light sample as usual and adds no speckle. (Keeping the light sample always at
-  // camera hits, with keep in the ray's density, cost 7% more rays for no less error.)
-  const float keep = std::clamp(4.0f * luminance(fresnel_schlick(lobe.f0, n_v)), 0.125f, 1.0f);
-  if (keep < 1.0f && rng.uniform() >= keep) return glm::vec3(0.0f);
-  const float scale = 1.0f / keep;
-  const glm::vec3 x = p.surface.position;
-  glm::vec3 result(0.0f);
+  // A rough dielectric reflects about 4% (F0 = 0.04) yet would cost a reflection ray at every
+  // vertex, so its ray is traced with probability `keep` (metals and grazing angles, F -> 1,
+  // keep 1). The light sample is always taken, and in the MIS weights the ray's density is keep
+  // times its pdf: a ray that meets a light is then weighted as the rare strategy it is. (Under a
+  // roulette of the whole lobe, grazing reflection rays that met the light were fireflies.)
+  lobe.keep = std::clamp(4.0f * luminance(fresnel_schlick(lobe.f0, lobe.n_v)), 0.125f, 1.0f);
+  return lobe;
+}
 
+glm::vec3 Shader::specular_punctual(const ShadingPoint& p, const GgxLobe& lobe,
+                                    RayCounters& counters) const {
   // Punctual lights cannot be hit by sampled rays: evaluate the BRDF towards them directly.
+  glm::vec3 result(0.0f);
+  const glm::vec3 x = p.surface.position;
   for (const scene::PunctualLight& light : scene_.lights) {
     glm::vec3 wi;
     float dist, pdf;
@@ -399,23 +432,22 @@ glm::vec3 Shader::specular(const ShadingPoint& p, PathDepth depth, Rng& rng,
     if (luminance(f) <= 0.0f || att <= 0.0f || !visible(x, p.ng, wi, dist, counters)) continue;
     result += f * light.intensity * att;
   }
+  return result;
+}
 
-  // Area lights: one light sample, weighted against the reflection ray.
-  if (!scene_.emitters.empty()) {
-    LightSample ls;
-    const float u_pick = rng.uniform();
-    const glm::vec2 u(rng.uniform(), rng.uniform());
-    if (sample_light(p, u_pick, u, &ls) && glm::dot(p.ng, ls.wi) > 0.0f) {
-      float pdf;
-      const glm::vec3 f = lobe.eval(p.n, p.wo, ls.wi, &pdf);
-      if (luminance(f) > 0.0f && visible(x, p.ng, ls.wi, ls.distance, counters))
-        result += f * ls.radiance * (power_heuristic(ls.pdf, pdf) / ls.pdf);
-    }
-  }
+glm::vec3 Shader::specular_light(const ShadingPoint& p, const GgxLobe& lobe,
+                                 const LightSample& ls) const {
+  float pdf;
+  const glm::vec3 f = lobe.eval(p.n, p.wo, ls.wi, &pdf);
+  return f * ls.radiance * (power_heuristic(ls.pdf, lobe.keep * pdf) / ls.pdf);
+}
 
-  // The reflection ray: GGX half-vector sampling.
+glm::vec3 Shader::specular_ray(const ShadingPoint& p, const GgxLobe& lobe, PathDepth depth,
+                               Rng& rng, RayCounters& counters) const {
+  if (lobe.keep < 1.0f && rng.uniform() >= lobe.keep) return glm::vec3(0.0f);
+  // GGX half-vector sampling.
   const float u1 = rng.uniform(), u2 = rng.uniform();
-  const float alpha = lobe.alpha;
+  const float alpha = lobe.alpha, n_v = lobe.n_v;
   const float tan2 = alpha * alpha * u1 / std::max(1.0f - u1, 1e-7f);
   const float cos_h = 1.0f / std::sqrt(1.0f + tan2);
   const float sin_h = std::sqrt(std::max(0.0f, 1.0f - cos_h * cos_h));
@@ -423,21 +455,21 @@ glm::vec3 Shader::specular(const ShadingPoint& p, PathDepth depth, Rng& rng,
   const glm::vec3 h =
       Frame(p.n).to_world({sin_h * std::cos(phi), sin_h * std::sin(phi), cos_h});
   const float v_h = glm::dot(p.wo, h);
-  if (v_h <= 0.0f) return result * scale;
+  if (v_h <= 0.0f) return glm::vec3(0.0f);
   const glm::vec3 wi = 2.0f * v_h * h - p.wo;
   const float n_l = glm::dot(p.n, wi);
-  if (n_l <= 0.0f || glm::dot(p.ng, wi) <= 0.0f) return result * scale;
-  // f cos / pdf with pdf = D (n.h) / (4 v.h): F G (v.h) / ((n.v)(n.h)).
-  const glm::vec3 weight = fresnel_schlick(lobe.f0, v_h) *
-                           (smith_g1(n_v, alpha) * smith_g1(n_l, alpha) * v_h / (n_v * cos_h));
+  if (n_l <= 0.0f || glm::dot(p.ng, wi) <= 0.0f) return glm::vec3(0.0f);
+  // f cos / pdf with pdf = D (n.h) / (4 v.h): F G (v.h) / ((n.v)(n.h)), over the ray's probability.
+  const glm::vec3 weight =
+      fresnel_schlick(lobe.f0, v_h) *
+      (smith_g1(n_v, alpha) * smith_g1(n_l, alpha) * v_h / (n_v * cos_h * lobe.keep));
   const scene::Ray ray = spawn(p, wi);
   ++counters.rays;
   const scene::Hit hit = accel_.intersect(ray);
-  if (!hit.valid()) return result * scale;
+  if (!hit.valid()) return glm::vec3(0.0f);
   const PathDepth next{depth.taken + 1, depth.left - 1, depth.glossy + 1};
-  result += weight * continuation(p, ray, hit, ggx_pdf(cos_h, v_h, alpha), 1.0f, next,
-                                  max_component(weight), rng, counters);
-  return result * scale;
+  return weight * continuation(p, ray, hit, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f, next,
+                               max_component(weight), rng, counters);
 }
 
 }  // namespace dofcache::render

@@ -27,6 +27,8 @@
 
 namespace dofcache::render {
 
+struct GgxLobe;  // the specular lobe at one point (shading.cpp)
+
 struct ShadingSettings {
   int light_samples = 4;   // shadow rays to area lights per shading point
   int gather_rays = 32;    // final-gather rays for diffuse indirect light
@@ -99,12 +101,25 @@ class Shader {
   glm::vec3 diffuse_estimate(const ShadingPoint& p, int light_samples, int gather_rays,
                              PathDepth depth, std::uint64_t key, Rng& rng, RayCounters& counters,
                              float* harmonic_distance) const;
+  // A visible light sample's MIS-weighted share of E/pi (n_light of them against n_gather rays).
+  glm::vec3 diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,
+                          float n_gather) const;
+  // The cosine-weighted rays' share of E/pi, against n_light light samples.
+  glm::vec3 gather(const ShadingPoint& p, int rays, float n_light, PathDepth depth,
+                   std::uint64_t key, Rng& rng, RayCounters& counters,
+                   float* harmonic_distance) const;
   // Radiance leaving a path vertex q towards q.wo, emission excluded (the caller weights it).
   glm::vec3 reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
                       RayCounters& counters) const;
-  // The GGX lobe at p: a light sample and a reflection ray, combined by MIS.
-  glm::vec3 specular(const ShadingPoint& p, PathDepth depth, Rng& rng,
-                     RayCounters& counters) const;
+  // The GGX lobe at p (keep 0 where it is off) and its estimators: punctual lights, a visible
+  // light sample (MIS-weighted against the lobe's ray), and the ray itself.
+  GgxLobe specular_lobe(const ShadingPoint& p, PathDepth depth) const;
+  glm::vec3 specular_punctual(const ShadingPoint& p, const GgxLobe& lobe,
+                              RayCounters& counters) const;
+  glm::vec3 specular_light(const ShadingPoint& p, const GgxLobe& lobe,
+                           const LightSample& ls) const;
+  glm::vec3 specular_ray(const ShadingPoint& p, const GgxLobe& lobe, PathDepth depth, Rng& rng,
+                         RayCounters& counters) const;
   // Light leaving a BSDF-sampled hit towards p: its emission weighted against `light_samples`
   // light samples at p (bsdf_density is the ray strategy's density times its sample count), the
   // rest by reflected() if bounces are left.
