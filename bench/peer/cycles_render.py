@@ -1,0 +1,408 @@
+"""Render a glTF scene with Blender Cycles, set up like dofcache's thin-lens path tracer.
+
+Run inside Blender (headless):
+
+    blender -b --factory-startup --python bench/peer/cycles_render.py -- SCENE --out OUT.exr \
+        [--width 320 --height 240 --spp 64 --seed 1 --bounces 1 --threads 2 --fstop 0.7 ...]
+
+What it sets (bench/README.md, "Peer benchmark: Blender Cycles"):
+  * the scene through Blender's own glTF importer (numpy's removed `np.bool` alias restored first);
+  * the camera's thin lens as dofcache reads it: focal length, f-number and focus distance from
+    the camera node's `extras.lens` (the camera object's extras first, the node's winning key by
+    key), each overridable; the glTF vertical field of view kept (sensor fit VERTICAL, sensor
+    height = 2 * lens_mm * tan(yfov / 2)); a round aperture of radius focal_length / (2 fstop)
+    in scene units; the focus distance axial (Cycles' convention, and dofcache's);
+  * a 1 px box filter, no denoising, no adaptive sampling, no clamping, light threshold 0, no
+    glossy filter, no path guiding, a black world, view transform Standard;
+  * KHR_lights_punctual imported in "COMPAT" units (radiant intensity = the glTF intensity, as
+    dofcache reads it) as point sources (radius 0);
+  * emission from the front face only on one-sided (not doubleSided) glTF materials, as dofcache
+    does (Cycles would otherwise emit from both faces);
+  * --lambert: every Principled BSDF replaced by a Diffuse BSDF (roughness 0: Lambert) with the
+    same base colour, emission kept.
+
+Writes a linear float RGB OpenEXR and prints one JSON line (starting with {"cycles_render")
+with the in-render seconds (around bpy.ops.render.render) and the import seconds.
+"""
+
+import argparse
+import json
+import math
+import os
+import struct
+import sys
+import time
+
+import bpy
+
+try:  # Blender's glTF importer uses np.bool, which numpy >= 1.24 removed.
+    import warnings
+
+    import numpy
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if getattr(numpy, "bool", None) is not bool:
+            numpy.bool = bool
+except ImportError:
+    numpy = None
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="cycles_render.py",
+                                description="Render a glTF scene with Cycles, dofcache's lens.")
+    p.add_argument("scene", help=".gltf or .glb file")
+    p.add_argument("--out", required=True, help="output .exr (linear float RGB)")
+    p.add_argument("--width", type=int, default=320)
+    p.add_argument("--height", type=int, default=240)
+    p.add_argument("--spp", type=int, default=16, help="samples per pixel")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--bounces", type=int, default=1,
+                   help="max bounces (diffuse, glossy and transmission capped alike)")
+    p.add_argument("--threads", type=int, default=0, help="0: all cores")
+    p.add_argument("--camera", default=None, help="camera node name (default: the first)")
+    p.add_argument("--focal-length", type=float, default=None, help="metres")
+    p.add_argument("--fstop", type=float, default=None)
+    p.add_argument("--focus-distance", type=float, default=None, help="metres, axial")
+    p.add_argument("--lambert", action="store_true",
+                   help="replace Principled BSDFs by Diffuse BSDFs with the same base colour")
+    p.add_argument("--two-sided-emission", action="store_true",
+                   help="keep Cycles' emission from both faces of one-sided materials")
+    p.add_argument("--json-out", default=None, help="also write the JSON line to this file")
+    return p.parse_args(argv)
+
+
+def fail(msg):
+    sys.stderr.write("cycles_render: %s\n" % msg)
+    sys.stderr.flush()
+    # os._exit: Blender would otherwise carry on after an exception in a --python script.
+    os._exit(1)
+
+
+def read_gltf_json(path):
+    """The glTF JSON of a .gltf, or the JSON chunk of a .glb."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:4] == b"glTF":
+        _, _, _ = struct.unpack_from("<4sII", data, 0)
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != 0x4E4F534A:  # 'JSON'
+            raise ValueError("the first .glb chunk is not JSON")
+        return json.loads(data[20:20 + length].decode("utf-8"))
+    return json.loads(data.decode("utf-8"))
+
+
+def gltf_camera(doc, name):
+    """(node name, yfov, lens extras) of the camera dofcache would use.
+
+    dofcache's default is the first camera met walking the default scene's node tree depth first
+    (the same order Blender's importer creates them in); --camera picks one by node name.
+    """
+    nodes = doc.get("nodes", [])
+    cams = doc.get("cameras", [])
+    scenes = doc.get("scenes", [])
+    order = []
+
+    def walk(i):
+        order.append(i)
+        for c in nodes[i].get("children", []):
+            walk(c)
+
+    if scenes:
+        for r in scenes[doc.get("scene", 0)].get("nodes", []):
+            walk(r)
+    else:
+        order = list(range(len(nodes)))
+    found = []
+    for i in order:
+        n = nodes[i]
+        if "camera" not in n:
+            continue
+        cam = cams[n["camera"]]
+        if cam.get("type") != "perspective":
+            continue
+        label = n.get("name") or cam.get("name") or "camera%d" % len(found)
+        lens = {}
+        for extras in (cam.get("extras"), n.get("extras")):  # the node's wins key by key
+            if isinstance(extras, dict) and isinstance(extras.get("lens"), dict):
+                lens.update({k: float(v) for k, v in extras["lens"].items()
+                             if k in ("focal_length", "fstop", "focus_distance")})
+        found.append((label, float(cam["perspective"]["yfov"]), lens))
+    if not found:
+        return None
+    if name is None:
+        return found[0]
+    for f in found:
+        if f[0] == name:
+            return f
+    fail("no perspective camera named '%s' in the scene" % name)
+
+
+def socket_source(socket):
+    return socket.links[0].from_socket if socket.is_linked else None
+
+
+def rewire_materials(lambert, one_sided_emission):
+    """Principled -> Diffuse (with --lambert); emission moved to a front-face-only Emission node."""
+    changed = {"diffuse": 0, "one_sided_emitters": 0, "emitters": 0}
+    for mat in bpy.data.materials:
+        if not mat.use_nodes or mat.node_tree is None:
+            continue
+        tree = mat.node_tree
+        nodes, links = tree.nodes, tree.links
+        for p in [n for n in nodes if n.type == "BSDF_PRINCIPLED"]:
+            out_targets = [l.to_socket for l in p.outputs[0].links]
+            shader_out = p.outputs[0]
+            if lambert:
+                d = nodes.new("ShaderNodeBsdfDiffuse")
+                d.inputs["Roughness"].default_value = 0.0
+                src = socket_source(p.inputs["Base Color"])
+                if src is not None:
+                    links.new(src, d.inputs["Color"])
+                else:
+                    d.inputs["Color"].default_value = p.inputs["Base Color"].default_value
+                nsrc = socket_source(p.inputs["Normal"])
+                if nsrc is not None:
+                    links.new(nsrc, d.inputs["Normal"])
+                shader_out = d.outputs[0]
+                changed["diffuse"] += 1
+            # Emission: the Principled node's own, moved to a separate Emission node.
+            ecol, estr = p.inputs["Emission"], p.inputs["Emission Strength"]
+            col_src, str_src = socket_source(ecol), socket_source(estr)
+            col_val = tuple(ecol.default_value)
+            emits = (col_src is not None or any(c > 0.0 for c in col_val[:3])) and \
+                    (str_src is not None or estr.default_value > 0.0)
+            if emits:
+                changed["emitters"] += 1
+                e = nodes.new("ShaderNodeEmission")
+                if col_src is not None:
+                    links.new(col_src, e.inputs["Color"])
+                else:
+                    e.inputs["Color"].default_value = col_val
+                strength = str_src
+                if one_sided_emission and mat.use_backface_culling:  # glTF doubleSided false
+                    geo = nodes.new("ShaderNodeNewGeometry")
+                    front = nodes.new("ShaderNodeMath")
+                    front.operation = "SUBTRACT"
+                    front.inputs[0].default_value = 1.0
+                    links.new(geo.outputs["Backfacing"], front.inputs[1])
+                    mul = nodes.new("ShaderNodeMath")
+                    mul.operation = "MULTIPLY"
+                    links.new(front.outputs[0], mul.inputs[0])
+                    if str_src is not None:
+                        links.new(str_src, mul.inputs[1])
+                    else:
+                        mul.inputs[1].default_value = estr.default_value
+                    strength = mul.outputs[0]
+                    changed["one_sided_emitters"] += 1
+                if strength is not None:
+                    links.new(strength, e.inputs["Strength"])
+                else:
+                    e.inputs["Strength"].default_value = estr.default_value
+                # Take it off the Principled node so it is not counted twice.
+                for l in list(ecol.links) + list(estr.links):
+                    links.remove(l)
+                ecol.default_value = (0.0, 0.0, 0.0, 1.0)
+                estr.default_value = 0.0
+                add = nodes.new("ShaderNodeAddShader")
+                links.new(shader_out, add.inputs[0])
+                links.new(e.outputs[0], add.inputs[1])
+                shader_out = add.outputs[0]
+            if shader_out is not p.outputs[0]:
+                for t in out_targets:
+                    links.new(shader_out, t)
+            if lambert:
+                nodes.remove(p)
+    return changed
+
+
+def main():
+    a = parse_args()
+    t_start = time.perf_counter()
+    if not os.path.isfile(a.scene):
+        fail("scene not found: %s" % a.scene)
+    for name, v in (("--width", a.width), ("--height", a.height), ("--spp", a.spp)):
+        if v < 1:
+            fail("%s must be at least 1" % name)
+    try:
+        doc = read_gltf_json(a.scene)
+    except (OSError, ValueError) as e:
+        fail("cannot read %s: %s" % (a.scene, e))
+    cam_info = gltf_camera(doc, a.camera)
+    if cam_info is None:
+        fail("the scene has no perspective camera")
+    cam_name, yfov, lens_extras = cam_info
+
+    # Lens: the same defaults as dofcache (50 mm, f/4); dofcache autofocuses on the image centre
+    # when the scene gives no focus distance, which this script cannot do: require one then.
+    focal_length = a.focal_length or lens_extras.get("focal_length", 0.05)
+    fstop = a.fstop or lens_extras.get("fstop", 4.0)
+    focus = a.focus_distance or lens_extras.get("focus_distance")
+    if focus is None:
+        fail("the camera has no extras.lens.focus_distance; pass --focus-distance")
+
+    if numpy is None:
+        fail("numpy is not importable in Blender's Python, and the glTF importer needs it "
+             "(apt-get install python3-numpy; started from a pyenv/virtualenv python3, put "
+             "/usr/bin first on PATH)")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    t0 = time.perf_counter()
+    res = bpy.ops.import_scene.gltf(filepath=os.path.abspath(a.scene),
+                                    convert_lighting_mode="COMPAT")
+    import_seconds = time.perf_counter() - t0
+    if "FINISHED" not in res:
+        fail("the glTF importer failed on %s" % a.scene)
+    scene = bpy.context.scene
+
+    cams = [o for o in scene.objects if o.type == "CAMERA"]
+    if not cams:
+        fail("the importer created no camera")
+    cam_obj = next((o for o in cams if o.name == cam_name), None)
+    if cam_obj is None:
+        cam_obj = next((o for o in cams if o.name.split(".")[0] == cam_name), cams[0])
+    scene.camera = cam_obj
+    cam = cam_obj.data
+    lens_mm = focal_length * 1000.0
+    cam.type = "PERSP"
+    cam.lens_unit = "MILLIMETERS"
+    cam.sensor_fit = "VERTICAL"
+    cam.lens = lens_mm
+    cam.sensor_height = 2.0 * lens_mm * math.tan(0.5 * yfov)
+    cam.shift_x = cam.shift_y = 0.0
+    cam.clip_start = 1e-5  # dofcache's lens rays are not clipped
+    cam.clip_end = 1e6
+    cam.dof.use_dof = True
+    cam.dof.focus_object = None
+    cam.dof.focus_distance = focus
+    cam.dof.aperture_fstop = fstop  # Cycles: radius = lens_mm * 1e-3 / (2 fstop)
+    cam.dof.aperture_blades = 0
+    cam.dof.aperture_rotation = 0.0
+    cam.dof.aperture_ratio = 1.0
+
+    # Punctual lights: point sources, as in glTF and dofcache.
+    lights = []
+    for o in scene.objects:
+        if o.type == "LIGHT":
+            o.data.shadow_soft_size = 0.0
+            if o.data.type == "SUN":
+                o.data.angle = 0.0
+            if o.data.type == "SPOT":
+                # glTF / dofcache: ((cos - cos_outer) / (cos_inner - cos_outer))^2; Cycles: a
+                # smoothstep over spot_blend * (1 - cos_outer). Match the transition's width.
+                cos_outer = math.cos(0.5 * o.data.spot_size)
+                inner = 0.5 * o.data.spot_size * (1.0 - o.data.spot_blend)
+                width = math.cos(inner) - cos_outer
+                if cos_outer < 1.0:
+                    o.data.spot_blend = min(1.0, max(0.0, width / (1.0 - cos_outer)))
+            lights.append({"name": o.name, "type": o.data.type, "energy": o.data.energy,
+                           "radiant_intensity": o.data.energy / (4.0 * math.pi)
+                           if o.data.type in ("POINT", "SPOT") else None,
+                           "spot_blend": o.data.spot_blend if o.data.type == "SPOT" else None})
+
+    materials = rewire_materials(a.lambert, not a.two_sided_emission)
+
+    # World: black.
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = True
+    bg = world.node_tree.nodes.get("Background")
+    if bg is not None:
+        bg.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+        bg.inputs["Strength"].default_value = 0.0
+    scene.world = world
+
+    r = scene.render
+    r.engine = "CYCLES"
+    r.resolution_x, r.resolution_y = a.width, a.height
+    r.resolution_percentage = 100
+    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
+    r.use_border = False
+    r.film_transparent = False
+    r.use_motion_blur = False
+    r.threads_mode = "FIXED" if a.threads > 0 else "AUTO"
+    if a.threads > 0:
+        r.threads = a.threads
+    c = scene.cycles
+    c.device = "CPU"
+    c.feature_set = "SUPPORTED"
+    c.samples = a.spp
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    if hasattr(c, "use_preview_denoising"):
+        c.use_preview_denoising = False
+    c.seed = a.seed
+    c.use_animated_seed = False
+    c.pixel_filter_type = "BOX"
+    c.filter_width = 1.0
+    c.max_bounces = a.bounces
+    c.diffuse_bounces = a.bounces
+    c.glossy_bounces = a.bounces
+    c.transmission_bounces = a.bounces
+    c.volume_bounces = 0
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.light_sampling_threshold = 0.0
+    c.blur_glossy = 0.0
+    c.time_limit = 0.0
+    for attr in ("use_guiding", "use_surface_guiding", "use_volume_guiding"):
+        if hasattr(c, attr):
+            setattr(c, attr, False)
+    vs = scene.view_settings
+    vs.view_transform = "Standard"
+    vs.look = "None"
+    vs.exposure = 0.0
+    vs.gamma = 1.0
+    vs.use_curve_mapping = False
+    im = r.image_settings
+    im.file_format = "OPEN_EXR"
+    im.color_mode = "RGB"
+    im.color_depth = "32"
+    im.exr_codec = "ZIP"
+
+    t0 = time.perf_counter()
+    bpy.ops.render.render()
+    render_seconds = time.perf_counter() - t0
+    out = os.path.abspath(a.out)
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    bpy.data.images["Render Result"].save_render(out, scene=scene)
+    if not os.path.isfile(out):
+        fail("Cycles wrote no image to %s" % out)
+
+    principled = []
+    for mat in bpy.data.materials:
+        if mat.use_nodes and mat.node_tree:
+            for n in mat.node_tree.nodes:
+                if n.type == "BSDF_PRINCIPLED":
+                    principled.append(n.distribution)
+    result = {
+        "cycles_render": 1,
+        "blender_version": bpy.app.version_string,
+        "scene": a.scene, "out": out, "width": a.width, "height": a.height, "spp": a.spp,
+        "seed": a.seed, "bounces": a.bounces, "threads": r.threads,
+        "render_seconds": render_seconds, "import_seconds": import_seconds,
+        "script_seconds": time.perf_counter() - t_start,
+        "camera": cam_obj.name,
+        "lens": {"focal_length": focal_length, "fstop": fstop, "focus_distance": focus,
+                 "aperture_radius": focal_length / (2.0 * fstop), "yfov": yfov,
+                 "sensor_height_mm": cam.sensor_height},
+        "materials": {"lambert": a.lambert, "principled_distributions": sorted(set(principled)),
+                      **materials},
+        "lights": lights,
+    }
+    line = json.dumps(result)
+    if a.json_out:
+        with open(a.json_out + ".tmp", "w") as f:
+            f.write(line + "\n")
+        os.replace(a.json_out + ".tmp", a.json_out)
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
+
+
+try:
+    main()
+except SystemExit as e:  # argparse errors and --help
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(e.code if isinstance(e.code, int) else 1)
+except Exception as e:  # noqa: BLE001 - one line, non-zero status
+    fail("%s: %s" % (type(e).__name__, e))
