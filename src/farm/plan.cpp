@@ -8,8 +8,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
-#include "dofcache/image/image_io.h"
 #include "dofcache/sequence/sequence_renderer.h"
 
 namespace dofcache::farm {
@@ -30,7 +30,7 @@ std::string chunk_file_name(int index, int count, const char* ext) {
 }
 
 void write_text(const std::string& path, const std::string& text, bool executable) {
-  image::write_atomically(path, [&](const std::string& tmp) {
+  write_atomically(path, [&](const std::string& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     out << text;
     out.close();

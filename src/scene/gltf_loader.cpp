@@ -22,6 +22,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat3x3.hpp>
 
+#include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
 
@@ -58,37 +59,24 @@ bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && st
 // ----------------------------------------------------------------------------------------------
 // Content hash: a stable 64-bit identity of what the renderer sees.
 
-class Hasher {
- public:
-  void add(std::uint64_t v) { h_ = hash_combine(h_, v); }
-  void add(float f) {
-    if (f == 0.0f) f = 0.0f;  // -0 and +0 hash alike
-    std::uint32_t bits;
-    std::memcpy(&bits, &f, sizeof bits);
-    add(static_cast<std::uint64_t>(bits));
-  }
-  void add(glm::vec2 v) { add(v.x), add(v.y); }
-  void add(glm::vec3 v) { add(v.x), add(v.y), add(v.z); }
-  void add(glm::vec4 v) { add(v.x), add(v.y), add(v.z), add(v.w); }
-  void add(const std::string& s) {
-    add(static_cast<std::uint64_t>(s.size()));
-    for (unsigned char c : s) add(static_cast<std::uint64_t>(c));
-  }
-  std::uint64_t value() const { return h_; }
+// Seed of the scene hash ("dofcach"). Floats hash by their own 32-bit patterns
+// (ContentHasher::add_float32), as they always have: the value identifies scenes in cache files.
+constexpr std::uint64_t kSceneHashSeed = 0x646f6663616368ULL;
 
- private:
-  std::uint64_t h_ = 0x646f6663616368ULL;  // "dofcach"
-};
+void add(ContentHasher& h, float f) { h.add_float32(f); }
+void add(ContentHasher& h, glm::vec2 v) { add(h, v.x), add(h, v.y); }
+void add(ContentHasher& h, glm::vec3 v) { add(h, v.x), add(h, v.y), add(h, v.z); }
+void add(ContentHasher& h, glm::vec4 v) { add(h, v.x), add(h, v.y), add(h, v.z), add(h, v.w); }
 
 std::uint64_t content_hash(const Scene& s) {
-  Hasher h;
+  ContentHasher h(kSceneHashSeed);
   h.add(static_cast<std::uint64_t>(s.mesh.positions.size()));
-  for (glm::vec3 p : s.mesh.positions) h.add(p);
-  for (glm::vec3 n : s.mesh.normals) h.add(n);
+  for (glm::vec3 p : s.mesh.positions) add(h, p);
+  for (glm::vec3 n : s.mesh.normals) add(h, n);
   h.add(static_cast<std::uint64_t>(s.mesh.uv0.size()));
-  for (glm::vec2 t : s.mesh.uv0) h.add(t);
+  for (glm::vec2 t : s.mesh.uv0) add(h, t);
   h.add(static_cast<std::uint64_t>(s.mesh.uv1.size()));
-  for (glm::vec2 t : s.mesh.uv1) h.add(t);
+  for (glm::vec2 t : s.mesh.uv1) add(h, t);
   h.add(static_cast<std::uint64_t>(s.mesh.triangles.size()));
   for (std::size_t i = 0; i < s.mesh.triangles.size(); ++i) {
     const glm::uvec3& t = s.mesh.triangles[i];
@@ -98,9 +86,9 @@ std::uint64_t content_hash(const Scene& s) {
   h.add(static_cast<std::uint64_t>(s.materials.size()));
   for (const Material& m : s.materials) {
     h.add(m.name);
-    h.add(m.base_color);
-    h.add(m.metallic), h.add(m.roughness);
-    h.add(m.emissive);
+    add(h, m.base_color);
+    add(h, m.metallic), add(h, m.roughness);
+    add(h, m.emissive);
     for (const TextureRef* r :
          {&m.base_color_texture, &m.metallic_roughness_texture, &m.emissive_texture})
       h.add((static_cast<std::uint64_t>(static_cast<std::uint32_t>(r->index)) << 8) |
@@ -112,13 +100,13 @@ std::uint64_t content_hash(const Scene& s) {
     h.add((static_cast<std::uint64_t>(t.width) << 32) | static_cast<std::uint32_t>(t.height));
     h.add((static_cast<std::uint64_t>(t.wrap_s) << 16) |
           (static_cast<std::uint64_t>(t.wrap_t) << 8) | static_cast<std::uint64_t>(t.nearest));
-    for (glm::vec4 v : t.texels) h.add(v);
+    for (glm::vec4 v : t.texels) add(h, v);
   }
   h.add(static_cast<std::uint64_t>(s.lights.size()));
   for (const PunctualLight& l : s.lights) {
     h.add(static_cast<std::uint64_t>(l.type));
-    h.add(l.position), h.add(l.direction), h.add(l.intensity);
-    h.add(l.range), h.add(l.inner_cone), h.add(l.outer_cone);
+    add(h, l.position), add(h, l.direction), add(h, l.intensity);
+    add(h, l.range), add(h, l.inner_cone), add(h, l.outer_cone);
   }
   return h.value();
 }
