@@ -200,7 +200,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   // error (slightly less for Kraus & Strengert on the shipped scenes: docs/preview.md). The slab
   // composite keeps level 1: its backing along a contour needs the finer fill (silhouette_test).
   const int pp_levels = prepare_pull_push(ws.pull_push, W, H, 4);
-  const bool slabs = options.layer_composite == LayerComposite::kSlabs;
+  const bool slabs = options.layer_composite == LayerComposite::Slabs;
   const int fill_level = pp_levels >= 3 && !slabs ? 2 : 1;
   auto block_pixels = [W, H](int bx, int by) {  // 4, or fewer on the last row or column
     return (std::min(2 * bx + 2, W) - 2 * bx) * (std::min(2 * by + 2, H) - 2 * by);
@@ -259,7 +259,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
   timings.setup_ms += ms_since(t0);
 
   Rgba* acc = ws.acc.data();
-  enum TileClass : unsigned char { kSkip, kKept, kCulled, kMixed };
+  enum class TileClass : unsigned char { Skip, Kept, Culled, Mixed };
   constexpr float kInf = std::numeric_limits<float>::infinity();
 
   // The revealed fragment that fills pixel p in a layer that may use the A_j in `usable`: the
@@ -406,7 +406,7 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
           8);
       any_unknown = unknown.load() > 0;
       if (any_unknown)
-        pull_push_levels(ws.pull_push, pp_levels, 4, slabs ? PullFilter::kTent : PullFilter::kBox,
+        pull_push_levels(ws.pull_push, pp_levels, 4, slabs ? PullFilter::Tent : PullFilter::Box,
                          fill_level);
     }
     timings.fill_ms += ms_since(t1);
@@ -429,15 +429,15 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
     // The part's matte is zero at and behind `behind` and at and before `lo`.
     float behind, lo;
     switch (matte.part) {
-      case MattePart::kTrapezoid:  // zero from c_{i+1} on (not the back layer), up to c_{i-2}
+      case MattePart::Trapezoid:  // zero from c_{i+1} on (not the back layer), up to c_{i-2}
         behind = i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : kInf;
         lo = i >= 2 ? cull : -kInf;
         break;
-      case MattePart::kNearHalf:  // non-zero on (c_{i-1}, c_i]
+      case MattePart::NearHalf:  // non-zero on (c_{i-1}, c_i]
         behind = n > 1 ? std::nextafter(static_cast<float>(plan.anchor(i)), kInf) : kInf;
         lo = i >= 1 ? cull : -kInf;
         break;
-      case MattePart::kFarHalf:  // non-zero on (c_i, c_{i+1})
+      case MattePart::FarHalf:  // non-zero on (c_i, c_{i+1})
         behind = i + 1 < n ? static_cast<float>(plan.anchor(i + 1)) : kInf;
         lo = n > 1 ? static_cast<float>(plan.anchor(i)) : kInf;
         break;
@@ -453,13 +453,13 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
               TileClass cls;
               bool nonzero;
               if (tile.cmin >= behind) {
-                cls = kSkip;
+                cls = TileClass::Skip;
                 nonzero = false;
               } else if (all_kept(tile) && !(tile.cmin < reveal_cut && (tile.bits & usable))) {
-                cls = kKept;
+                cls = TileClass::Kept;
                 nonzero = tile.cmax > lo;  // some c in (lo, behind)
               } else if (all_unknown(tile)) {
-                cls = any_unknown ? kCulled : kSkip;
+                cls = any_unknown ? TileClass::Culled : TileClass::Skip;
                 nonzero = any_unknown;
                 if (any_unknown) {  // the filled CoC over the tile's footprint on the fill's base
                   float fmin = std::numeric_limits<float>::infinity(), fmax = -fmin;
@@ -475,14 +475,14 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
                       fmin = std::min(fmin, c);
                       fmax = std::max(fmax, c);
                     }
-                  nonzero = fmin < behind && (fmax > lo || part == MattePart::kFarHalf);
-                  if (!nonzero) cls = kSkip;
+                  nonzero = fmin < behind && (fmax > lo || part == MattePart::FarHalf);
+                  if (!nonzero) cls = TileClass::Skip;
                 }
               } else {
-                cls = kMixed;
+                cls = TileClass::Mixed;
                 nonzero = true;
               }
-              ws.tile_class[ti] = cls;
+              ws.tile_class[ti] = static_cast<unsigned char>(cls);
               if (nonzero) band_runs[ty].append({tx * kTile, std::min((tx + 1) * kTile, W)});
             }
           }
@@ -518,25 +518,25 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
             static_cast<TileClass>(ws.tile_class[static_cast<size_t>(ty) * tw + tx]);
         Rgba* o = out - xa;
         switch (cls) {
-          case kSkip:
+          case TileClass::Skip:
             std::fill(o + x, o + xe, Rgba{0, 0, 0, 0});
             break;
-          case kKept:
-            if (m.part == MattePart::kTrapezoid)
+          case TileClass::Kept:
+            if (m.part == MattePart::Trapezoid)
               m.premultiply_trapezoid(src + x, o + x, xe - x);
             else
               for (int k = x; k < xe; ++k) o[k] = premultiply(src[k], m.weight(src[k].a));
             break;
-          case kCulled: {
+          case TileClass::Culled: {
             if (!culled_tmp) culled_tmp = ws.scratch.get(6, kTile / 2 + 3);
             pull_push_sample_row(fill_base, y, x, xe, o + x, culled_tmp, fill_level);
-            if (m.part == MattePart::kTrapezoid)  // fill_weight is the trapezoid there
+            if (m.part == MattePart::Trapezoid)  // fill_weight is the trapezoid there
               m.premultiply_trapezoid(o + x, o + x, xe - x);
             else
               for (int k = x; k < xe; ++k) o[k] = premultiply(o[k], m.fill_weight(o[k].a));
             break;
           }
-          case kMixed: {
+          case TileClass::Mixed: {
             Rgba filled[kTile];  // the fill along the tile's row, sampled once if needed
             bool sampled = false;
             for (int k = x; k < xe; ++k) {
@@ -759,11 +759,11 @@ void layered_preview(const PreviewInputs& in, const PreviewOptions& options, con
       // The slab's holes (c < c_i) are those of layer i+1, whose fill ws.pull_push still holds:
       // the far half backs them with it too, at the hat's weight of the fill's CoC, so a fill
       // next to a surface at c_i is blurred like that surface (see Matte::fill_weight).
-      process(i, MattePart::kFarHalf);
+      process(i, MattePart::FarHalf);
       flush_pending();
     }
     disocclude(i);
-    process(i, slabs ? MattePart::kNearHalf : MattePart::kTrapezoid);
+    process(i, slabs ? MattePart::NearHalf : MattePart::Trapezoid);
   }
   if (slabs) {
     flush_pending();

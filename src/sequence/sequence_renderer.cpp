@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "dofcache/cache/radiance_cache.h"
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
@@ -154,8 +155,7 @@ void SequenceSettings::validate() const {
   if (!(cache_memory_mb >= 0.0) || !std::isfinite(cache_memory_mb))
     throw Error("--cache-memory must be a number of MB >= 0");
   if (cache_mode != CacheMode::None) {
-    if (cache_backend != "octree" && cache_backend != "vdb")
-      throw Error("cache backend '" + cache_backend + "' is not one of octree, vdb");
+    cache::check_radiance_cache_backend(cache_backend, /*allow_none=*/false);
     if (render.mode == render::Mode::Pinhole)
       throw Error("the radiance cache applies to drt and accumulation renders, not pinhole");
   } else if (!cache_in.empty() || !cache_out.empty()) {
