@@ -20,6 +20,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
 
@@ -144,7 +145,7 @@ std::string csv_field(const json& v) {
 }
 
 void write_text(const std::string& path, const std::string& text) {
-  image::write_atomically(path, [&](const std::string& tmp) {
+  write_atomically(path, [&](const std::string& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     out << text;
     out.close();

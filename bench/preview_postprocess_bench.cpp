@@ -157,7 +157,7 @@ int run(const std::string& results_name) {
   // Each method with the default options, the layered methods with slabs too, and the occlusion
   // fix without its edge trace.
   PreviewOptions slabs, layers_only;
-  slabs.layer_composite = LayerComposite::kSlabs;
+  slabs.layer_composite = LayerComposite::Slabs;
   layers_only.edge_rays = 0;
   const std::vector<std::tuple<PreviewMethod, PreviewOptions, std::string>> variants = {
       {PreviewMethod::Gather, {}, "gather"},

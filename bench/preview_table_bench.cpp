@@ -19,7 +19,7 @@
 // Edge band: the pixels within max(R_p, R_q) (at least 1 px) of a pair of 4-neighbours p, q whose
 // pinhole depths differ so much that their signed CoC diameters differ by more than 1 px (an
 // occluding edge, where the blurs of the two sides differ visibly); R = |c| / 2 is the CoC radius
-// (eq. 2.6) of the pinhole depth, clamped as the post-process clamps it.
+// (eq. (2.6)) of the pinhole depth, clamped as the post-process clamps it.
 //
 //   preview_table_bench [--width W] [--spp N] [--drt-spp N] [--ref-spp N] [--threads T]
 //                       [--repeats K] [--refocus-width W] [--scene FILE]... [--figures DIR]
@@ -159,7 +159,7 @@ image::Image revealed_region(const preview::PreviewInputs& in) {
 // The lens integral of every band pixel evaluated through the inputs themselves: `rays` lens rays
 // (a stratified grid, concentric-mapped and rotated per pixel) marched through the layered depth
 // image of the pinhole surface and the revealed fragments. A ray through lens point u crosses the
-// depth of signed CoC c at image position p + u c / 2 (eqs. 2.4-2.6 in pixels, the form of the
+// depth of signed CoC c at image position p + u c / 2 (eqs. (2.4)-(2.6) in pixels, the form of the
 // mask's lens-reach rule); it takes the first surface, pinhole or revealed, that it meets within
 // one CoC unit behind it, at pixel resolution. No layering, matting or blur: partial visibility
 // is exact up to the inputs' pixels, so this measures what the inputs carry, not what a composite
@@ -366,7 +366,7 @@ int run(const Options& o) {
     {
       // Both methods with the slab composite (options.h, LayerComposite).
       preview::PreviewOptions slabs = options;
-      slabs.layer_composite = preview::LayerComposite::kSlabs;
+      slabs.layer_composite = preview::LayerComposite::Slabs;
       post("Kraus, slab composite", PreviewMethod::Layered, nullptr, &slabs);
       post("occlusion fix, slab composite", PreviewMethod::LayeredOcclusion, nullptr, &slabs);
     }

@@ -119,13 +119,21 @@ const std::vector<std::string>& radiance_cache_backends() {
   return names;
 }
 
+void check_radiance_cache_backend(const std::string& name, bool allow_none) {
+  const std::vector<std::string>& names = radiance_cache_backends();
+  if (std::find(names.begin(), names.end(), name) != names.end() && (allow_none || name != "none"))
+    return;
+  std::string valid;
+  for (const std::string& n : names)
+    if (allow_none || n != "none") valid += (valid.empty() ? "" : ", ") + n;
+  throw Error("unknown cache backend '" + name + "' (valid: " + valid + ")");
+}
+
 std::unique_ptr<RadianceCache> make_radiance_cache(const std::string& backend) {
-  if (backend == "none") return nullptr;
+  check_radiance_cache_backend(backend, /*allow_none=*/true);
   if (backend == "octree") return std::make_unique<OctreeRadianceCache>();
   if (backend == "vdb") return make_vdb_radiance_cache();
-  std::string valid;
-  for (const std::string& n : radiance_cache_backends()) valid += (valid.empty() ? "" : ", ") + n;
-  throw Error("unknown cache backend '" + backend + "' (valid: " + valid + ")");
+  return nullptr;  // "none"
 }
 
 }  // namespace dofcache::cache

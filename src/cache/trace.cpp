@@ -10,7 +10,7 @@ namespace {
 
 constexpr char kMagic[8] = {'D', 'O', 'F', 'C', 'T', 'R', 'C', '\0'};
 constexpr std::uint32_t kVersion = 1;
-enum Tag : std::uint32_t { kEnd = 0, kLookups = 1, kInserts = 2 };
+enum class Tag : std::uint32_t { End = 0, Lookups = 1, Inserts = 2 };
 constexpr std::size_t kLookupBytes = 24, kInsertBytes = 44;
 
 // The format is little-endian, as are the machines we build for; fields are copied one by one so
@@ -103,7 +103,7 @@ void TraceWriter::write(const void* data, std::size_t bytes) {
 void TraceWriter::add_lookups(const std::vector<TraceLookup>& lookups) {
   std::vector<unsigned char> buf;
   buf.reserve(8 + lookups.size() * kLookupBytes);
-  put(&buf, static_cast<std::uint32_t>(kLookups));
+  put(&buf, static_cast<std::uint32_t>(Tag::Lookups));
   put(&buf, static_cast<std::uint32_t>(lookups.size()));
   for (const TraceLookup& l : lookups) {
     put3(&buf, l.position);
@@ -115,7 +115,7 @@ void TraceWriter::add_lookups(const std::vector<TraceLookup>& lookups) {
 void TraceWriter::add_inserts(const std::vector<CacheSample>& batch) {
   std::vector<unsigned char> buf;
   buf.reserve(8 + batch.size() * kInsertBytes);
-  put(&buf, static_cast<std::uint32_t>(kInserts));
+  put(&buf, static_cast<std::uint32_t>(Tag::Inserts));
   put(&buf, static_cast<std::uint32_t>(batch.size()));
   for (const CacheSample& s : batch) {
     put3(&buf, s.position);
@@ -130,7 +130,7 @@ void TraceWriter::add_inserts(const std::vector<CacheSample>& batch) {
 void TraceWriter::close() {
   if (!file_) return;
   std::vector<unsigned char> buf;
-  put(&buf, static_cast<std::uint32_t>(kEnd));
+  put(&buf, static_cast<std::uint32_t>(Tag::End));
   put(&buf, std::uint32_t{0});
   write(buf.data(), buf.size());
   bool ok = std::fclose(file_) == 0;
@@ -168,10 +168,10 @@ CacheTrace read_trace(const std::string& path) {
   TracePass pass;
   bool open = false;
   for (;;) {
-    auto tag = in.get<std::uint32_t>();
+    auto tag = static_cast<Tag>(in.get<std::uint32_t>());
     auto count = in.get<std::uint32_t>();
-    if (tag == kEnd) break;
-    if (tag == kLookups) {
+    if (tag == Tag::End) break;
+    if (tag == Tag::Lookups) {
       in.expect(std::size_t{count} * kLookupBytes);
       std::vector<float> buf(std::size_t{count} * 6);
       in.read(buf.data(), buf.size() * sizeof(float));
@@ -180,7 +180,7 @@ CacheTrace read_trace(const std::string& path) {
         pass.lookups.push_back({{f[0], f[1], f[2]}, {f[3], f[4], f[5]}});
       }
       open = true;
-    } else if (tag == kInserts) {
+    } else if (tag == Tag::Inserts) {
       in.expect(std::size_t{count} * kInsertBytes);
       std::vector<float> buf(std::size_t{count} * 11);
       in.read(buf.data(), buf.size() * sizeof(float));
@@ -198,7 +198,8 @@ CacheTrace read_trace(const std::string& path) {
       pass = TracePass{};
       open = false;
     } else {
-      throw Error("cache trace " + path + ": unknown record tag " + std::to_string(tag));
+      throw Error("cache trace " + path + ": unknown record tag " +
+                  std::to_string(static_cast<std::uint32_t>(tag)));
     }
   }
   if (open) trace.passes.push_back(std::move(pass));

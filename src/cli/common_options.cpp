@@ -17,10 +17,12 @@ void add_size_options(CLI::App* cmd, int& width, int& height) {
 }
 
 void add_lens_options(CLI::App* cmd, std::optional<double>& fstop,
-                      std::optional<double>& focal_length, std::optional<double>& focus_distance) {
-  cmd->add_option("--fstop", fstop, "f-number n (aperture diameter = focal length / n)");
-  cmd->add_option("--focal-length", focal_length, "Focal length in metres (e.g. 0.05)");
-  cmd->add_option("--focus-distance", focus_distance, "Distance in focus, metres");
+                      std::optional<double>& focal_length, std::optional<double>& focus_distance,
+                      const std::string& unset) {
+  const std::string note = unset.empty() ? "" : " (default: " + unset + ")";
+  cmd->add_option("--fstop", fstop, "f-number n (aperture diameter = focal length / n)" + note);
+  cmd->add_option("--focal-length", focal_length, "Focal length in metres (e.g. 0.05)" + note);
+  cmd->add_option("--focus-distance", focus_distance, "Distance in focus, metres" + note);
 }
 
 void add_seed_and_threads(CLI::App* cmd, std::uint64_t& seed, int& threads,
@@ -78,12 +80,24 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
       ->capture_default_str()->check(CLI::Range(0, 256));
 }
 
+nlohmann::json cache_settings_json(const std::string& backend, const std::string& radius_rule,
+                                   const render::CacheSettings& cache) {
+  return {{"backend", backend},
+          {"radius_rule", radius_rule},
+          {"min_factor", cache.min_factor},
+          {"accuracy", cache.accuracy},
+          {"max_radius_pixels", cache.max_radius_pixels},
+          {"sample_quality", cache.sample_quality},
+          {"max_normal_angle_deg", cache.lookup.max_normal_angle_deg},
+          {"min_samples", cache.lookup.min_samples}};
+}
+
 void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options) {
   cmd->add_option_function<std::string>(
          "--layer-composite",
          [&options](const std::string& name) {
-           options.layer_composite = name == "slabs" ? preview::LayerComposite::kSlabs
-                                                     : preview::LayerComposite::kOver;
+           options.layer_composite = name == "slabs" ? preview::LayerComposite::Slabs
+                                                     : preview::LayerComposite::Over;
          },
          "Layered previews: how blurred layers are composited. over: Kraus & Strengert's "
          "trapezoid mattes composited with 'over'; slabs: each layer's hat split at its anchor "

@@ -6,6 +6,7 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "dofcache/preview/options.h"
 #include "dofcache/render/renderer.h"
@@ -17,9 +18,12 @@ void add_scene_options(CLI::App* cmd, std::string& scene_path, std::string& came
                        int& scene_index);
 // --width, --height.
 void add_size_options(CLI::App* cmd, int& width, int& height);
-// --fstop, --focal-length, --focus-distance (each overrides the camera's extras.lens).
+// --fstop, --focal-length, --focus-distance (render, sequence, refocus): each overrides the lens
+// the command would otherwise use (the camera's extras.lens; refocus: the saved lens), which
+// `unset`, if given, names in the help ("default: <unset>").
 void add_lens_options(CLI::App* cmd, std::optional<double>& fstop,
-                      std::optional<double>& focal_length, std::optional<double>& focus_distance);
+                      std::optional<double>& focal_length, std::optional<double>& focus_distance,
+                      const std::string& unset = "");
 // --seed, --threads.
 void add_seed_and_threads(CLI::App* cmd, std::uint64_t& seed, int& threads,
                           const std::string& seed_help);
@@ -29,6 +33,12 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading);
 // --cache-min-samples, --cache-sample-quality (the backend option --cache is each command's own).
 void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
                               std::string& radius_rule);
+
+// The cache settings as every statistics file records them (render and sequence --stats-json,
+// one writer so both use the same keys): backend, radius_rule, min_factor, accuracy,
+// max_radius_pixels, sample_quality, max_normal_angle_deg, min_samples.
+nlohmann::json cache_settings_json(const std::string& backend, const std::string& radius_rule,
+                                   const render::CacheSettings& cache);
 
 // The layered previews' composite (render and refocus): --layer-composite over|slabs and
 // --edge-rays N, into options.layer_composite and options.edge_rays.

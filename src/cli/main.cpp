@@ -4,13 +4,13 @@
 #include <map>
 
 #include "commands.h"
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
-#include "dofcache/image/image_io.h"
 
 namespace dofcache::cli {
 
 void write_json_file(const std::string& path, const nlohmann::json& json) {
-  image::write_atomically(path, [&](const std::string& tmp) {
+  write_atomically(path, [&](const std::string& tmp) {
     std::ofstream out(tmp);
     out << json.dump(2) << '\n';
     out.close();

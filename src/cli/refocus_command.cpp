@@ -17,7 +17,7 @@ namespace {
 
 struct RefocusOptions {
   std::string input, out = "refocus.png", method;
-  std::optional<double> focus_distance, fstop, focal_length;
+  std::optional<double> fstop, focal_length, focus_distance;  // add_lens_options
   int threads = 0;
   preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
   bool quiet = false;
@@ -58,8 +58,9 @@ int run_refocus(const RefocusOptions& o) {
     std::printf(
         "refocus %dx%d %s, %.0f mm f/%.3g focused at %.3g m, %d layers: load %.1f ms, "
         "post-process %.1f ms\n",
-        result.width(), result.height(), preview::to_string(method), lens.focal_length * 1e3,
-        lens.fstop, lens.focus_distance, in.plan.size(), load_ms, postprocess_ms);
+        result.width(), result.height(), preview::preview_method_name(method),
+        lens.focal_length * 1e3, lens.fstop, lens.focus_distance, in.plan.size(), load_ms,
+        postprocess_ms);
   std::printf("wrote   %s\n", std::filesystem::absolute(o.out).lexically_normal().c_str());
   return 0;
 }
@@ -76,11 +77,7 @@ Runner add_refocus_command(CLI::App& app) {
       ->required();
   cmd->add_option("-o,--out", o->out, "Output image: .png (sRGB) or .exr (linear)")
       ->capture_default_str();
-  cmd->add_option("--focus-distance", o->focus_distance,
-                  "Distance in focus, metres (default: the saved lens's)");
-  cmd->add_option("--fstop", o->fstop, "f-number (default: the saved lens's)");
-  cmd->add_option("--focal-length", o->focal_length,
-                  "Focal length in metres (default: the saved lens's)");
+  add_lens_options(cmd, o->fstop, o->focal_length, o->focus_distance, "the saved lens's");
   cmd->add_option("--method", o->method,
                   "layered (Kraus & Strengert), layered-occlusion (with the paper's occlusion fix; "
                   "the default when the file holds revealed layers), gather or scatter")

@@ -65,9 +65,9 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
   if (!o.stats_json.empty()) {
     nlohmann::json j = {
         {"scene", scene.source}, {"camera", camera.name}, {"mode", o.mode},
-        {"method", preview::to_string(method)}, {"width", s.width}, {"height", s.height},
-        {"spp", s.spp}, {"seed", s.seed}, {"threads", t.pinhole_stats.threads},
-        {"seconds", t.total_ms * 1e-3},
+        {"method", preview::preview_method_name(method)}, {"width", s.width},
+        {"height", s.height}, {"spp", s.spp}, {"seed", s.seed},
+        {"threads", t.pinhole_stats.threads}, {"seconds", t.total_ms * 1e-3},
         {"lens", {{"focal_length", s.lens.focal_length}, {"fstop", s.lens.fstop},
                   {"focus_distance", s.lens.focus_distance}}},
         {"preview", {{"layers", t.layers}, {"revealed_layers", t.revealed_layers},
@@ -82,7 +82,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
   }
   if (!o.quiet) {
     std::printf("preview %dx%d %s, %d pinhole spp, %d layers", s.width, s.height,
-                preview::to_string(method), s.spp, t.layers);
+                preview::preview_method_name(method), s.spp, t.layers);
     if (method == preview::PreviewMethod::LayeredOcclusion)
       std::printf(" (%d revealed, %llu px rendered again)", t.revealed_layers,
                   static_cast<unsigned long long>(t.revealed_pixels));
@@ -183,17 +183,13 @@ int run_render(const RenderOptions& o) {
                      {"gather_rays", s.shading.gather_rays}, {"bounces", s.shading.bounces},
                      {"specular_depth", s.shading.specular_depth}}},
         {"output", o.out},
-        {"cache", {{"backend", o.cache}, {"min_factor", s.cache.min_factor},
-                   {"radius_rule", o.radius_rule}, {"accuracy", s.cache.accuracy},
-                   {"max_radius_pixels", s.cache.max_radius_pixels},
-                   {"sample_quality", s.cache.sample_quality},
-                   {"max_normal_angle_deg", s.cache.lookup.max_normal_angle_deg},
-                   {"min_samples", s.cache.lookup.min_samples}, {"lookups", st.cache_lookups},
-                   {"hits", st.cache_hits}, {"tile_hits", st.cache_tile_hits},
-                   {"hit_rate", st.cache_hit_rate()}, {"inserted", st.cache_inserted},
-                   {"samples", st.cache_samples}, {"memory_bytes", st.cache_memory_bytes},
-                   {"lookup_seconds", st.cache_lookup_seconds},
-                   {"insert_seconds", st.cache_insert_seconds}, {"passes", st.passes}}}};
+        {"cache", cache_settings_json(o.cache, o.radius_rule, s.cache)}};
+    j["cache"].update({{"lookups", st.cache_lookups}, {"hits", st.cache_hits},
+                       {"tile_hits", st.cache_tile_hits}, {"hit_rate", st.cache_hit_rate()},
+                       {"inserted", st.cache_inserted}, {"samples", st.cache_samples},
+                       {"memory_bytes", st.cache_memory_bytes},
+                       {"lookup_seconds", st.cache_lookup_seconds},
+                       {"insert_seconds", st.cache_insert_seconds}, {"passes", st.passes}});
     write_json_file(o.stats_json, j);
   }
   if (!o.quiet)

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "common_options.h"
 #include "sequence_options.h"
 #include "dofcache/core/error.h"
 #include "dofcache/render/renderer.h"
@@ -89,14 +90,11 @@ int run_sequence(const SequenceOptions& o) {
         {"scene", scene.source}, {"path", path.source}, {"fps", fps},
         {"frames", {first, last}}, {"width", r.width}, {"height", r.height}, {"spp", r.spp},
         {"mode", render::mode_name(r.mode)}, {"seed", r.seed},
-        {"cache", {{"mode", sequence::cache_mode_name(s.cache_mode)},
-                   {"backend", s.cache_backend}, {"min_factor", r.cache.min_factor},
-                   {"radius_rule", o.radius_rule}, {"accuracy", r.cache.accuracy},
-                   {"max_radius_pixels", r.cache.max_radius_pixels},
-                   {"sample_quality", r.cache.sample_quality}, {"evict_after", s.evict_after},
-                   {"memory_mb", s.cache_memory_mb}}},
+        {"cache", cache_settings_json(s.cache_backend, o.radius_rule, r.cache)},
         {"rendered", sum.rendered}, {"skipped", sum.skipped},
         {"resumed_after", sum.resumed_after}, {"seconds", sum.seconds}, {"per_frame", rows}};
+    j["cache"].update({{"mode", sequence::cache_mode_name(s.cache_mode)},
+                       {"evict_after", s.evict_after}, {"memory_mb", s.cache_memory_mb}});
     write_json_file(o.stats_json, j);
   }
   if (!o.quiet) {

@@ -8,8 +8,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
-#include "dofcache/image/image_io.h"
 #include "dofcache/sequence/sequence_renderer.h"
 
 namespace dofcache::farm {
@@ -30,7 +31,7 @@ std::string chunk_file_name(int index, int count, const char* ext) {
 }
 
 void write_text(const std::string& path, const std::string& text, bool executable) {
-  image::write_atomically(path, [&](const std::string& tmp) {
+  write_atomically(path, [&](const std::string& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     out << text;
     out.close();
@@ -83,8 +84,11 @@ void FarmSettings::validate() const {
   if (chunk < 1) throw Error(fmt::format("farm plan: --chunk must be >= 1, got {}", chunk));
   if (width < 1 || height < 1)
     throw Error(fmt::format("farm plan: frame size {}x{} is invalid", width, height));
-  if (cache != "none" && cache != "octree" && cache != "vdb")
-    throw Error("farm plan: cache backend '" + cache + "' is not one of none, octree, vdb");
+  try {
+    cache::check_radiance_cache_backend(cache, /*allow_none=*/true);
+  } catch (const Error& e) {
+    throw Error(std::string("farm plan: ") + e.what());
+  }
   if (carry && cache == "none") throw Error("farm plan: --persistent needs a cache");
   if (warm_step < 0) throw Error("farm plan: --warm-step must be >= 0");
   if (warm_spp < 0) throw Error("farm plan: --warm-spp must be >= 0");

@@ -3,10 +3,8 @@
 #include "dofcache/image/image_io.h"
 
 #include <OpenImageIO/imageio.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -16,6 +14,7 @@
 #include <memory>
 #include <set>
 
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 
 namespace dofcache::image {
@@ -255,24 +254,6 @@ float linear_to_srgb(float linear) {
 float srgb_to_linear(float encoded) {
   if (encoded <= 0.04045f) return encoded / 12.92f;
   return std::pow((encoded + 0.055f) / 1.055f, 2.4f);
-}
-
-std::string temporary_path_for(const std::string& path) {
-  static std::atomic<unsigned> counter{0};
-  fs::path p(path);
-  std::string name = "." + p.stem().string() + ".tmp-" + std::to_string(::getpid()) + "-" +
-                     std::to_string(counter.fetch_add(1)) + p.extension().string();
-  return (p.parent_path() / name).string();
-}
-
-void commit_temporary(const std::string& tmp_path, const std::string& path) {
-  if (std::rename(tmp_path.c_str(), path.c_str()) != 0)
-    fail_write(path, std::string("cannot rename the temporary file: ") + std::strerror(errno));
-}
-
-void discard_temporary(const std::string& tmp_path) noexcept {
-  std::error_code ec;
-  fs::remove(tmp_path, ec);
 }
 
 void check_output_path(const std::string& path) {

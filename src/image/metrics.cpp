@@ -19,7 +19,7 @@ namespace {
 // relMSE denominator offset: keeps dark reference pixels from dominating (pbrt's choice).
 constexpr double kRelEpsilon = 1e-2;
 
-// SSIM constants (Wang et al. 2004, eq. 13 and Sec. III-C): K1 = 0.01, K2 = 0.03, L = 1.
+// SSIM constants (Wang et al. 2004, eq. (13) and Sec. III-C): K1 = 0.01, K2 = 0.03, L = 1.
 constexpr double kC1 = 0.01 * 0.01;
 constexpr double kC2 = 0.03 * 0.03;
 constexpr int kSsimRadius = 5;  // 11x11 window

@@ -78,8 +78,8 @@ double LensImaging::coc_radius_pixels(double depth) const {
 }
 
 double LensImaging::depth_for_signed_coc(double coc_pixels) const {
-  // C(D) = A V_P |D - P| / (D P) (eq. 2.4 rewritten, A the aperture diameter). Signed, in pixels:
-  // c = k (D - P) / D with k = A V_P / (P pitch), so D = k P / (k - c); c -> k is infinity.
+  // C(D) = A V_P |D - P| / (D P) (eq. (2.4) rewritten, A the aperture diameter). Signed, in
+  // pixels: c = k (D - P) / D with k = A V_P / (P pitch), so D = k P / (k - c); c -> k is infinity.
   double k = lens.aperture_diameter() * lens.film_distance() / (lens.focus_distance * pixel_pitch());
   if (coc_pixels >= k) return std::numeric_limits<double>::infinity();
   return k * lens.focus_distance / (k - coc_pixels);

@@ -10,8 +10,9 @@
 // error high; exact visibility through the same inputs has a third of it (docs/preview.md).
 //
 // Geometry (the lens-reach rule of occlusion.h): the ray through pixel centre p and lens point u
-// (unit disk) crosses the depth of signed CoC c at p + u c / 2 (eq. 2.6: the CoC radius is c / 2).
-// Along the ray c increases from the lens outwards, so the first fragment met is the one seen.
+// (unit disk) crosses the depth of signed CoC c at p + u c / 2 (eq. (2.6): the CoC radius is
+// c / 2). Along the ray c increases from the lens outwards, so the first fragment met is the one
+// seen.
 //
 // Cost control:
 //  * only the pixels whose lens rays can pass an occluding edge are traced (within the nearer
@@ -81,10 +82,10 @@ void dilate_flags(std::vector<unsigned char>& f, int w, int h, int r) {
 
 // How far from an occluding edge between 4-neighbours of signed CoC a and b (0: none) a pixel's
 // lens rays can pass the nearer side's boundary: at the nearer side's depth (CoC min(a, b)) the
-// rays of a pixel spread over that CoC's radius (eq. 2.6) around it. Farther away either every ray
-// meets the nearer surface or none does, and behind it every ray sees the same surface through the
-// whole lens, which the layers (with the revealed fill) blur correctly. This is narrower than the
-// error band's occluding_edge_radius (max(|a|, |b|) / 2) where the farther side is the more
+// rays of a pixel spread over that CoC's radius (eq. (2.6)) around it. Farther away either every
+// ray meets the nearer surface or none does, and behind it every ray sees the same surface through
+// the whole lens, which the layers (with the revealed fill) blur correctly. This is narrower than
+// the error band's occluding_edge_radius (max(|a|, |b|) / 2) where the farther side is the more
 // defocused: a sharp foreground before a blurred background has no partial occlusion around it.
 inline float partial_occlusion_radius(float a, float b) {
   const float r = std::max(1.0f, 0.5f * std::abs(std::min(a, b)));

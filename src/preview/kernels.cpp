@@ -198,7 +198,7 @@ void push_level(PullPushLevel& fine, const PullPushLevel& coarse) {
 template <int C>
 void pull_push_levels_c(std::vector<PullPushLevel>& levels, int n, PullFilter filter, int base) {
   for (int l = base; l + 1 < n; ++l) {
-    if (filter == PullFilter::kTent)
+    if (filter == PullFilter::Tent)
       pull_level_tent<C>(levels[l], levels[l + 1]);
     else
       pull_level_box<C>(levels[l], levels[l + 1]);

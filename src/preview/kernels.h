@@ -199,7 +199,7 @@ struct PullPushLevel {
 // whose coarse cells also see the cells across their edges, so that a hole's fill next to known
 // pixels comes from them even where the hole's edge falls on cell boundaries (the slab composite's
 // backing along a contour needs that; it costs about 1.5 ms per 640x480 frame).
-enum class PullFilter { kBox, kTent };
+enum class PullFilter { Box, Tent };
 // Pulls levels base+1 .. n-1 (1x1) from `levels[base]` (already filled by the caller), then pushes
 // back down to `base` so that every pixel there holds a normalised filled value with weight 1.
 // Needs n > base >= 1; channels 1..8.

@@ -108,9 +108,9 @@ float revealed_matting_weight(const LayerPlan& plan, int i, double c) {
 
 float hat_weight(const LayerPlan& plan, int i, double c) {
   detail::Matte m = matte_of(plan, i);
-  m.part = detail::MattePart::kNearHalf;
+  m.part = detail::MattePart::NearHalf;
   const float near = m.weight(static_cast<float>(c));
-  m.part = detail::MattePart::kFarHalf;
+  m.part = detail::MattePart::FarHalf;
   return near + m.weight(static_cast<float>(c));
 }
 

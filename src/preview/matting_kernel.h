@@ -8,28 +8,28 @@ namespace dofcache::preview::detail {
 
 // Which matte of layer i a pass produces.
 enum class MattePart {
-  kTrapezoid,  // Kraus & Strengert: the trapezoid over c_{i-2} .. c_{i+1} ("over" composite)
-  kNearHalf,   // slab composite: the hat's rising half, c_{i-1} < c <= c_i (layer 0: c <= c_0)
-  kFarHalf,    // slab composite: the hat's falling half, c_i < c < c_{i+1} (last layer: c > c_i)
+  Trapezoid,  // Kraus & Strengert: the trapezoid over c_{i-2} .. c_{i+1} ("over" composite)
+  NearHalf,   // slab composite: the hat's rising half, c_{i-1} < c <= c_i (layer 0: c <= c_0)
+  FarHalf,    // slab composite: the hat's falling half, c_i < c < c_{i+1} (last layer: c > c_i)
 };
 
 struct Matte {
   float c0 = 0, inv_step = 0;  // anchor 0 and 1 / spacing
   int i = 0, n = 1;            // this layer, layer count
-  MattePart part = MattePart::kTrapezoid;
+  MattePart part = MattePart::Trapezoid;
 
   // Position of c relative to anchor i, in anchor steps.
   float u(float c) const { return (c - c0) * inv_step - static_cast<float>(i); }
 
   float weight(float c) const {
-    if (n <= 1) return part == MattePart::kFarHalf ? 0.0f : 1.0f;
+    if (n <= 1) return part == MattePart::FarHalf ? 0.0f : 1.0f;
     const float t = u(c);
     switch (part) {
-      case MattePart::kNearHalf:
+      case MattePart::NearHalf:
         return t > 0.0f ? 0.0f : i == 0 ? 1.0f : std::max(1.0f + t, 0.0f);
-      case MattePart::kFarHalf:
+      case MattePart::FarHalf:
         return t <= 0.0f ? 0.0f : i == n - 1 ? 1.0f : std::max(1.0f - t, 0.0f);
-      case MattePart::kTrapezoid:
+      case MattePart::Trapezoid:
         break;
     }
     return trapezoid(t);
@@ -78,14 +78,14 @@ struct Matte {
   // (with r_{i+1} the two blurred coverages left a gap along the contour where a curved surface
   // crosses c_i, through which what lies behind showed as a seam).
   float fill_weight(float c) const {
-    if (part == MattePart::kFarHalf) return n > 1 && u(c) <= 0.0f ? 1.0f : weight(c);
+    if (part == MattePart::FarHalf) return n > 1 && u(c) <= 0.0f ? 1.0f : weight(c);
     return weight(c);
   }
   // Revealed fragments: on the trapezoid a hard front cut, nothing on the rising ramp. On the
   // hat's halves as fills: a fragment is used only where the pinhole surface lies in a nearer
   // slab, so it never composites over it.
   float revealed_weight(float c) const {
-    if (part != MattePart::kTrapezoid) return fill_weight(c);
+    if (part != MattePart::Trapezoid) return fill_weight(c);
     if (n <= 1) return 1.0f;
     float t = u(c);
     if (t < -1.0f) return i == 0 ? 1.0f : 0.0f;

@@ -18,7 +18,7 @@ namespace dofcache::preview {
 PreviewWorkspace::PreviewWorkspace() : impl_(std::make_unique<Impl>()) {}
 PreviewWorkspace::~PreviewWorkspace() = default;
 
-const char* to_string(PreviewMethod method) {
+const char* preview_method_name(PreviewMethod method) {
   switch (method) {
     case PreviewMethod::Gather:
       return "gather";
@@ -35,7 +35,7 @@ const char* to_string(PreviewMethod method) {
 PreviewMethod parse_preview_method(const std::string& name) {
   for (PreviewMethod m : {PreviewMethod::Gather, PreviewMethod::Scatter, PreviewMethod::Layered,
                           PreviewMethod::LayeredOcclusion})
-    if (name == to_string(m)) return m;
+    if (name == preview_method_name(m)) return m;
   throw Error("unknown preview method '" + name +
               "' (expected gather, scatter, layered or layered-occlusion)");
 }

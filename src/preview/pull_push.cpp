@@ -47,7 +47,7 @@ void pull_push_fill(image::Image& values, const image::Image& weight) {
         q[c] = std::min(1.0f, acc[c]);
       }
   });
-  detail::pull_push_levels(levels, n, c, detail::PullFilter::kTent);
+  detail::pull_push_levels(levels, n, c, detail::PullFilter::Tent);
   // Push level 1 -> 0 where the weight is below one; known pixels are not touched.
   detail::parallel_rows(h, [&](int y0, int y1) {
     float interp[8];

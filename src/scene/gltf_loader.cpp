@@ -3,30 +3,27 @@
 // validated here, because tinygltf leaves most of it unchecked (and indices at -1 when absent).
 #include "dofcache/scene/gltf_loader.h"
 
-#include <tiny_gltf.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <map>
 #include <optional>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_inverse.hpp>
-#include <glm/gtc/matrix_transform.hpp>
-#include <glm/gtc/quaternion.hpp>
-#include <glm/gtc/type_ptr.hpp>
 #include <glm/mat3x3.hpp>
 
+#include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
+#include "dofcache/scene/gltf_document.h"
+#include "dofcache/scene/transform.h"
 
 namespace dofcache::scene {
 namespace {
+
+using gltf::AccessorView;
+using gltf::quoted;
 
 constexpr const char* kLightsExt = "KHR_lights_punctual";
 constexpr const char* kEmissiveStrengthExt = "KHR_materials_emissive_strength";
@@ -37,58 +34,29 @@ bool understood_extension(const std::string& name) {
   return name == kLightsExt || name == kEmissiveStrengthExt || name == "KHR_mesh_quantization";
 }
 
-std::string quoted(const std::string& name) { return name.empty() ? "" : " '" + name + "'"; }
-
-const char* type_name(int type) {
-  switch (type) {
-    case TINYGLTF_TYPE_SCALAR:
-      return "SCALAR";
-    case TINYGLTF_TYPE_VEC2:
-      return "VEC2";
-    case TINYGLTF_TYPE_VEC3:
-      return "VEC3";
-    default:
-      return "VEC4";
-  }
-}
-
-
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // ----------------------------------------------------------------------------------------------
 // Content hash: a stable 64-bit identity of what the renderer sees.
 
-class Hasher {
- public:
-  void add(std::uint64_t v) { h_ = hash_combine(h_, v); }
-  void add(float f) {
-    if (f == 0.0f) f = 0.0f;  // -0 and +0 hash alike
-    std::uint32_t bits;
-    std::memcpy(&bits, &f, sizeof bits);
-    add(static_cast<std::uint64_t>(bits));
-  }
-  void add(glm::vec2 v) { add(v.x), add(v.y); }
-  void add(glm::vec3 v) { add(v.x), add(v.y), add(v.z); }
-  void add(glm::vec4 v) { add(v.x), add(v.y), add(v.z), add(v.w); }
-  void add(const std::string& s) {
-    add(static_cast<std::uint64_t>(s.size()));
-    for (unsigned char c : s) add(static_cast<std::uint64_t>(c));
-  }
-  std::uint64_t value() const { return h_; }
+// Seed of the scene hash ("dofcach"). Floats hash by their own 32-bit patterns
+// (ContentHasher::add_float32), as they always have: the value identifies scenes in cache files.
+constexpr std::uint64_t kSceneHashSeed = 0x646f6663616368ULL;
 
- private:
-  std::uint64_t h_ = 0x646f6663616368ULL;  // "dofcach"
-};
+void add(ContentHasher& h, float f) { h.add_float32(f); }
+void add(ContentHasher& h, glm::vec2 v) { add(h, v.x), add(h, v.y); }
+void add(ContentHasher& h, glm::vec3 v) { add(h, v.x), add(h, v.y), add(h, v.z); }
+void add(ContentHasher& h, glm::vec4 v) { add(h, v.x), add(h, v.y), add(h, v.z), add(h, v.w); }
 
 std::uint64_t content_hash(const Scene& s) {
-  Hasher h;
+  ContentHasher h(kSceneHashSeed);
   h.add(static_cast<std::uint64_t>(s.mesh.positions.size()));
-  for (glm::vec3 p : s.mesh.positions) h.add(p);
-  for (glm::vec3 n : s.mesh.normals) h.add(n);
+  for (glm::vec3 p : s.mesh.positions) add(h, p);
+  for (glm::vec3 n : s.mesh.normals) add(h, n);
   h.add(static_cast<std::uint64_t>(s.mesh.uv0.size()));
-  for (glm::vec2 t : s.mesh.uv0) h.add(t);
+  for (glm::vec2 t : s.mesh.uv0) add(h, t);
   h.add(static_cast<std::uint64_t>(s.mesh.uv1.size()));
-  for (glm::vec2 t : s.mesh.uv1) h.add(t);
+  for (glm::vec2 t : s.mesh.uv1) add(h, t);
   h.add(static_cast<std::uint64_t>(s.mesh.triangles.size()));
   for (std::size_t i = 0; i < s.mesh.triangles.size(); ++i) {
     const glm::uvec3& t = s.mesh.triangles[i];
@@ -98,9 +66,9 @@ std::uint64_t content_hash(const Scene& s) {
   h.add(static_cast<std::uint64_t>(s.materials.size()));
   for (const Material& m : s.materials) {
     h.add(m.name);
-    h.add(m.base_color);
-    h.add(m.metallic), h.add(m.roughness);
-    h.add(m.emissive);
+    add(h, m.base_color);
+    add(h, m.metallic), add(h, m.roughness);
+    add(h, m.emissive);
     for (const TextureRef* r :
          {&m.base_color_texture, &m.metallic_roughness_texture, &m.emissive_texture})
       h.add((static_cast<std::uint64_t>(static_cast<std::uint32_t>(r->index)) << 8) |
@@ -112,86 +80,25 @@ std::uint64_t content_hash(const Scene& s) {
     h.add((static_cast<std::uint64_t>(t.width) << 32) | static_cast<std::uint32_t>(t.height));
     h.add((static_cast<std::uint64_t>(t.wrap_s) << 16) |
           (static_cast<std::uint64_t>(t.wrap_t) << 8) | static_cast<std::uint64_t>(t.nearest));
-    for (glm::vec4 v : t.texels) h.add(v);
+    for (glm::vec4 v : t.texels) add(h, v);
   }
   h.add(static_cast<std::uint64_t>(s.lights.size()));
   for (const PunctualLight& l : s.lights) {
     h.add(static_cast<std::uint64_t>(l.type));
-    h.add(l.position), h.add(l.direction), h.add(l.intensity);
-    h.add(l.range), h.add(l.inner_cone), h.add(l.outer_cone);
+    add(h, l.position), add(h, l.direction), add(h, l.intensity);
+    add(h, l.range), add(h, l.inner_cone), add(h, l.outer_cone);
   }
   return h.value();
 }
 
 // ----------------------------------------------------------------------------------------------
 
-struct AccessorView {
-  const unsigned char* data = nullptr;  // nullptr: no bufferView, all elements are zero
-  std::size_t count = 0, stride = 0;
-  int components = 0, component_type = 0;
-  bool normalized = false;
-
-  float component(std::size_t element, int c) const {
-    if (!data) return 0.0f;
-    const unsigned char* p = data + element * stride;
-    switch (component_type) {
-      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-        float f;
-        std::memcpy(&f, p + 4 * c, 4);
-        return f;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
-        float v = p[c];
-        return normalized ? v / 255.0f : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_BYTE: {
-        float v = static_cast<signed char>(p[c]);
-        return normalized ? std::max(v / 127.0f, -1.0f) : v;
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        std::uint16_t u;
-        std::memcpy(&u, p + 2 * c, 2);
-        return normalized ? u / 65535.0f : static_cast<float>(u);
-      }
-      case TINYGLTF_COMPONENT_TYPE_SHORT: {
-        std::int16_t s;
-        std::memcpy(&s, p + 2 * c, 2);
-        return normalized ? std::max(s / 32767.0f, -1.0f) : static_cast<float>(s);
-      }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-        std::uint32_t u;
-        std::memcpy(&u, p + 4 * c, 4);
-        return static_cast<float>(u);
-      }
-      default:
-        return 0.0f;
-    }
-  }
-
-  std::uint32_t index(std::size_t element) const {
-    if (!data) return 0;
-    const unsigned char* p = data + element * stride;
-    switch (component_type) {
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-        return p[0];
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        std::uint16_t u;
-        std::memcpy(&u, p, 2);
-        return u;
-      }
-      default: {
-        std::uint32_t u;
-        std::memcpy(&u, p, 4);
-        return u;
-      }
-    }
-  }
-};
-
-class Loader {
+// The scene loader is a reader of the glTF document (gltf_document.h): parsing, labels, index
+// checks, accessors and node transforms are the document layer's.
+class Loader : gltf::Document {
  public:
   Loader(const tinygltf::Model& model, std::string name, const LoadOptions& options)
-      : model_(model), name_(std::move(name)), options_(options) {}
+      : Document(model, std::move(name)), options_(options) {}
 
   Scene load() {
     check_extensions();
@@ -214,29 +121,8 @@ class Loader {
   }
 
  private:
-  [[noreturn]] void fail(const std::string& element, const std::string& problem) const {
-    throw Error(name_ + ": " + element + ": " + problem);
-  }
   void warn(const std::string& element, const std::string& note) {
     scene_.warnings.push_back(name_ + ": " + element + ": " + note);
-  }
-
-  template <class T>
-  const T& at(const std::vector<T>& items, int index, const char* kind,
-              const std::string& user) const {
-    if (index < 0 || static_cast<std::size_t>(index) >= items.size())
-      fail(user, std::string(kind) + " index " + std::to_string(index) +
-                     " is out of range (the file has " + std::to_string(items.size()) + ")");
-    return items[static_cast<std::size_t>(index)];
-  }
-
-  std::string mesh_label(int mesh) const {
-    return "mesh" + quoted(model_.meshes[static_cast<std::size_t>(mesh)].name) + " (" +
-           std::to_string(mesh) + ")";
-  }
-  std::string node_label(int node) const {
-    return "node" + quoted(model_.nodes[static_cast<std::size_t>(node)].name) + " (" +
-           std::to_string(node) + ")";
   }
 
   void check_extensions() {
@@ -276,41 +162,7 @@ class Loader {
     return s.nodes;
   }
 
-  glm::dmat4 local_matrix(int n) const {
-    const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(n)];
-    if (!node.matrix.empty()) {
-      if (node.matrix.size() != 16) fail(node_label(n), "matrix must have 16 numbers");
-      glm::dmat4 m = glm::make_mat4(node.matrix.data());  // column-major, as glTF stores it
-      for (int c = 0; c < 4; ++c)
-        for (int r = 0; r < 4; ++r)
-          if (!std::isfinite(m[c][r])) fail(node_label(n), "matrix is not finite");
-      return m;
-    }
-    glm::dmat4 t(1.0), r(1.0), s(1.0);
-    if (!node.translation.empty()) {
-      if (node.translation.size() != 3) fail(node_label(n), "translation must have 3 numbers");
-      t = glm::translate(glm::dmat4(1.0),
-                         glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
-    }
-    if (!node.rotation.empty()) {
-      if (node.rotation.size() != 4) fail(node_label(n), "rotation must have 4 numbers");
-      // glTF stores (x, y, z, w); glm's constructor takes w first.
-      glm::dquat q(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
-      double len = glm::length(q);
-      if (!(len > 0.0) || !std::isfinite(len))
-        fail(node_label(n), "rotation is not a unit quaternion");
-      r = glm::mat4_cast(q / len);
-    }
-    if (!node.scale.empty()) {
-      if (node.scale.size() != 3) fail(node_label(n), "scale must have 3 numbers");
-      s = glm::scale(glm::dmat4(1.0), glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
-    }
-    glm::dmat4 m = t * r * s;
-    for (int c = 0; c < 4; ++c)
-      for (int k = 0; k < 4; ++k)
-        if (!std::isfinite(m[c][k])) fail(node_label(n), "transform is not finite");
-    return m;
-  }
+  glm::dmat4 local_matrix(int n) const { return node_transform(n).local(); }
 
   void visit(int n, const glm::dmat4& parent, std::vector<int>& path) {
     if (std::find(path.begin(), path.end(), n) != path.end())
@@ -333,58 +185,6 @@ class Loader {
       visit(child, world, path);
     }
     path.pop_back();
-  }
-
-  // -- accessors
-
-  AccessorView accessor(int index, int expected_type, const std::string& user) const {
-    const tinygltf::Accessor& acc = at(model_.accessors, index, "accessor", user);
-    std::string label = "accessor " + std::to_string(index) + quoted(acc.name) + " (" + user + ")";
-    if (acc.sparse.isSparse) fail(label, "sparse accessors are not supported");
-    int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(acc.componentType));
-    int components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(acc.type));
-    if (size <= 0 || acc.componentType == TINYGLTF_COMPONENT_TYPE_DOUBLE)
-      fail(label, "invalid componentType " + std::to_string(acc.componentType));
-    if (components <= 0 || acc.type != expected_type)
-      fail(label, std::string("must be of type ") + type_name(expected_type));
-    AccessorView view;
-    view.count = acc.count;
-    view.components = components;
-    view.component_type = acc.componentType;
-    view.normalized = acc.normalized;
-    auto element = static_cast<std::size_t>(size) * static_cast<std::size_t>(components);
-    if (acc.bufferView == -1) {  // no data: all zeros (glTF 3.6.2.2)
-      // Nothing bounds the count by real bytes here; refuse absurd ones before allocating.
-      if (acc.count > (std::size_t{1} << 24))
-        fail(label, "has no bufferView and an implausible count " + std::to_string(acc.count));
-      return view;
-    }
-
-    const tinygltf::BufferView& bv = at(model_.bufferViews, acc.bufferView, "bufferView", label);
-    std::string bv_label = "bufferView " + std::to_string(acc.bufferView);
-    const tinygltf::Buffer& buffer = at(model_.buffers, bv.buffer, "buffer", bv_label);
-    if (bv.byteOffset > buffer.data.size() || bv.byteLength > buffer.data.size() - bv.byteOffset)
-      fail(bv_label, "byte range " + std::to_string(bv.byteOffset) + "+" +
-                         std::to_string(bv.byteLength) + " exceeds buffer " +
-                         std::to_string(bv.buffer) + " (" + std::to_string(buffer.data.size()) +
-                         " bytes)");
-    view.stride = bv.byteStride != 0 ? bv.byteStride : element;
-    if (view.stride < element)
-      fail(bv_label, "byteStride " + std::to_string(bv.byteStride) +
-                         " is smaller than one element (" + std::to_string(element) + " bytes)");
-    if (acc.count > 0) {
-      // offset + (count - 1) * stride + element <= byteLength, without overflow.
-      std::size_t available = bv.byteLength;
-      bool fits = acc.byteOffset <= available && element <= available - acc.byteOffset &&
-                  acc.count - 1 <= (available - acc.byteOffset - element) / view.stride;
-      if (!fits)
-        fail(label, "byteOffset " + std::to_string(acc.byteOffset) + " + " +
-                        std::to_string(acc.count) + " elements of stride " +
-                        std::to_string(view.stride) + " exceed " + bv_label + " (" +
-                        std::to_string(bv.byteLength) + " bytes)");
-    }
-    view.data = buffer.data.data() + bv.byteOffset + acc.byteOffset;
-    return view;
   }
 
   // -- meshes
@@ -475,7 +275,8 @@ class Loader {
     // World-space vertices.
     std::vector<glm::vec3> positions(vertex_count), normals;
     for (std::size_t i = 0; i < vertex_count; ++i) {
-      glm::dvec3 local(pos.component(i, 0), pos.component(i, 1), pos.component(i, 2));
+      glm::dvec3 local(pos.component<float>(i, 0), pos.component<float>(i, 1),
+                       pos.component<float>(i, 2));
       if (!std::isfinite(local.x) || !std::isfinite(local.y) || !std::isfinite(local.z))
         fail(label + " POSITION", "vertex " + std::to_string(i) + " is not finite (NaN or Inf)");
       positions[i] = glm::vec3(world * glm::dvec4(local, 1.0));
@@ -486,8 +287,9 @@ class Loader {
     if (nrm) {
       normals.resize(vertex_count);
       for (std::size_t i = 0; i < vertex_count; ++i) {
-        glm::dvec3 n = normal_matrix *
-                       glm::dvec3(nrm->component(i, 0), nrm->component(i, 1), nrm->component(i, 2));
+        glm::dvec3 n = normal_matrix * glm::dvec3(nrm->component<float>(i, 0),
+                                                  nrm->component<float>(i, 1),
+                                                  nrm->component<float>(i, 2));
         double len = glm::length(n);
         // Zero or broken normals are repaired from the faces below (marked by a zero vector).
         normals[i] = len > 0.0 && std::isfinite(len) ? glm::vec3(n / len) : glm::vec3(0.0f);
@@ -551,7 +353,7 @@ class Loader {
       std::vector<glm::vec2>& dst = set == 0 ? scene_.mesh.uv0 : scene_.mesh.uv1;
       if (uv[set]) {
         has_uv_[set] = true;
-        dst.emplace_back(uv[set]->component(v, 0), uv[set]->component(v, 1));
+        dst.emplace_back(uv[set]->component<float>(v, 0), uv[set]->component<float>(v, 1));
       } else {
         dst.emplace_back(0.0f);
       }
@@ -777,23 +579,11 @@ class Loader {
       cam.aspect_ratio = static_cast<float>(p.aspectRatio);
     if (p.znear > 0.0 && std::isfinite(p.znear)) cam.znear = static_cast<float>(p.znear);
 
-    // Rigid part of the world matrix: glTF cameras ignore scale. Keep the view axis (-Z) and the
-    // up direction (Y) as they are and rebuild an orthonormal right-handed frame from them.
-    glm::dvec3 z = glm::dvec3(world[2]), y = glm::dvec3(world[1]);
-    double zl = glm::length(z);
-    if (!(zl > 0.0)) fail(label, "the node transform collapses the view direction");
-    z /= zl;
-    y -= glm::dot(y, z) * z;
-    double yl = glm::length(y);
-    if (!(yl > 1e-12)) fail(label, "the node transform collapses the up direction");
-    y /= yl;
-    glm::dvec3 x = glm::cross(y, z);
-    glm::dmat4 m(1.0);
-    m[0] = glm::dvec4(x, 0.0);
-    m[1] = glm::dvec4(y, 0.0);
-    m[2] = glm::dvec4(z, 0.0);
-    m[3] = glm::dvec4(glm::dvec3(world[3]), 1.0);
-    cam.camera_to_world = glm::mat4(m);
+    // Rigid part of the world matrix (glTF cameras ignore scale): transform.h.
+    glm::dmat4 frame;
+    if (const char* problem = rigid_camera_frame(world, frame))
+      fail(label, std::string("the node transform ") + problem);
+    cam.camera_to_world = glm::mat4(frame);
 
     // Lens settings: the node's extras.lens wins key by key over the camera object's.
     read_lens(gc.extras, label + " extras.lens", cam.lens);
@@ -871,8 +661,6 @@ class Loader {
     return scene_.material_at(scene_.surface_point(triangle, u, v)).emission;
   }
 
-  const tinygltf::Model& model_;
-  std::string name_;
   LoadOptions options_;
   Scene scene_;
   std::string scene_label_ = "scene";
@@ -882,55 +670,18 @@ class Loader {
   std::vector<std::pair<std::uint32_t, glm::vec3>> repaired_;
 };
 
-// tinygltf's failure messages, made to say what is wrong in our words where they are terse.
-std::string parser_error(const std::string& message, const std::string& base_dir) {
-  if (message.empty()) return "not a valid glTF file";
-  const std::string json_tag = "[json.exception.";
-  if (message.compare(0, json_tag.size(), json_tag) == 0) {
-    std::size_t end = message.find("] ");
-    return "invalid JSON: " + (end == std::string::npos ? message : message.substr(end + 2));
-  }
-  const std::string not_found = "File not found : ";
-  if (std::size_t at = message.find(not_found); at != std::string::npos)
-    return "referenced file not found: " + message.substr(at + not_found.size()) +
-           (base_dir.empty() ? "" : " (looked in " + base_dir + ")");
-  return message;
-}
-
-bool is_glb(const std::string& data) { return data.size() >= 4 && data.compare(0, 4, "glTF") == 0; }
-
 Scene load_model(const std::string& data, const std::string& name, const std::string& base_dir,
                  const LoadOptions& options) {
-  if (data.size() > 0xffffffffu) throw Error(name + ": file is too large (over 4 GiB)");
-  tinygltf::TinyGLTF parser;
-  tinygltf::Model model;
-  std::string err, warn;
-  bool ok;
-  if (is_glb(data)) {
-    ok = parser.LoadBinaryFromMemory(&model, &err, &warn,
-                                     reinterpret_cast<const unsigned char*>(data.data()),
-                                     static_cast<unsigned int>(data.size()), base_dir);
-  } else {
-    ok = parser.LoadASCIIFromString(&model, &err, &warn, data.data(),
-                                    static_cast<unsigned int>(data.size()), base_dir);
-  }
-  if (!ok) throw Error(name + ": " + parser_error(one_line(err), base_dir));
-  Scene scene = Loader(model, name, options).load();
-  for (const std::string* note : {&err, &warn})  // tinygltf's non-fatal complaints
-    if (!note->empty())
-      scene.warnings.insert(scene.warnings.begin(), name + ": " + one_line(*note));
+  gltf::Parsed parsed = gltf::parse(data, name, base_dir, /*load_images=*/true);
+  Scene scene = Loader(parsed.model, name, options).load();
+  scene.warnings.insert(scene.warnings.begin(), parsed.warnings.begin(), parsed.warnings.end());
   return scene;
 }
 
 }  // namespace
 
 Scene load_gltf(const std::string& path, const LoadOptions& options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open file (" + std::strerror(errno) + ")");
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error(path + ": read error");
-  std::filesystem::path base = std::filesystem::path(path).parent_path();
-  return load_model(data, path, base.empty() ? std::string(".") : base.string(), options);
+  return load_model(gltf::read_file(path), path, gltf::base_dir_of(path), options);
 }
 
 Scene load_gltf_from_memory(const std::string& data, const std::string& name,

@@ -17,9 +17,9 @@
 #include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/PointIndexGrid.h>
 
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
-#include "dofcache/image/image_io.h"
 
 namespace dofcache::sequence {
 namespace {
@@ -341,7 +341,7 @@ CacheIdentity cache_identity(const scene::Scene& scene, const render::RenderSett
 
 void write_cache_file(const std::string& path, const CacheFile& file) {
   try {
-    image::write_atomically(path, [&](const std::string& tmp) {
+    write_atomically(path, [&](const std::string& tmp) {
       write_vdb(tmp, file);
       append_cache_file_trailer(tmp);
     });

@@ -3,9 +3,9 @@
 #include <cmath>
 
 #include <glm/geometric.hpp>
-#include <glm/gtc/matrix_transform.hpp>
 
 #include "dofcache/core/error.h"
+#include "dofcache/scene/transform.h"
 
 namespace dofcache::sequence {
 namespace {
@@ -16,25 +16,6 @@ std::string seconds(double t) {
   return buf;
 }
 
-// The rigid part of a camera's world matrix, as the glTF loader takes it: keep the view axis (Z)
-// and the up direction (Y), rebuild an orthonormal right-handed frame (glTF cameras ignore scale).
-glm::dmat4 rigid_camera_frame(const glm::dmat4& world, const std::string& where) {
-  glm::dvec3 z(world[2]), y(world[1]);
-  double zl = glm::length(z);
-  if (!(zl > 1e-12)) throw Error(where + ": the camera transform collapses the view direction");
-  z /= zl;
-  y -= glm::dot(y, z) * z;
-  double yl = glm::length(y);
-  if (!(yl > 1e-12)) throw Error(where + ": the camera transform collapses the up direction");
-  y /= yl;
-  glm::dmat4 m(1.0);
-  m[0] = glm::dvec4(glm::cross(y, z), 0.0);
-  m[1] = glm::dvec4(y, 0.0);
-  m[2] = glm::dvec4(z, 0.0);
-  m[3] = glm::dvec4(glm::dvec3(world[3]), 1.0);
-  return m;
-}
-
 }  // namespace
 
 glm::dmat4 AnimatedNode::local(double time) const {
@@ -42,7 +23,7 @@ glm::dmat4 AnimatedNode::local(double time) const {
   glm::dvec3 t = translation_track.empty() ? translation : translation_track.at(time);
   glm::dquat r = rotation_track.empty() ? rotation : rotation_track.at(time);
   glm::dvec3 s = scale_track.empty() ? scale : scale_track.at(time);
-  return glm::translate(glm::dmat4(1.0), t) * glm::mat4_cast(r) * glm::scale(glm::dmat4(1.0), s);
+  return scene::trs_matrix(t, r, s);
 }
 
 PathSample CameraPath::at(double time) const {
@@ -67,7 +48,9 @@ PathSample CameraPath::at(double time) const {
     s.camera_to_world[2] = glm::dvec4(z, 0.0);
     s.camera_to_world[3] = glm::dvec4(eye, 1.0);
   } else {
-    s.camera_to_world = rigid_camera_frame(world, where);
+    // The loader's camera frame (transform.h), so a path at rest gives the scene's camera.
+    if (const char* problem = scene::rigid_camera_frame(world, s.camera_to_world))
+      throw Error(where + ": the camera transform " + problem);
   }
   if (!yfov.empty()) s.yfov = yfov.at(time);
   if (!focal_length.empty()) s.focal_length = focal_length.at(time);

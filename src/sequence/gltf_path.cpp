@@ -1,33 +1,25 @@
-// Camera paths from glTF animations: the file is parsed again with tinygltf (images skipped), the
-// chain of nodes from the scene root down to the camera's node is collected, and every channel of
-// the chosen animation that targets a node of that chain becomes a track of that node.
-#include <tiny_gltf.h>
-
+// Camera paths from glTF animations: the file is read through the scene module's glTF document
+// layer (images skipped), the chain of nodes from the scene root down to the camera's node is
+// collected with their rest transforms, and every channel of the chosen animation that targets a
+// node of that chain becomes a track of that node.
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
-
-#include <glm/gtc/type_ptr.hpp>
+#include <cstdlib>
+#include <string>
 
 #include "dofcache/core/error.h"
+#include "dofcache/scene/gltf_document.h"
 #include "dofcache/sequence/camera_path.h"
 
 namespace dofcache::sequence {
 namespace {
 
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                const unsigned char*, int, void*) {
-  return true;  // only the node hierarchy and the animations matter here
-}
+using scene::gltf::quoted;
 
-class AnimationReader {
+class AnimationReader : scene::gltf::Document {
  public:
   AnimationReader(const tinygltf::Model& model, std::string name)
-      : model_(model), name_(std::move(name)) {}
+      : Document(model, std::move(name)) {}
 
   CameraPath read(const scene::Camera& camera, const std::string& wanted) {
     const int cam_node = camera.node;
@@ -60,13 +52,13 @@ class AnimationReader {
         fail(label, "the node has a matrix; glTF allows animating only nodes given as TRS");
       Interpolation mode =
           parse_interpolation(smp.interpolation.empty() ? "LINEAR" : smp.interpolation, label);
-      std::vector<double> times = read_floats(smp.input, 1, label + " input");
+      std::vector<double> times = read_floats(smp.input, TINYGLTF_TYPE_SCALAR, label + " input");
       std::size_t expected = times.size() * (mode == Interpolation::CubicSpline ? 3 : 1);
       if (ch.target_path == "translation" || ch.target_path == "scale") {
         Track<glm::dvec3> track;
         track.interpolation = mode;
         track.times = times;
-        std::vector<double> v = read_floats(smp.output, 3, label + " output");
+        std::vector<double> v = read_floats(smp.output, TINYGLTF_TYPE_VEC3, label + " output");
         for (std::size_t i = 0; i + 2 < v.size(); i += 3)
           track.values.emplace_back(v[i], v[i + 1], v[i + 2]);
         check_count(track.values.size(), expected, label);
@@ -76,7 +68,7 @@ class AnimationReader {
         Track<glm::dquat> track;
         track.interpolation = mode;
         track.times = times;
-        std::vector<double> v = read_floats(smp.output, 4, label + " output");
+        std::vector<double> v = read_floats(smp.output, TINYGLTF_TYPE_VEC4, label + " output");
         for (std::size_t i = 0; i + 3 < v.size(); i += 4)  // glTF: (x, y, z, w)
           track.values.emplace_back(v[i + 3], v[i], v[i + 1], v[i + 2]);
         check_count(track.values.size(), expected, label);
@@ -101,15 +93,6 @@ class AnimationReader {
   }
 
  private:
-  [[noreturn]] void fail(const std::string& element, const std::string& problem) const {
-    throw Error(name_ + ": " + element + ": " + problem);
-  }
-  static std::string quoted(const std::string& s) { return s.empty() ? "" : " '" + s + "'"; }
-  std::string node_label(int n) const {
-    return "node" + quoted(model_.nodes[static_cast<std::size_t>(n)].name) + " (" +
-           std::to_string(n) + ")";
-  }
-
   // Root first, ending with `node`.
   std::vector<int> ancestors(int node) const {
     std::vector<int> parent(model_.nodes.size(), -1);
@@ -158,24 +141,14 @@ class AnimationReader {
                        : "no animation moves the camera's node or its parents");
   }
 
+  // The node's rest transform, validated as the scene loader validates it.
   AnimatedNode rest_node(int n) const {
-    const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(n)];
+    const scene::NodeTransform rest = node_transform(n);
     AnimatedNode a;
-    if (!node.matrix.empty()) {
-      if (node.matrix.size() != 16) fail(node_label(n), "matrix must have 16 numbers");
-      a.matrix = glm::make_mat4(node.matrix.data());
-      return a;
-    }
-    if (node.translation.size() == 3)
-      a.translation = glm::dvec3(node.translation[0], node.translation[1], node.translation[2]);
-    if (node.rotation.size() == 4) {
-      glm::dquat q(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
-      double len = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
-      if (!(len > 0.0) || !std::isfinite(len))
-        fail(node_label(n), "rotation is not a unit quaternion");
-      a.rotation = q * (1.0 / len);
-    }
-    if (node.scale.size() == 3) a.scale = glm::dvec3(node.scale[0], node.scale[1], node.scale[2]);
+    a.matrix = rest.matrix;
+    a.translation = rest.translation;
+    a.rotation = rest.rotation;
+    a.scale = rest.scale;
     return a;
   }
 
@@ -185,108 +158,37 @@ class AnimationReader {
                   std::to_string(expected));
   }
 
-  // Reads an accessor of `components` floats per element (FLOAT, or normalised integers as glTF
-  // allows for rotations), checking every index and byte range.
-  std::vector<double> read_floats(int accessor_index, int components,
-                                  const std::string& label) const {
-    if (accessor_index < 0 || static_cast<std::size_t>(accessor_index) >= model_.accessors.size())
-      fail(label, "accessor index " + std::to_string(accessor_index) + " is out of range");
-    const tinygltf::Accessor& acc = model_.accessors[static_cast<std::size_t>(accessor_index)];
-    std::string alabel = label + " accessor " + std::to_string(accessor_index);
-    if (acc.sparse.isSparse) fail(alabel, "sparse accessors are not supported for animations");
-    int type_components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(acc.type));
-    if (type_components != components)
-      fail(alabel, "must have " + std::to_string(components) + " components per element");
-    int comp_size =
-        tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(acc.componentType));
-    bool is_float = acc.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
-    const int ct = acc.componentType;
-    bool is_norm_int = acc.normalized && (ct == TINYGLTF_COMPONENT_TYPE_BYTE ||
-                                          ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
-                                          ct == TINYGLTF_COMPONENT_TYPE_SHORT ||
-                                          ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
-    if (!is_float && !(components == 4 && is_norm_int))
-      fail(alabel, "must be FLOAT (or normalised integers for rotations)");
-    std::vector<double> out(acc.count * static_cast<std::size_t>(components), 0.0);
-    if (acc.bufferView < 0) return out;  // glTF: no buffer view means all zeros
-    if (static_cast<std::size_t>(acc.bufferView) >= model_.bufferViews.size())
-      fail(alabel, "buffer view index is out of range");
-    const tinygltf::BufferView& view = model_.bufferViews[static_cast<std::size_t>(acc.bufferView)];
-    if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= model_.buffers.size())
-      fail(alabel, "buffer index is out of range");
-    const std::vector<unsigned char>& buffer =
-        model_.buffers[static_cast<std::size_t>(view.buffer)].data;
-    std::size_t elem = static_cast<std::size_t>(comp_size) * static_cast<std::size_t>(components);
-    std::size_t stride = view.byteStride ? view.byteStride : elem;
-    if (acc.count > 0) {
-      std::size_t end_in_view = acc.byteOffset + (acc.count - 1) * stride + elem;
-      if (view.byteOffset + view.byteLength > buffer.size() || end_in_view > view.byteLength)
-        fail(alabel, "reads past the end of its buffer view or buffer");
-    }
-    const unsigned char* base = buffer.data() + view.byteOffset + acc.byteOffset;
-    for (std::size_t i = 0; i < acc.count; ++i)
-      for (int c = 0; c < components; ++c) {
-        const unsigned char* p = base + i * stride + static_cast<std::size_t>(c) * comp_size;
-        double v = 0.0;
-        switch (acc.componentType) {
-          case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-            float f;
-            std::memcpy(&f, p, 4);
-            v = f;
-            break;
-          }
-          case TINYGLTF_COMPONENT_TYPE_BYTE:
-            v = std::max(static_cast<signed char>(*p) / 127.0, -1.0);
-            break;
-          case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-            v = *p / 255.0;
-            break;
-          case TINYGLTF_COMPONENT_TYPE_SHORT: {
-            std::int16_t s;
-            std::memcpy(&s, p, 2);
-            v = std::max(s / 32767.0, -1.0);
-            break;
-          }
-          default: {
-            std::uint16_t u;
-            std::memcpy(&u, p, 2);
-            v = u / 65535.0;
-            break;
-          }
-        }
-        out[i * static_cast<std::size_t>(components) + static_cast<std::size_t>(c)] = v;
-      }
+  // Reads an accessor of `type` (SCALAR, VEC3 or VEC4) as doubles: FLOAT, or normalised integers
+  // as glTF allows for rotations. Index and byte ranges are checked by the document layer.
+  std::vector<double> read_floats(int accessor_index, int type, const std::string& label) const {
+    const scene::gltf::AccessorView view = accessor(accessor_index, type, label);
+    const int ct = view.component_type;
+    bool is_float = ct == TINYGLTF_COMPONENT_TYPE_FLOAT;
+    bool is_norm_int = view.normalized && (ct == TINYGLTF_COMPONENT_TYPE_BYTE ||
+                                           ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                           ct == TINYGLTF_COMPONENT_TYPE_SHORT ||
+                                           ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+    if (!is_float && !(type == TINYGLTF_TYPE_VEC4 && is_norm_int))
+      fail(label + " accessor " + std::to_string(accessor_index),
+           "must be FLOAT (or normalised integers for rotations)");
+    const auto components = static_cast<std::size_t>(view.components);
+    std::vector<double> out(view.count * components, 0.0);
+    for (std::size_t i = 0; i < view.count; ++i)
+      for (std::size_t c = 0; c < components; ++c)
+        out[i * components + c] = view.component<double>(i, static_cast<int>(c));
     return out;
   }
-
-  const tinygltf::Model& model_;
-  std::string name_;
 };
 
 }  // namespace
 
 CameraPath load_gltf_camera_path(const std::string& gltf_file, const scene::Camera& camera,
                                  const std::string& animation) {
-  std::ifstream in(gltf_file, std::ios::binary);
-  if (!in) throw Error(gltf_file + ": cannot open file (" + std::strerror(errno) + ")");
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (data.size() > 0xffffffffu) throw Error(gltf_file + ": file is too large (over 4 GiB)");
-  std::filesystem::path base = std::filesystem::path(gltf_file).parent_path();
-  std::string base_dir = base.empty() ? std::string(".") : base.string();
-  tinygltf::TinyGLTF parser;
-  parser.SetImageLoader(skip_image, nullptr);
-  tinygltf::Model model;
-  std::string err, warn;
-  bool ok;
-  if (data.size() >= 4 && data.compare(0, 4, "glTF") == 0)
-    ok = parser.LoadBinaryFromMemory(&model, &err, &warn,
-                                     reinterpret_cast<const unsigned char*>(data.data()),
-                                     static_cast<unsigned int>(data.size()), base_dir);
-  else
-    ok = parser.LoadASCIIFromString(&model, &err, &warn, data.data(),
-                                    static_cast<unsigned int>(data.size()), base_dir);
-  if (!ok) throw Error(gltf_file + ": " + (err.empty() ? "not a valid glTF file" : one_line(err)));
-  return AnimationReader(model, gltf_file).read(camera, animation);
+  // Only the node hierarchy and the animations matter here: images are not decoded.
+  scene::gltf::Parsed parsed =
+      scene::gltf::parse(scene::gltf::read_file(gltf_file), gltf_file,
+                         scene::gltf::base_dir_of(gltf_file), /*load_images=*/false);
+  return AnimationReader(parsed.model, gltf_file).read(camera, animation);
 }
 
 }  // namespace dofcache::sequence

@@ -117,8 +117,7 @@ float reuse_radius(const SampleRecord& record, const render::ThinLensCamera& cam
 
 PersistentCache::PersistentCache(std::string backend, ReusePolicy policy)
     : backend_(std::move(backend)), policy_(policy) {
-  if (backend_ != "octree" && backend_ != "vdb")
-    throw Error("a persistent cache needs a cache backend (octree or vdb), got '" + backend_ + "'");
+  cache::check_radiance_cache_backend(backend_, /*allow_none=*/false);
   if (policy_.evict_after < 0) throw Error("--cache-evict-after must be >= 0");
   if (!(policy_.min_factor > 0.0)) throw Error("cache min factor must be positive");
 }

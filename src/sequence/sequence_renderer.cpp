@@ -1,16 +1,13 @@
 #include "dofcache/sequence/sequence_renderer.h"
 
-#include <signal.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <map>
-#include <set>
 
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/core/atomic_file.h"
+#include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
 #include "dofcache/core/progress.h"
 #include "dofcache/core/rng.h"
@@ -26,51 +23,9 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-class Hasher {
- public:
-  void add(std::uint64_t v) { h_ = hash_combine(h_, v); }
-  void add(double d) {
-    if (d == 0.0) d = 0.0;  // -0 and +0 alike
-    std::uint64_t bits;
-    std::memcpy(&bits, &d, 8);
-    add(bits);
-  }
-  void add(float f) { add(static_cast<double>(f)); }
-  void add(int i) { add(static_cast<std::uint64_t>(static_cast<std::int64_t>(i))); }
-  void add(bool b) { add(static_cast<std::uint64_t>(b)); }
-  void add(const std::string& s) {
-    add(static_cast<std::uint64_t>(s.size()));
-    for (unsigned char c : s) add(static_cast<std::uint64_t>(c));
-  }
-  std::uint64_t value() const { return h_; }
-
- private:
-  std::uint64_t h_ = 0x73657175656e6365ULL;  // "sequence"
-};
-
-// Temporary files (image::temporary_path_for: "<dir>/.<stem>.tmp-<pid>-<n><ext>") that a killed
-// run left behind for any of `targets`: removed, unless the process that made them still runs.
-void remove_stale_temporaries(const std::vector<std::string>& targets) {
-  std::map<fs::path, std::set<std::string>> prefixes;  // directory -> ".<stem>.tmp-"
-  for (const std::string& t : targets) {
-    if (t.empty()) continue;
-    fs::path p(t);
-    prefixes[p.parent_path()].insert("." + p.stem().string() + ".tmp-");
-  }
-  for (const auto& [dir, names] : prefixes) {
-    std::error_code ec;
-    fs::directory_iterator it(dir.empty() ? fs::path(".") : dir, ec);
-    if (ec) continue;
-    for (const fs::directory_entry& e : it) {
-      std::string name = e.path().filename().string();
-      std::size_t tmp = name.find(".tmp-");
-      if (tmp == std::string::npos || !names.count(name.substr(0, tmp + 5))) continue;
-      long pid = std::strtol(name.c_str() + tmp + 5, nullptr, 10);
-      if (pid > 0 && (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH)) continue;
-      fs::remove(e.path(), ec);
-    }
-  }
-}
+// Seed of the sequence key and the records hash ("sequence"); floats hash as the doubles they
+// equal (ContentHasher::add(float)).
+constexpr std::uint64_t kSequenceHashSeed = 0x73657175656e6365ULL;
 
 std::uint64_t work_of(const render::RenderSettings& s) {
   return static_cast<std::uint64_t>(s.width) * static_cast<std::uint64_t>(s.height) *
@@ -143,7 +98,7 @@ std::pair<int, int> parse_frame_range(const std::string& text) {
 }
 
 std::uint64_t records_hash(const std::vector<SampleRecord>& records) {
-  Hasher h;
+  ContentHasher h(kSequenceHashSeed);
   h.add(static_cast<std::uint64_t>(records.size()));
   for (const SampleRecord& r : records) {
     const cache::CacheSample& s = r.sample;
@@ -166,7 +121,7 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
                            const std::vector<FrameSpec>& frames, std::size_t count,
                            std::uint64_t initial_cache_hash) {
   const render::RenderSettings& r = settings.render;
-  Hasher h;
+  ContentHasher h(kSequenceHashSeed);
   h.add(std::string("dofcache sequence 1"));
   h.add(scene.content_hash);
   h.add(r.width), h.add(r.height), h.add(r.spp), h.add(static_cast<int>(r.mode));
@@ -200,8 +155,7 @@ void SequenceSettings::validate() const {
   if (!(cache_memory_mb >= 0.0) || !std::isfinite(cache_memory_mb))
     throw Error("--cache-memory must be a number of MB >= 0");
   if (cache_mode != CacheMode::None) {
-    if (cache_backend != "octree" && cache_backend != "vdb")
-      throw Error("cache backend '" + cache_backend + "' is not one of octree, vdb");
+    cache::check_radiance_cache_backend(cache_backend, /*allow_none=*/false);
     if (render.mode == render::Mode::Pinhole)
       throw Error("the radiance cache applies to drt and accumulation renders, not pinhole");
   } else if (!cache_in.empty() || !cache_out.empty()) {

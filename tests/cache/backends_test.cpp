@@ -134,6 +134,27 @@ TEST(Factory, NamesAndErrors) {
   EXPECT_THROW(make_vdb_radiance_cache({3.0f}), Error);
 }
 
+// One check of backend names for every user (render, sequence, persistent cache, farm plan);
+// "none" only where no cache is allowed.
+TEST(Factory, OneCheckOfBackendNames) {
+  for (const std::string& name : radiance_cache_backends())
+    EXPECT_NO_THROW(check_radiance_cache_backend(name, /*allow_none=*/true)) << name;
+  EXPECT_NO_THROW(check_radiance_cache_backend("octree", /*allow_none=*/false));
+  EXPECT_NO_THROW(check_radiance_cache_backend("vdb", /*allow_none=*/false));
+  for (bool allow_none : {true, false}) {
+    try {
+      check_radiance_cache_backend(allow_none ? "Octree" : "none", allow_none);
+      ADD_FAILURE() << "expected an error";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(allow_none ? "'Octree'" : "'none'"), std::string::npos) << what;
+      EXPECT_NE(what.find(allow_none ? "(valid: none, octree, vdb)" : "(valid: octree, vdb)"),
+                std::string::npos)
+          << what;
+    }
+  }
+}
+
 TEST(Backends, MatchBruteForceAndEachOtherBitForBit) {
   std::vector<CacheSample> batch = random_samples(6000, 1);
   auto caches = both_backends();

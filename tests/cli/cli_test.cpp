@@ -120,6 +120,21 @@ TEST_F(Cli, HelpExplainsOptions) {
     EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
 }
 
+// The lens options are defined once (common_options.h) for every command that takes them; refocus
+// says what an unset one keeps.
+TEST_F(Cli, LensOptionsReadTheSameInEveryCommand) {
+  const std::string fstop_help = "f-number n (aperture diameter = focal length / n)";
+  for (const char* command : {"render", "sequence", "refocus"}) {
+    testing::CliResult r = run(std::string(command) + " --help");
+    EXPECT_EQ(r.exit_code, 0) << command;
+    EXPECT_NE(r.out.find(fstop_help), std::string::npos) << command << ":\n" << r.out;
+    EXPECT_NE(r.out.find("Focal length in metres"), std::string::npos) << command;
+    EXPECT_NE(r.out.find("Distance in focus, metres"), std::string::npos) << command;
+  }
+  testing::CliResult r = run("refocus --help");
+  EXPECT_NE(r.out.find("(default: the saved lens's)"), std::string::npos) << r.out;
+}
+
 TEST_F(Cli, MissingFile) {
   expect_clean_failure("render " + (dir_ / "nope.gltf").string() + " --out " +
                            (dir_ / "o.png").string(), "nope.gltf");

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 
 namespace dofcache::image {
@@ -261,16 +262,6 @@ TEST_F(ImageIo, FailedWriteLeavesExistingFileUntouched) {
                Error);
   EXPECT_EQ(listing(), std::vector<std::string>{"keep.exr"});
   expect_identical(read_image(file), original);
-}
-
-TEST_F(ImageIo, TemporaryPathsShareDirectoryAndExtension) {
-  const std::string file = path("render.exr");
-  std::string a = temporary_path_for(file), b = temporary_path_for(file);
-  EXPECT_NE(a, b);
-  EXPECT_EQ(fs::path(a).parent_path(), dir_);
-  EXPECT_EQ(fs::path(a).extension(), ".exr");
-  EXPECT_EQ(fs::path(a).filename().string().rfind(".render.tmp-", 0), 0u) << a;
-  EXPECT_EQ(fs::path(temporary_path_for("plain.png")).parent_path(), fs::path());
 }
 
 TEST_F(ImageIo, ReadingMissingOrCorruptFilesIsAnError) {

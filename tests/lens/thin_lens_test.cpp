@@ -1,4 +1,4 @@
-// Every thin-lens formula (paper eqs. 2.1-2.6) against values computed by hand.
+// Every thin-lens formula (paper eqs. (2.1)-(2.6)) against values computed by hand.
 #include "dofcache/lens/thin_lens.h"
 
 #include <gtest/gtest.h>
@@ -58,7 +58,7 @@ TEST(ThinLens, ImagingInPixels) {
   LensImaging im{ThinLens{F, N, P}, 2.0 * std::atan(0.5), 100};
   double v_p = image_distance(F, P);
   EXPECT_NEAR(im.pixel_pitch(), v_p / 100.0, 1e-15);
-  // Footprint at depth 4 m: pitch * D / V_P = 0.04 m (eq. 4.1).
+  // Footprint at depth 4 m: pitch * D / V_P = 0.04 m (eq. (4.1)).
   EXPECT_NEAR(im.pixel_footprint(4.0), 0.04, 1e-12);
   // CoC at 4 m: 3.20513e-4 / (5.12820513e-4) = 0.625 px, signed positive behind focus.
   EXPECT_NEAR(im.signed_coc_pixels(4.0), 0.625, 1e-5);

@@ -50,7 +50,8 @@ TEST(Energy, BlurredConstantImageStaysConstant) {
         for (int x = 0; x < out.width(); ++x)
           for (int c = 0; c < 3; ++c)
             ASSERT_NEAR(out.at(x, y, c), rgb[c], 2e-5f)
-                << to_string(m) << (blend ? "" : " (no level blend)") << " at " << x << "," << y;
+                << preview_method_name(m) << (blend ? "" : " (no level blend)") << " at " << x
+                << "," << y;
     }
   }
 }
@@ -74,7 +75,8 @@ TEST(Energy, TinyAndOddSizes) {
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
           for (int c = 0; c < 3; ++c)
-            ASSERT_NEAR(out.at(x, y, c), rgb[c], 2e-5f) << to_string(m) << " " << w << "x" << h;
+            ASSERT_NEAR(out.at(x, y, c), rgb[c], 2e-5f)
+                << preview_method_name(m) << " " << w << "x" << h;
     }
   }
 }
@@ -92,8 +94,8 @@ TEST(Energy, LayerCroppingAndThreadCountDoNotChangeTheImage) {
     options.crop_layers = true;
     options.threads = 2;
     image::Image two_threads = render_preview(in, m, options);
-    EXPECT_EQ(cropped.data(), whole.data()) << to_string(m);
-    EXPECT_EQ(cropped.data(), two_threads.data()) << to_string(m);
+    EXPECT_EQ(cropped.data(), whole.data()) << preview_method_name(m);
+    EXPECT_EQ(cropped.data(), two_threads.data()) << preview_method_name(m);
   }
 }
 

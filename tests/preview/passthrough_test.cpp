@@ -45,7 +45,7 @@ void expect_unchanged(const image::Image& out, const image::Image& in, const cha
   ASSERT_TRUE(out.same_shape(in));
   for (size_t i = 0; i < in.data().size(); ++i)
     ASSERT_NEAR(out.data()[i], in.data()[i], 1e-6f * std::max(1.0f, std::abs(in.data()[i])))
-        << what << ", " << to_string(m) << ", value " << i;
+        << what << ", " << preview_method_name(m) << ", value " << i;
 }
 
 TEST(PassThrough, EverythingAtTheFocusDistance) {
@@ -91,7 +91,7 @@ TEST(PassThrough, InFocusRegionsAwayFromBlurredObjectsStayExact) {
         if (x < 30 + 40 && y < 30 + 40) continue;  // within 40 px of the square
         for (int c = 0; c < 3; ++c)
           ASSERT_NEAR(out.at(x, y, c), in.color.at(x, y, c), 1e-5f)
-              << to_string(m) << " at " << x << "," << y;
+              << preview_method_name(m) << " at " << x << "," << y;
       }
   }
 }

@@ -85,7 +85,8 @@ TEST(PreviewRenderer, InFocusEqualsPinholeInEveryMode) {
   p.mode = render::Mode::Pinhole;
   image::Image pinhole = render::render(q.scene, *q.accel, q.scene.cameras[0], p).color;
   for (PreviewMethod m : kMethods)
-    expect_identical(q.preview(s, m).image, pinhole, std::string("f/2000, ") + to_string(m));
+    expect_identical(q.preview(s, m).image, pinhole,
+                     std::string("f/2000, ") + preview_method_name(m));
 
   // ... and a wide one with everything at the focus distance (a quad filling the view).
   scene::Scene flat;
@@ -100,7 +101,8 @@ TEST(PreviewRenderer, InFocusEqualsPinholeInEveryMode) {
   pinhole = render::render(flat, accel, flat.cameras[0], p).color;
   for (PreviewMethod m : kMethods) {
     ScenePreview r = render_scene_preview(flat, accel, flat.cameras[0], s, m);
-    expect_identical(r.image, pinhole, std::string("f/1 at the focus distance, ") + to_string(m));
+    expect_identical(r.image, pinhole,
+                     std::string("f/1 at the focus distance, ") + preview_method_name(m));
     EXPECT_TRUE(r.inputs.revealed.empty());
   }
 }
@@ -196,7 +198,8 @@ TEST_F(SavedInputs, RefocusWithTheSameLensEqualsTheDirectPreview) {
   EXPECT_TRUE(again.warning.empty()) << again.warning;
   for (PreviewMethod m : kMethods)
     expect_identical(render_preview(again.inputs, m, loaded.options),
-                     render_preview(r.inputs, m, o), std::string("refocus ") + to_string(m));
+                     render_preview(r.inputs, m, o),
+                     std::string("refocus ") + preview_method_name(m));
   expect_identical(render_preview(again.inputs, PreviewMethod::LayeredOcclusion, o), r.image,
                    "refocus against render_scene_preview");
 }

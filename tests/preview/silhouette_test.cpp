@@ -67,7 +67,7 @@ TEST(Silhouette, SmallDefocusCoversLikeTheDisk) {
     // The slab composite adds the square's shares in its two layers: its rim covers like the
     // disk, up to the blur kernels' own error, with either blur.
     PreviewOptions slabs;
-    slabs.layer_composite = LayerComposite::kSlabs;
+    slabs.layer_composite = LayerComposite::Slabs;
     slabs.edge_rays = 0;  // the composites themselves (the fix's edge trace is tested below)
     PreviewOptions slabs_pyramid = slabs;
     slabs_pyramid.direct_blur_radius = 0;  // blend pyramid levels for every radius
@@ -80,7 +80,7 @@ TEST(Silhouette, SmallDefocusCoversLikeTheDisk) {
     // opaque (measured 0.26), and the pyramid's spike-and-halo blend for small radii makes it
     // worse (0.34).
     PreviewOptions over = slabs;
-    over.layer_composite = LayerComposite::kOver;
+    over.layer_composite = LayerComposite::Over;
     PreviewOptions over_pyramid = over;
     over_pyramid.direct_blur_radius = 0;
     const double direct = rim_coverage_error(over, m), blended = rim_coverage_error(over_pyramid, m);
@@ -103,7 +103,7 @@ TEST(Silhouette, SmallDefocusCoversLikeTheDisk) {
 // with Kraus & Strengert.
 TEST(Silhouette, OcclusionFixShowsThePatchAtASmallDefocus) {
   PreviewOptions options;  // both methods on Kraus & Strengert's composite, as the paper compares
-  options.layer_composite = LayerComposite::kOver;
+  options.layer_composite = LayerComposite::Over;
   SyntheticScene scene = make_scene(1.0f, 0.5f, 1.0f);
   PreviewInputs in = inputs_with_revealed(scene, options);
   ASSERT_FALSE(in.revealed.empty());
@@ -156,7 +156,7 @@ TEST(Silhouette, SurfaceCrossingAnchorsShowsNoSeam) {
       in.color.at(x, y, 2) = 0.0f;
     }
   PreviewOptions options;
-  options.layer_composite = LayerComposite::kSlabs;
+  options.layer_composite = LayerComposite::Slabs;
   const LayerPlan plan = plan_layers(in.depth, in.imaging, options);
   ASSERT_NEAR(plan.step, 3.0, 1e-9);
   ASSERT_NEAR(plan.anchor(2), -12.0, 1e-9);
@@ -181,7 +181,7 @@ TEST(Silhouette, SurfaceCrossingAnchorsShowsNoSeam) {
 // The direct blur, like the pyramid, gives the same image cropped to the layer's box or not, for
 // any thread count, and keeps a constant colour constant.
 TEST(Silhouette, DirectBlurIsCropAndThreadInvariant) {
-  for (LayerComposite composite : {LayerComposite::kOver, LayerComposite::kSlabs}) {
+  for (LayerComposite composite : {LayerComposite::Over, LayerComposite::Slabs}) {
     PreviewOptions options;
     options.layer_composite = composite;
     PreviewInputs in = inputs_with_revealed(make_scene(1.0f, 0.5f, 1.0f), options);

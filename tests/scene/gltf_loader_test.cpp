@@ -687,6 +687,27 @@ TEST_F(GltfLoaderTest, BadReferencesAndNoGeometry) {
   expect_error([&] { load_gltf_from_memory("", "empty input"); }, {"empty input"});
 }
 
+// The camera frame (scene/transform.h, shared with camera paths) refuses an axis shorter than
+// kDegenerateAxisLength, the view axis as well as the up axis (the loader once took any view axis
+// longer than 0, where camera paths refused below 1e-12).
+TEST_F(GltfLoaderTest, CameraWithCollapsedViewAxisIsRefused) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  auto with_camera_scale = [&](const std::string& scale) {
+    return g.json("\"cameras\":[{\"type\":\"perspective\","
+                  "\"perspective\":{\"yfov\":0.5,\"znear\":0.1}}],"
+                  "\"nodes\":[{\"mesh\":0},{\"name\":\"cam\",\"camera\":0,\"scale\":" +
+                  scale + "}],\"meshes\":[" + triangle_mesh(pos) + "]");
+  };
+  std::string flat = write("flat_camera.gltf", with_camera_scale("[1,1,1e-13]"));
+  expect_error([&] { load_gltf(flat); }, {flat, "node 'cam' (1)", "collapses the view direction"});
+  // Above the threshold the frame is rebuilt with unit axes.
+  Scene s = load("thin_camera.gltf", with_camera_scale("[1,1,1e-11]"));
+  ASSERT_EQ(s.cameras.size(), 1u);
+  EXPECT_NEAR(glm::length(glm::vec3(s.cameras[0].camera_to_world[2])), 1.0f, 1e-6);
+  expect_vec3(glm::vec3(s.cameras[0].camera_to_world[2]), {0, 0, 1});
+}
+
 TEST_F(GltfLoaderTest, GarbageNeverCrashes) {
   // Truncations of a valid file and a GLB header with nonsense lengths: errors, never crashes.
   Gltf g;

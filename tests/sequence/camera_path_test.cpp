@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -220,6 +221,41 @@ TEST_F(GltfAnimation, RefusesBrokenAnimations) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("no animations"), std::string::npos) << e.what();
   }
+}
+
+// The rest pose of the camera's chain is read by the scene's glTF document layer, which validates
+// node transforms as the scene loader does: a malformed one is refused (camera paths once
+// ignored a translation, rotation or scale of the wrong length), and so is an accessor of the
+// wrong type (a rotation output must be VEC4, not any type of 4 components).
+TEST_F(GltfAnimation, RefusesMalformedRestTransformsAndAccessorTypes) {
+  scene::Scene sc = render::load_scene(file_);
+  const nlohmann::json doc = nlohmann::json::parse(std::ifstream(file_));
+  auto error_of = [&](const nlohmann::json& d) -> std::string {
+    std::ofstream(file_) << d.dump();
+    try {
+      load_gltf_camera_path(file_, sc.cameras[0]);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const std::pair<const char*, nlohmann::json> malformed[] = {
+      {"translation", nlohmann::json::array({0, 0})},
+      {"rotation", nlohmann::json::array({0, 0, 1})},
+      {"scale", nlohmann::json::array({1, 1, 1, 1})}};
+  for (const auto& [key, value] : malformed) {
+    nlohmann::json bad = doc;
+    bad["nodes"][0][key] = value;  // the rig, the camera's parent
+    const std::string what = error_of(bad);
+    EXPECT_NE(what.find("node 'rig' (0): " + std::string(key) + " must have"), std::string::npos)
+        << what;
+  }
+  nlohmann::json bad = doc;
+  bad["accessors"][3]["type"] = "MAT2";  // the camera's rotation output: 4 components
+  const std::string what = error_of(bad);
+  EXPECT_NE(what.find("must be of type VEC4"), std::string::npos) << what;
+  std::ofstream(file_) << doc.dump();
+  EXPECT_NO_THROW(load_gltf_camera_path(file_, sc.cameras[0]));
 }
 
 scene::Camera base_camera() {

@@ -73,6 +73,11 @@ class RadianceCache {
 // The names make_radiance_cache accepts, "none" included: {"none", "octree", "vdb"}.
 const std::vector<std::string>& radiance_cache_backends();
 
+// The one check of a backend name, for everything that takes one (render, sequence, persistent
+// cache, farm plan): throws dofcache::Error "unknown cache backend '<name>' (valid: ...)" unless
+// `name` is one of radiance_cache_backends(); "none" (no cache) counts only if `allow_none`.
+void check_radiance_cache_backend(const std::string& name, bool allow_none);
+
 // "octree" or "vdb" (default options); "none" returns nullptr (the renderer then shades every
 // hit). Anything else throws dofcache::Error listing the valid names.
 std::unique_ptr<RadianceCache> make_radiance_cache(const std::string& backend);

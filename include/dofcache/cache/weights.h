@@ -1,5 +1,5 @@
 #pragma once
-// Interpolation weights of the radiance cache (paper section 4.2, eqs. 4.3 and 4.4), the
+// Interpolation weights of the radiance cache (paper section 4.2, eqs. (4.3) and (4.4)), the
 // acceptance test every lookup applies, and the canonical-order weighted sum.
 //
 // Every lookup path (octree, vdb, the per-tile buffer, the brute-force reference of the tests)
@@ -57,7 +57,7 @@ class SampleTest {
 
   // w_i > 0 if the sample is accepted, 0 if rejected. Accepted means, in this order (cheapest
   // and most selective first): ||p - p_i|| < r_i; n . n_i >= cos(max angle); not in front of the
-  // query point; eps_i < 1 (eq. 4.3). The first test is implied by the last in exact arithmetic;
+  // query point; eps_i < 1 (eq. (4.3)). The first test is implied by the last in exact arithmetic;
   // stating it keeps the spatial structures' conservative bounds valid under rounding.
   float weight(glm::vec3 p_i, float r_i, glm::vec3 n_i) const {
     glm::vec3 d = p_ - p_i;

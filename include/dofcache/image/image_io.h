@@ -1,8 +1,9 @@
 #pragma once
 // Image files through OpenImageIO. The format follows the extension (case-insensitive): .exr is
 // linear 32-bit float, colour and extra channels alike (so every value round-trips exactly; ZIP
-// compression keeps the files reasonable), .png is 8-bit sRGB colour. Writes are atomic: a
-// temporary file in the same directory, renamed over the target only once complete.
+// compression keeps the files reasonable), .png is 8-bit sRGB colour. Writes are atomic
+// (dofcache/core/atomic_file.h): a temporary file in the same directory, renamed over the target
+// only once complete.
 #include <map>
 #include <string>
 #include <vector>
@@ -59,27 +60,5 @@ std::vector<ExrPart> read_multipart_exr(const std::string& path);
 // The sRGB transfer functions (IEC 61966-2-1): encode = linear -> display, decode the inverse.
 float linear_to_srgb(float linear);
 float srgb_to_linear(float encoded);
-
-// Writes `path` atomically: `write(tmp_path)` produces a complete file at tmp_path (same
-// directory, same extension: "<dir>/.<stem>.tmp-<pid>-<counter><ext>"), then it is renamed to
-// `path`. commit_temporary throws dofcache::Error if the rename fails. On any exception the
-// temporary file is removed and the exception rethrown. Used by every writer in the project.
-template <class WriteFn>
-void write_atomically(const std::string& path, WriteFn&& write);
-std::string temporary_path_for(const std::string& path);
-void commit_temporary(const std::string& tmp_path, const std::string& path);
-void discard_temporary(const std::string& tmp_path) noexcept;
-
-template <class WriteFn>
-void write_atomically(const std::string& path, WriteFn&& write) {
-  std::string tmp = temporary_path_for(path);
-  try {
-    write(tmp);
-    commit_temporary(tmp, path);
-  } catch (...) {
-    discard_temporary(tmp);
-    throw;
-  }
-}
 
 }  // namespace dofcache::image

@@ -50,9 +50,10 @@ struct LensImaging {
   int y_resolution = 480;
 
   double pixel_pitch() const;  // i_height / y_res: size of one pixel on the film
-  // Size of one pixel projected to depth D (the paper's factor1, eq. 4.1).
+  // Size of one pixel projected to depth D (the paper's factor1, eq. (4.1)).
   double pixel_footprint(double depth) const;
-  // CoC diameter (eq. 2.4) in pixels; signed: negative in front of the focal plane, positive behind.
+  // CoC diameter (eq. (2.4)) in pixels; signed: negative in front of the focal plane, positive
+  // behind.
   double signed_coc_pixels(double depth) const;
   double coc_radius_pixels(double depth) const;
   // Inverse of signed_coc_pixels: the depth whose signed CoC is c pixels (infinite if none).

@@ -3,11 +3,11 @@
 // Kraus & Strengert 2007), with the layers spaced uniformly in circle of confusion over the depth
 // range actually present (Schedl & Wimmer 2012).
 //
-// Everything here works in *signed CoC* c (the CoC diameter of eq. 2.4 in pixels, negative in front
-// of the focal plane). c is an increasing function of depth, affine in 1/depth:
-//     c(D) = k (1 - P / D),   k = A V_P / (P * pixel_pitch)     (A = F/n, V_P eq. 2.2)
+// Everything here works in *signed CoC* c (the CoC diameter of eq. (2.4) in pixels, negative in
+// front of the focal plane). c is an increasing function of depth, affine in 1/depth:
+//     c(D) = k (1 - P / D),   k = A V_P / (P * pixel_pitch)     (A = F/n, V_P eq. (2.2))
 // so it is finite for the background (c(inf) = k) and interpolates sensibly, which raw depth does
-// not. The blur radius of a layer is |c| / 2 (eq. 2.6: R = C / 2).
+// not. The blur radius of a layer is |c| / 2 (eq. (2.6): R = C / 2).
 //
 // Layer rule (plan_layers). Let [c_min, c_max] be the signed CoC range present in the depth buffer
 // (clamped to +-2 max_coc_radius).
@@ -102,7 +102,7 @@ float matting_weight(const LayerPlan& plan, int i, double c);
 // the front side, i.e. 0 on the rising ramp (c < c_{i-1}), so that a revealed surface is never
 // blended into a layer that still carries (on its plateau) the foreground in front of it.
 float revealed_matting_weight(const LayerPlan& plan, int i, double c);
-// The hat of layer i, the slab composite's matte (LayerComposite::kSlabs): 1 at c_i, falling
+// The hat of layer i, the slab composite's matte (LayerComposite::Slabs): 1 at c_i, falling
 // linearly to 0 at c_{i-1} and c_{i+1}; layer 0 is 1 for every c <= c_0, layer n-1 for every
 // c >= c_{n-1}. The composite uses its two halves, c <= c_i and c > c_i, separately. The hats add
 // up to one for every c.

@@ -26,10 +26,10 @@
 //           ceil(max rho_j) around p (the nearest occluder in the neighbourhood).
 //       Why: the lens rays through which a hidden point X (signed CoC c_X) at pixel p is seen form
 //       a cone; at the depth of an occluder with signed CoC c_F its cross-section, projected to
-//       the image, is the disk of radius (c_X - c_F) / 2 px around p (from eqs. 2.4-2.6). If that
-//       disk holds no open pixel, every lens ray from X hits the occluder and nothing reveals X.
-//       For c_X = 0 (in focus) this is the occluder's own CoC radius |c_F| / 2. The half pixel
-//       accounts for the pixel footprint.
+//       the image, is the disk of radius (c_X - c_F) / 2 px around p (from eqs. (2.4)-(2.6)).
+//       If that disk holds no open pixel, every lens ray from X hits the occluder and nothing
+//       reveals X. For c_X = 0 (in focus) this is the occluder's own CoC radius |c_F| / 2. The
+//       half pixel accounts for the pixel footprint.
 // L_j(p) = render::kInsideId (-2) marks the inside of an object the plane cuts (the back of a
 // one-sided surface): no lens ray sees it, and by (1) it is never revealed.
 // The renderer then renders A_j (colour and depth, same near plane z_j) where mask_j = 1 and hands

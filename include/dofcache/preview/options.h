@@ -10,7 +10,7 @@ enum class LayerComposite {
   // Kraus & Strengert 2007: trapezoid mattes, blurred layers composited back to front with "over".
   // Copies of one surface in neighbouring layers cover each other as a union, so defocused
   // silhouettes come out wider and more opaque than the lens makes them.
-  kOver,
+  Over,
   // The hat matte of each layer split at its anchor; the two halves that share a slab between
   // neighbouring anchors are blurred with their layers' radii and added, and the slabs are
   // composited back to front with "over": a surface's shares add up, exactly as the hat weights
@@ -18,7 +18,7 @@ enum class LayerComposite {
   // Less error at silhouettes (2-3x in the edge band of the shipped scenes), but a curved surface
   // that crosses an anchor can show a faint seam, and the occlusion fix gains nothing on it yet
   // (docs/preview.md, "Composite"): not the default.
-  kSlabs,
+  Slabs,
 };
 
 struct PreviewOptions {
@@ -40,7 +40,7 @@ struct PreviewOptions {
   double min_layer_step = 1.5;
 
   // --- composite -------------------------------------------------------------------------------
-  LayerComposite layer_composite = LayerComposite::kOver;
+  LayerComposite layer_composite = LayerComposite::Over;
 
   // --- pyramid blur (pyramid.h) ------------------------------------------------------------------
   // true: blend the two pyramid levels whose blur brackets the layer radius (variance matched);

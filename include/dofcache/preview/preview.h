@@ -30,7 +30,7 @@ namespace dofcache::preview {
 enum class PreviewMethod { Gather, Scatter, Layered, LayeredOcclusion };
 
 // "gather", "scatter", "layered", "layered-occlusion".
-const char* to_string(PreviewMethod method);
+const char* preview_method_name(PreviewMethod method);
 // The inverse; throws dofcache::Error listing the valid names.
 PreviewMethod parse_preview_method(const std::string& name);
 
