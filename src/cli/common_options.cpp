@@ -78,6 +78,14 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
                   "per-ray shade (it is reused by many lens rays); 0: chosen from --spp, "
                   "round(spp / 32), at least 1 (docs/cache.md)")
       ->capture_default_str()->check(CLI::Range(0, 256));
+  cmd->add_option("--cache-sample-rounds", cache.max_sample_rounds,
+                  "A cache sample whose gather rays disagree (their mean's standard error above "
+                  "--cache-sample-error of its value) takes them again, in doubling rounds up "
+                  "to this many (1: never)")
+      ->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->add_option("--cache-sample-error", cache.sample_error,
+                  "Relative standard error a cache sample's gather rays must reach")
+      ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
 }
 
 nlohmann::json cache_settings_json(const std::string& backend, const std::string& radius_rule,
@@ -88,6 +96,8 @@ nlohmann::json cache_settings_json(const std::string& backend, const std::string
           {"accuracy", cache.accuracy},
           {"max_radius_pixels", cache.max_radius_pixels},
           {"sample_quality", cache.sample_quality},
+          {"sample_error", cache.sample_error},
+          {"max_sample_rounds", cache.max_sample_rounds},
           {"max_normal_angle_deg", cache.lookup.max_normal_angle_deg},
           {"min_samples", cache.lookup.min_samples}};
 }

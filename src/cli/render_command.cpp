@@ -26,7 +26,7 @@ struct RenderOptions {
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
-  std::string cache = "none", cache_debug, cache_trace, radius_rule = "paper";
+  std::string cache = "auto", cache_debug, cache_trace, radius_rule = "paper";
   render::CacheSettings cache_settings;
   preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
   bool quiet = false;
@@ -37,6 +37,11 @@ std::string describe_lens(const lens::ThinLens& l) {
   std::snprintf(buf, sizeof buf, "%.0f mm f/%.3g, focus %.3g m (aperture %.3g mm)",
                 l.focal_length * 1000.0, l.fstop, l.focus_distance, l.aperture_diameter() * 1000.0);
   return buf;
+}
+
+std::vector<std::string> with_auto(std::vector<std::string> names) {
+  names.push_back("auto");
+  return names;
 }
 
 // "preview" -> Layered, "preview-occlusion" -> LayeredOcclusion, ...; nullopt for the integrators.
@@ -117,7 +122,12 @@ int run_render(const RenderOptions& o) {
                                                    {o.focal_length, o.fstop, o.focus_distance});
   s.lens = lens.lens;
   s.progress = o.quiet ? Progress::Display::Never : Progress::Display::Auto;
-  std::unique_ptr<cache::RadianceCache> radiance_cache = cache::make_radiance_cache(o.cache);
+  // auto: the vdb cache where it applies (drt, accumulation), which the peer benchmark measured
+  // at least as fast as the best uncached shading at equal error (docs/peer.md); none for the
+  // pinhole and preview modes, which shade each pixel once.
+  const bool integrates_lens = o.mode == "drt" || o.mode == "accumulation";
+  const std::string backend = o.cache != "auto" ? o.cache : integrates_lens ? "vdb" : "none";
+  std::unique_ptr<cache::RadianceCache> radiance_cache = cache::make_radiance_cache(backend);
   std::unique_ptr<cache::TraceWriter> trace;
   s.cache = o.cache_settings;
   if (s.cache.sample_quality == 0)
@@ -183,7 +193,7 @@ int run_render(const RenderOptions& o) {
                      {"gather_rays", s.shading.gather_rays}, {"bounces", s.shading.bounces},
                      {"specular_depth", s.shading.specular_depth}}},
         {"output", o.out},
-        {"cache", cache_settings_json(o.cache, o.radius_rule, s.cache)}};
+        {"cache", cache_settings_json(backend, o.radius_rule, s.cache)}};
     j["cache"].update({{"lookups", st.cache_lookups}, {"hits", st.cache_hits},
                        {"tile_hits", st.cache_tile_hits}, {"hit_rate", st.cache_hit_rate()},
                        {"inserted", st.cache_inserted}, {"samples", st.cache_samples},
@@ -238,9 +248,10 @@ Runner add_render_command(CLI::App& app) {
   add_shading_options(cmd, o->shading);
   cmd->add_option("--cache", o->cache,
                   "Radiance cache: none (shade every lens ray), octree (the paper's) or vdb "
-                  "(OpenVDB grids keyed by depth-dependent voxel size)")
+                  "(OpenVDB grids keyed by depth-dependent voxel size); auto: vdb for drt and "
+                  "accumulation renders, none otherwise")
       ->capture_default_str()
-      ->check(CLI::IsMember(cache::radiance_cache_backends()));
+      ->check(CLI::IsMember(with_auto(cache::radiance_cache_backends())));
   // A single image chooses the cache sample quality from its lens samples by default (measured
   // best at equal quality); sequences keep a fixed default, since cache files record it.
   o->cache_settings.sample_quality = 0;

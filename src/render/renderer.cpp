@@ -91,7 +91,8 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
   work.lookup_seconds += seconds_since(t0);
   if (hit) return r.value;
   float harmonic = 0.0f;
-  glm::vec3 e = c.sample_shader.diffuse_illumination(p, key, rng, work.rays, &harmonic);
+  glm::vec3 e = c.sample_shader.refined_diffuse_illumination(
+      p, key, rng, work.rays, &harmonic, cs.sample_error, cs.max_sample_rounds);
   if (cs.insert) {
     cache::CacheSample sample;
     sample.position = x;
@@ -254,6 +255,8 @@ void RenderSettings::validate() const {
       throw Error("cache maximum radius must be in [0, 10000] pixels");
     if (cache.sample_quality < 1 || cache.sample_quality > 256)
       throw Error("cache sample quality must be in [1, 256]");
+    if (!(cache.sample_error > 0.0f) || !(cache.max_sample_rounds >= 1 && cache.max_sample_rounds <= 64))
+      throw Error("cache sample refinement: error must be positive, rounds in [1, 64]");
     try {
       cache_sample_shading(shading, cache.sample_quality).validate();
     } catch (const Error& e) {

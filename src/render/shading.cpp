@@ -268,7 +268,8 @@ glm::vec3 Shader::punctual_diffuse(const ShadingPoint& p, RayCounters& counters)
 
 glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int gather_rays,
                                    PathDepth depth, std::uint64_t key, Rng& rng,
-                                   RayCounters& counters, float* harmonic_distance) const {
+                                   RayCounters& counters, float* harmonic_distance,
+                                   std::uint32_t round, GatherMoments* moments) const {
   const glm::vec3 x = p.surface.position;
   glm::vec3 sum = punctual_diffuse(p, counters);
   // Each strategy's density is weighed with its sample count (Veach's n_i p_i).
@@ -279,8 +280,8 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
     glm::vec3 acc(0.0f);
     for (int k = 0; k < light_samples; ++k) {
       LightSample ls;
-      if (!sample_light(p, rng.uniform(), sobol_2d(static_cast<std::uint32_t>(k), light_key), &ls))
-        continue;
+      const auto index = static_cast<std::uint32_t>(k) + round * static_cast<std::uint32_t>(light_samples);
+      if (!sample_light(p, rng.uniform(), sobol_2d(index, light_key), &ls)) continue;
       if (glm::dot(p.n, ls.wi) <= 0.0f || glm::dot(p.ng, ls.wi) <= 0.0f) continue;
       if (!visible(x, p.ng, ls.wi, ls.distance, counters)) continue;
       acc += diffuse_light(p, ls, n_light, n_gather);
@@ -288,7 +289,7 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
     sum += acc / n_light;
   }
   return sum + gather(p, gather_rays, n_light, depth, hash_combine(key, 12), rng, counters,
-                      harmonic_distance);
+                      harmonic_distance, round * static_cast<std::uint32_t>(gather_rays), moments);
 }
 
 glm::vec3 Shader::diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,
@@ -301,7 +302,8 @@ glm::vec3 Shader::diffuse_light(const ShadingPoint& p, const LightSample& ls, fl
 
 glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDepth depth,
                          std::uint64_t key, Rng& rng, RayCounters& counters,
-                         float* harmonic_distance) const {
+                         float* harmonic_distance, std::uint32_t first_index,
+                         GatherMoments* moments) const {
   if (harmonic_distance) *harmonic_distance = std::numeric_limits<float>::infinity();
   if (rays <= 0) return glm::vec3(0.0f);
   // Cosine-weighted rays, whose pdf cos/pi cancels the integrand's cos/pi.
@@ -312,16 +314,24 @@ glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDep
   glm::vec3 acc(0.0f);
   float inverse_sum = 0.0f;
   for (int k = 0; k < rays; ++k) {
-    const glm::vec3 local = cosine_hemisphere(sobol_2d(static_cast<std::uint32_t>(k), key));
+    const glm::vec3 local =
+        cosine_hemisphere(sobol_2d(first_index + static_cast<std::uint32_t>(k), key));
     const glm::vec3 dir = frame.to_world(local);
+    if (moments) ++moments->count;  // a ray below the surface or escaping counts as 0
     if (glm::dot(dir, p.ng) <= 0.0f) continue;
     const scene::Ray ray = spawn(p, dir);
     ++counters.rays;
     const scene::Hit hit = accel_.intersect(ray);
     if (!hit.valid()) continue;
     inverse_sum += 1.0f / std::max(hit.t, epsilon_);
-    acc += continuation(p, ray, hit, n_gather * local.z * kInvPi, n_light, next, survival, rng,
-                        counters);
+    const glm::vec3 c = continuation(p, ray, hit, n_gather * local.z * kInvPi, n_light, next,
+                                     survival, rng, counters);
+    acc += c;
+    if (moments) {
+      const double y = luminance(c);
+      moments->sum += y;
+      moments->sum2 += y * y;
+    }
   }
   if (harmonic_distance && inverse_sum > 0.0f)
     *harmonic_distance = n_gather / inverse_sum;
@@ -369,7 +379,7 @@ glm::vec3 Shader::reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
   }
   if (n_gather > 0.0f)
     l += rho * gather(q, 1, 1.0f, PathDepth{depth.taken, depth.left, 0}, draw_key(rng), rng,
-                      counters, nullptr);
+                      counters, nullptr, 0, nullptr);
   if (lobe.keep > 0.0f) l += specular_ray(q, lobe, depth, rng, counters);
   return l;
 }
@@ -379,7 +389,33 @@ glm::vec3 Shader::diffuse_illumination(const ShadingPoint& p, std::uint64_t key,
   ++counters.shading_points;
   return diffuse_estimate(p, settings_.light_samples, settings_.gather_rays,
                           PathDepth{0, settings_.bounces, 0}, key, rng, counters,
-                          harmonic_distance);
+                          harmonic_distance, 0, nullptr);
+}
+
+glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint64_t key,
+                                               Rng& rng, RayCounters& counters,
+                                               float* harmonic_distance, float relative_error,
+                                               int max_rounds, int* rounds_taken) const {
+  ++counters.shading_points;
+  const PathDepth depth{0, settings_.bounces, 0};
+  GatherMoments moments;
+  glm::vec3 sum(0.0f);
+  auto run_round = [&](std::uint32_t round) {
+    sum += diffuse_estimate(p, settings_.light_samples, settings_.gather_rays, depth, key, rng,
+                            counters, round == 0 ? harmonic_distance : nullptr, round, &moments);
+  };
+  run_round(0);
+  int rounds = 1;
+  while (rounds < max_rounds && moments.count > 1) {
+    const double n = static_cast<double>(moments.count);
+    const double mean = moments.sum / n;
+    const double standard_error = std::sqrt(std::max(0.0, moments.sum2 / n - mean * mean) / n);
+    if (!(standard_error > relative_error * luminance(sum / static_cast<float>(rounds)))) break;
+    for (int r = rounds; r < 2 * rounds; ++r) run_round(static_cast<std::uint32_t>(r));
+    rounds *= 2;
+  }
+  if (rounds_taken) *rounds_taken = rounds;
+  return sum / static_cast<float>(rounds);
 }
 
 glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng,

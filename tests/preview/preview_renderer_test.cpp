@@ -57,6 +57,9 @@ struct TwoQuads {
   render::RenderSettings settings(double fstop, double focus = 1.6) const {
     render::RenderSettings s;
     s.width = kW, s.height = kH, s.spp = 4;
+    // Direct light only, so each quad shows exactly its emission: with a bounce, the back quad's
+    // specular lobe sees the front quad's unlit back reflect the back quad's own light (0.0006).
+    s.shading.bounces = 0;
     s.lens = lens::ThinLens{0.1, fstop, focus};
     s.progress = Progress::Display::Never;
     return s;

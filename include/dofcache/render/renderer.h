@@ -64,6 +64,11 @@ struct CacheSettings {
   // samples than a per-ray shade: these multiply ShadingSettings::light_samples / gather_rays.
   // recommended_sample_quality(spp) chooses it from the lens samples per pixel.
   int sample_quality = 4;
+  // A cache sample's gather rays are taken again, in doubling rounds up to max_sample_rounds,
+  // while their mean's standard error exceeds sample_error times the sample's value
+  // (Shader::refined_diffuse_illumination). 1 round: no refinement.
+  float sample_error = 0.1f;
+  int max_sample_rounds = 8;
   std::uint32_t frame = 0;                // stamped on new samples (camera paths)
   bool insert = true;                     // false: use the cache read only
   cache::TraceWriter* trace = nullptr;    // if set, records lookups and inserts for replay

@@ -66,6 +66,17 @@ class Shader {
   glm::vec3 diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
                                  RayCounters& counters, float* harmonic_distance = nullptr) const;
 
+  // E/pi for a cache sample, which many lens rays reuse: diffuse_illumination in rounds, each an
+  // independent estimate from further points of the same stratified sequences, doubled while the
+  // standard error of the gather rays' mean exceeds `relative_error` times the estimate, up to
+  // `max_rounds` rounds. A sample whose few gather rays met a small bright patch (the ceiling
+  // just above a lamp) would otherwise carry that outlier over its whole circle of confusion.
+  // (Stopping on the data biases the mean slightly; the cache is an interpolation anyway.)
+  glm::vec3 refined_diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
+                                         RayCounters& counters, float* harmonic_distance,
+                                         float relative_error, int max_rounds,
+                                         int* rounds_taken = nullptr) const;
+
   // Outgoing radiance towards p.wo at a camera hit given its diffuse illumination (computed or
   // cached).
   glm::vec3 shade(const ShadingPoint& p, glm::vec3 diffuse_illumination, Rng& rng,
@@ -96,18 +107,25 @@ class Shader {
     int glossy = 0;
   };
 
+  // Running sums of the gather rays' luminance, for the standard error of their mean.
+  struct GatherMoments {
+    double sum = 0.0, sum2 = 0.0;
+    int count = 0;
+  };
   // E/pi at p from `light_samples` light samples and `gather_rays` cosine-weighted rays, combined
-  // by multiple importance sampling; `key` seeds their stratified patterns.
+  // by multiple importance sampling; `key` seeds their stratified patterns, of which round r
+  // takes the r-th run of points.
   glm::vec3 diffuse_estimate(const ShadingPoint& p, int light_samples, int gather_rays,
                              PathDepth depth, std::uint64_t key, Rng& rng, RayCounters& counters,
-                             float* harmonic_distance) const;
+                             float* harmonic_distance, std::uint32_t round,
+                             GatherMoments* moments) const;
   // A visible light sample's MIS-weighted share of E/pi (n_light of them against n_gather rays).
   glm::vec3 diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,
                           float n_gather) const;
   // The cosine-weighted rays' share of E/pi, against n_light light samples.
   glm::vec3 gather(const ShadingPoint& p, int rays, float n_light, PathDepth depth,
-                   std::uint64_t key, Rng& rng, RayCounters& counters,
-                   float* harmonic_distance) const;
+                   std::uint64_t key, Rng& rng, RayCounters& counters, float* harmonic_distance,
+                   std::uint32_t first_index, GatherMoments* moments) const;
   // Radiance leaving a path vertex q towards q.wo, emission excluded (the caller weights it).
   glm::vec3 reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
                       RayCounters& counters) const;
