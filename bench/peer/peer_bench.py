@@ -352,8 +352,8 @@ def config_args(config):
         args += ["--gather-rays", str(config["gather"])]
     if config.get("light") is not None:
         args += ["--light-samples", str(config["light"])]
-    if config.get("cache"):
-        args += ["--cache", config["cache"]]
+    # Uncached unless a cache is named: render's own default is the vdb cache.
+    args += ["--cache", config.get("cache") or "none"]
     return args
 
 
@@ -365,7 +365,7 @@ def config_label(config):
         parts.append("gather %d" % config["gather"])
     if config.get("light") is not None:
         parts.append("light %d" % config["light"])
-    return ", ".join(parts) if parts else "default"
+    return ", ".join(parts) if parts else "uncached, default shading"
 
 
 # ---------------------------------------------------------------------------------------------

@@ -67,7 +67,7 @@ struct CacheSettings {
   // A cache sample's gather rays are taken again, in doubling rounds up to max_sample_rounds,
   // while their mean's standard error exceeds sample_error times the sample's value
   // (Shader::refined_diffuse_illumination). 1 round: no refinement.
-  float sample_error = 0.1f;
+  float sample_error = 0.2f;
   int max_sample_rounds = 8;
   std::uint32_t frame = 0;                // stamped on new samples (camera paths)
   bool insert = true;                     // false: use the cache read only
