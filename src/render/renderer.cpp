@@ -255,7 +255,8 @@ void RenderSettings::validate() const {
       throw Error("cache maximum radius must be in [0, 10000] pixels");
     if (cache.sample_quality < 1 || cache.sample_quality > 256)
       throw Error("cache sample quality must be in [1, 256]");
-    if (!(cache.sample_error > 0.0f) || !(cache.max_sample_rounds >= 1 && cache.max_sample_rounds <= 64))
+    if (!(cache.sample_error > 0.0f) ||
+        !(cache.max_sample_rounds >= 1 && cache.max_sample_rounds <= 64))
       throw Error("cache sample refinement: error must be positive, rounds in [1, 64]");
     try {
       cache_sample_shading(shading, cache.sample_quality).validate();

@@ -120,7 +120,6 @@ struct GgxLobe {
   }
 };
 
-
 void ShadingSettings::validate() const {
   auto check = [](int v, int lo, int hi, const char* name) {
     if (v < lo || v > hi)
@@ -280,7 +279,8 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
     glm::vec3 acc(0.0f);
     for (int k = 0; k < light_samples; ++k) {
       LightSample ls;
-      const auto index = static_cast<std::uint32_t>(k) + round * static_cast<std::uint32_t>(light_samples);
+      const auto index =
+          static_cast<std::uint32_t>(k) + round * static_cast<std::uint32_t>(light_samples);
       if (!sample_light(p, rng.uniform(), sobol_2d(index, light_key), &ls)) continue;
       if (glm::dot(p.n, ls.wi) <= 0.0f || glm::dot(p.ng, ls.wi) <= 0.0f) continue;
       if (!visible(x, p.ng, ls.wi, ls.distance, counters)) continue;
@@ -288,8 +288,9 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
     }
     sum += acc / n_light;
   }
+  const std::uint32_t first_gather = round * static_cast<std::uint32_t>(gather_rays);
   return sum + gather(p, gather_rays, n_light, depth, hash_combine(key, 12), rng, counters,
-                      harmonic_distance, round * static_cast<std::uint32_t>(gather_rays), moments);
+                      harmonic_distance, first_gather, moments);
 }
 
 glm::vec3 Shader::diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,

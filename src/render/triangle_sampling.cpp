@@ -16,7 +16,9 @@ float angle_between(glm::vec3 u, glm::vec3 v) {
 }
 
 // The unit part of v orthogonal to the unit vector n.
-glm::vec3 orthogonal_part(glm::vec3 v, glm::vec3 n) { return glm::normalize(v - glm::dot(v, n) * n); }
+glm::vec3 orthogonal_part(glm::vec3 v, glm::vec3 n) {
+  return glm::normalize(v - glm::dot(v, n) * n);
+}
 
 float triangle_area(const Triangle& t) {
   return 0.5f * glm::length(glm::cross(t.b - t.a, t.c - t.a));
@@ -30,7 +32,7 @@ float solid_angle(glm::vec3 x, const Triangle& t) {
   const glm::vec3 a = t.a - x, b = t.b - x, c = t.c - x;
   const float la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
   if (!(la > 0.0f && lb > 0.0f && lc > 0.0f)) return 0.0f;
-  // The unnormalised form: tan(Omega/2) = |a.(b x c)| / (la lb lc + (a.b) lc + (b.c) la + (c.a) lb).
+  // Unnormalised: tan(Omega/2) = |a.(b x c)| / (la lb lc + (a.b) lc + (b.c) la + (c.a) lb).
   const float numerator = std::abs(glm::dot(a, glm::cross(b, c)));
   const float denominator =
       la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb;
