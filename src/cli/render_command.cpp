@@ -209,7 +209,7 @@ int run_render(const RenderOptions& o) {
   if (!o.quiet && radiance_cache)
     std::printf("cache   %s: %.1f%% of %llu lookups served (%.1f%% from earlier passes), "
                 "%llu samples, %.2f MB, lookup %.2f s, insert %.3f s (thread-seconds)\n",
-                o.cache.c_str(), 100.0 * st.cache_hit_rate(),
+                backend.c_str(), 100.0 * st.cache_hit_rate(),
                 static_cast<unsigned long long>(st.cache_lookups),
                 st.cache_lookups ? 100.0 * st.cache_hits / st.cache_lookups : 0.0,
                 static_cast<unsigned long long>(st.cache_samples), st.cache_memory_bytes / 1e6,
