@@ -387,16 +387,13 @@ glm::vec3 Shader::reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
 
 glm::vec3 Shader::diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
                                        RayCounters& counters, float* harmonic_distance) const {
-  ++counters.shading_points;
-  return diffuse_estimate(p, settings_.light_samples, settings_.gather_rays,
-                          PathDepth{0, settings_.bounces, 0}, key, rng, counters,
-                          harmonic_distance, 0, nullptr);
+  return refined_diffuse_illumination(p, key, rng, counters, harmonic_distance, 1.0f, 1);
 }
 
 glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint64_t key,
                                                Rng& rng, RayCounters& counters,
                                                float* harmonic_distance, float relative_error,
-                                               int max_rounds, int* rounds_taken) const {
+                                               int max_rounds) const {
   ++counters.shading_points;
   const PathDepth depth{0, settings_.bounces, 0};
   GatherMoments moments;
@@ -415,7 +412,6 @@ glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint6
     for (int r = rounds; r < 2 * rounds; ++r) run_round(static_cast<std::uint32_t>(r));
     rounds *= 2;
   }
-  if (rounds_taken) *rounds_taken = rounds;
   return sum / static_cast<float>(rounds);
 }
 

@@ -74,8 +74,7 @@ class Shader {
   // (Stopping on the data biases the mean slightly; the cache is an interpolation anyway.)
   glm::vec3 refined_diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
                                          RayCounters& counters, float* harmonic_distance,
-                                         float relative_error, int max_rounds,
-                                         int* rounds_taken = nullptr) const;
+                                         float relative_error, int max_rounds) const;
 
   // Outgoing radiance towards p.wo at a camera hit given its diffuse illumination (computed or
   // cached).
