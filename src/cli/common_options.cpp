@@ -48,6 +48,11 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading) {
   cmd->add_option("--specular-depth", shading.specular_depth,
                   "Maximum chain of glossy/mirror reflections (0: no specular lobe)")
       ->capture_default_str()->check(CLI::Range(0, 16));
+  cmd->add_option("--rough-lobe-rate", shading.rough_lobe_rate,
+                  "At a camera hit, a rough dielectric's specular lobe (a few percent of the "
+                  "light) is evaluated on this many times its share of the lens rays, weighted "
+                  "by the inverse (unbiased; 0: on every ray)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1e3));
 }
 
 void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,

@@ -191,7 +191,8 @@ int run_render(const RenderOptions& o) {
                   {"focus_distance", s.lens.focus_distance}}},
         {"shading", {{"light_samples", s.shading.light_samples},
                      {"gather_rays", s.shading.gather_rays}, {"bounces", s.shading.bounces},
-                     {"specular_depth", s.shading.specular_depth}}},
+                     {"specular_depth", s.shading.specular_depth},
+                     {"rough_lobe_rate", s.shading.rough_lobe_rate}}},
         {"output", o.out},
         {"cache", cache_settings_json(backend, o.radius_rule, s.cache)}};
     j["cache"].update({{"lookups", st.cache_lookups}, {"hits", st.cache_hits},

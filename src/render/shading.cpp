@@ -18,6 +18,8 @@ namespace {
 
 constexpr float kPi = 3.14159265358979f;
 constexpr float kInvPi = 1.0f / kPi;
+constexpr float kRoughLobeAlpha = 0.5f;  // GGX alpha (roughness ~0.71) from which a lobe is rough
+constexpr float kMinRoughLobeProbability = 1.0f / 16.0f;
 
 struct Frame {  // orthonormal basis around a unit normal (Duff et al. 2017)
   glm::vec3 t, b, n;
@@ -130,6 +132,8 @@ void ShadingSettings::validate() const {
   check(gather_rays, 0, 65536, "gather rays");
   check(bounces, 0, 16, "bounces");
   check(specular_depth, 0, 16, "specular depth");
+  if (!(rough_lobe_rate >= 0.0f && rough_lobe_rate <= 1e3f))
+    throw Error("shading: rough lobe rate must be in [0, 1000]");
 }
 
 Shader::Shader(const scene::Scene& scene, const scene::Accel& accel,
@@ -424,7 +428,31 @@ glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng
   const PathDepth depth{0, settings_.bounces, 0};
   const GgxLobe lobe = specular_lobe(p, depth);
   if (lobe.keep <= 0.0f) return l;
-  l += specular_punctual(p, lobe, counters);
+  const float p_lobe = has_diffuse(p) ? rough_lobe_probability(p, lobe) : 1.0f;
+  if (p_lobe < 1.0f) {
+    if (rng.uniform() >= p_lobe) return l;
+    return l + specular_at_camera_hit(p, lobe, depth, rng, counters) / p_lobe;
+  }
+  return l + specular_at_camera_hit(p, lobe, depth, rng, counters);
+}
+
+float Shader::rough_lobe_probability(const ShadingPoint& p, const GgxLobe& lobe) const {
+  // A rough dielectric lobe (roughness >= kRoughLobeAlpha) reflects a few percent of a broad
+  // cone of light: its share of the outgoing radiance is about F / (F + (1 - F) c), the
+  // diffuse lobe seeing the same surroundings, and its estimate is bounded by the same light
+  // the diffuse term already holds. Where the diffuse light comes from the cache, the lobe's
+  // light sample and ray are most of a lens ray's cost, so the lobe is evaluated on a fraction
+  // of the lens rays, in proportion to its share (unbiased: weighted by the inverse).
+  if (lobe.alpha < kRoughLobeAlpha || settings_.rough_lobe_rate <= 0.0f) return 1.0f;
+  const float f = luminance(fresnel_schlick(lobe.f0, lobe.n_v));
+  const float share = f / std::max(f + luminance(diffuse_reflectance(p)), 1e-6f);
+  return std::clamp(settings_.rough_lobe_rate * share, kMinRoughLobeProbability, 1.0f);
+}
+
+glm::vec3 Shader::specular_at_camera_hit(const ShadingPoint& p, const GgxLobe& lobe,
+                                         PathDepth depth, Rng& rng,
+                                         RayCounters& counters) const {
+  glm::vec3 l = specular_punctual(p, lobe, counters);
   LightSample ls;
   if (!scene_.emitters.empty() &&
       sample_light(p, rng.uniform(), glm::vec2(rng.uniform(), rng.uniform()), &ls) &&

@@ -8,13 +8,6 @@
 namespace dofcache::render {
 namespace {
 
-constexpr float kPi = 3.14159265358979f;
-
-// Angle between two vectors, accurate near 0 and pi (unlike acos of the dot product).
-float angle_between(glm::vec3 u, glm::vec3 v) {
-  return std::atan2(glm::length(glm::cross(u, v)), glm::dot(u, v));
-}
-
 // The unit part of v orthogonal to the unit vector n.
 glm::vec3 orthogonal_part(glm::vec3 v, glm::vec3 n) {
   return glm::normalize(v - glm::dot(v, n) * n);
@@ -40,20 +33,25 @@ float solid_angle(glm::vec3 x, const Triangle& t) {
   return std::isfinite(omega) ? std::max(omega, 0.0f) : 0.0f;
 }
 
-glm::vec3 sample_spherical_triangle(glm::vec3 x, const Triangle& t, glm::vec2 u) {
-  const glm::vec3 A = glm::normalize(t.a - x), B = glm::normalize(t.b - x),
-                  C = glm::normalize(t.c - x);
-  // The spherical triangle's angles at its vertices are the angles between the great-circle
-  // planes meeting there, i.e. between the planes' normals.
-  const glm::vec3 n_ab = glm::cross(A, B), n_ac = glm::cross(A, C), n_bc = glm::cross(B, C);
-  const float alpha = angle_between(n_ab, n_ac);
-  const float beta = angle_between(-n_ab, n_bc);  // at B: between B x A and B x C
-  const float gamma = angle_between(n_ac, n_bc);  // at C: between C x A and C x B
-  const float area = alpha + beta + gamma - kPi;
-  // Arvo (1995): choose the sub-triangle A B' C' of area u.x * area, with C' on the arc AC...
-  const float sub_area = u.x * area;
-  const float s = std::sin(sub_area - alpha), c = std::cos(sub_area - alpha);
-  const float cos_alpha = std::cos(alpha), sin_alpha = std::sin(alpha);
+namespace {
+
+// Arvo's warp for the spherical triangle of unit directions A, B, C with area `omega` (its solid
+// angle, computed once by the caller). Only the angle alpha at A enters, through its cosine and
+// sine: sin(a - alpha) and cos(a - alpha) expand without an inverse trigonometric function, which
+// leaves one sincos per sample.
+glm::vec3 spherical_warp(glm::vec3 A, glm::vec3 B, glm::vec3 C, float omega, glm::vec2 u) {
+  // alpha is the angle between the great-circle planes through A: between A x B and A x C, whose
+  // cross product is A (A . (B x C)).
+  const glm::vec3 n_ab = glm::cross(A, B), n_ac = glm::cross(A, C);
+  const float norms = glm::length(n_ab) * glm::length(n_ac);
+  if (!(norms > 0.0f)) return A;
+  const float cos_alpha = glm::dot(n_ab, n_ac) / norms;
+  const float sin_alpha = std::abs(glm::dot(A, glm::cross(B, C))) / norms;
+  // Arvo (1995): choose the sub-triangle A B' C' of area u.x * omega, with C' on the arc AC...
+  const float sub_area = u.x * omega;
+  const float sin_a = std::sin(sub_area), cos_a = std::cos(sub_area);
+  const float s = sin_a * cos_alpha - cos_a * sin_alpha;  // sin(sub_area - alpha)
+  const float c = cos_a * cos_alpha + sin_a * sin_alpha;  // cos(sub_area - alpha)
   const float cos_ab = glm::dot(A, B);
   const float p = c - cos_alpha;
   const float q = s + sin_alpha * cos_ab;
@@ -67,6 +65,13 @@ glm::vec3 sample_spherical_triangle(glm::vec3 x, const Triangle& t, glm::vec2 u)
   return glm::normalize(w);
 }
 
+}  // namespace
+
+glm::vec3 sample_spherical_triangle(glm::vec3 x, const Triangle& t, glm::vec2 u) {
+  return spherical_warp(glm::normalize(t.a - x), glm::normalize(t.b - x), glm::normalize(t.c - x),
+                        solid_angle(x, t), u);
+}
+
 bool sample_triangle(glm::vec3 x, const Triangle& t, glm::vec2 u, TriangleSample* s) {
   const glm::vec3 normal = glm::cross(t.b - t.a, t.c - t.a);
   const float twice_area = glm::length(normal);
@@ -75,7 +80,8 @@ bool sample_triangle(glm::vec3 x, const Triangle& t, glm::vec2 u, TriangleSample
   const float plane_distance = glm::dot(n, t.a - x);  // signed distance of x's plane offset
   const float omega = solid_angle(x, t);
   if (use_solid_angle(omega)) {
-    const glm::vec3 wi = sample_spherical_triangle(x, t, u);
+    const glm::vec3 wi = spherical_warp(glm::normalize(t.a - x), glm::normalize(t.b - x),
+                                        glm::normalize(t.c - x), omega, u);
     const float cos_l = glm::dot(n, wi);
     const float distance = plane_distance / cos_l;
     if (!(distance > 0.0f) || !std::isfinite(distance)) return false;

@@ -127,7 +127,7 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
   h.add(r.width), h.add(r.height), h.add(r.spp), h.add(static_cast<int>(r.mode));
   h.add(r.seed);
   h.add(r.shading.light_samples), h.add(r.shading.gather_rays), h.add(r.shading.bounces);
-  h.add(r.shading.specular_depth);
+  h.add(r.shading.specular_depth), h.add(r.shading.rough_lobe_rate);
   h.add(r.near_depth);
   h.add(static_cast<int>(settings.cache_mode));
   h.add(settings.cache_backend);

@@ -138,6 +138,42 @@ TEST(PathTracer, ErrorFallsAsOneOverN) {
   EXPECT_NEAR(slope, -1.0, 0.12);
 }
 
+// A rough dielectric's specular lobe at a camera hit, evaluated on a fraction of the rays and
+// weighted by the inverse, has the mean of the lobe evaluated on every ray, for far fewer rays.
+TEST(PathTracer, RoughLobeOnAFractionOfTheRaysIsUnbiased) {
+  Fixture f;
+  struct Result {
+    double mean = 0, standard_error = 0;
+    std::uint64_t rays = 0;
+  };
+  auto specular = [&](float rate) {
+    ShadingSettings settings = direct_only(1, 1);
+    settings.rough_lobe_rate = rate;
+    Shader shader(f.scene, f.accel, settings);
+    const ShadingPoint p = f.point(shader);
+    RayCounters counters;
+    const int n = 200000;
+    double sum = 0, sum2 = 0;
+    for (int k = 0; k < n; ++k) {
+      Rng rng(31, static_cast<std::uint64_t>(k));
+      const double v = shader.shade(p, glm::vec3(0.0f), rng, counters).x;  // the lobe alone
+      sum += v, sum2 += v * v;
+    }
+    Result r;
+    r.mean = sum / n;
+    r.standard_error = std::sqrt(std::max(0.0, sum2 / n - r.mean * r.mean) / n);
+    r.rays = counters.rays;
+    return r;
+  };
+  const Result every = specular(0.0f), fraction = specular(0.5f);
+  ASSERT_GT(every.mean, 0.0);
+  const double se = std::hypot(every.standard_error, fraction.standard_error);
+  EXPECT_NEAR(fraction.mean, every.mean, 4.0 * se) << "every ray " << every.mean << ", fraction "
+                                                   << fraction.mean;
+  EXPECT_LT(se / every.mean, 0.02);  // fine enough to resolve a bias of a few percent
+  EXPECT_LT(static_cast<double>(fraction.rays), 0.3 * static_cast<double>(every.rays));
+}
+
 // The shipped hanging-light room, rendered small: against a converged reference, no pixel may be
 // a firefly, more than ten times the image's mean above the reference. Measured at 40x30 and
 // 32 lens samples with one light sample and one gather ray: by area without MIS, pixels stood

@@ -123,7 +123,8 @@ struct RenderStats {
   std::uint64_t rays = 0;            // all rays, including camera rays
   std::uint64_t shading_points = 0;  // full diffuse-illumination evaluations
   int threads = 0;
-  // Radiance cache (zero without one). Lookup and insert times are summed over threads.
+  // Radiance cache (zero without one). Lookup and insert times are summed over threads; the
+  // lookup time is estimated from one lookup in 16.
   std::uint64_t cache_lookups = 0;      // primary hits that needed diffuse illumination
   std::uint64_t cache_hits = 0;         // served by the cache as it was at the start of a pass
   std::uint64_t cache_tile_hits = 0;    // served by samples the same tile made in this pass

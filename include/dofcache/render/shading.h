@@ -34,6 +34,9 @@ struct ShadingSettings {
   int gather_rays = 32;    // final-gather rays for diffuse indirect light
   int bounces = 1;         // indirect bounces, diffuse or glossy (Cycles' max bounces; 0: direct)
   int specular_depth = 3;  // maximum chain of glossy/mirror reflections (0: no specular lobe)
+  // At a camera hit, a rough dielectric lobe is evaluated with probability rate x its share of
+  // the outgoing radiance (clamped to [1/16, 1]); 0 evaluates it on every ray.
+  float rough_lobe_rate = 0.5f;
 
   void validate() const;   // throws dofcache::Error on absurd values
 };
@@ -131,6 +134,11 @@ class Shader {
   // The GGX lobe at p (keep 0 where it is off) and its estimators: punctual lights, a visible
   // light sample (MIS-weighted against the lobe's ray), and the ray itself.
   GgxLobe specular_lobe(const ShadingPoint& p, PathDepth depth) const;
+  // How likely a camera hit evaluates its specular lobe (1 unless the lobe is rough).
+  float rough_lobe_probability(const ShadingPoint& p, const GgxLobe& lobe) const;
+  // The lobe at a camera hit: punctual lights, a light sample of its own and the lobe's ray.
+  glm::vec3 specular_at_camera_hit(const ShadingPoint& p, const GgxLobe& lobe, PathDepth depth,
+                                   Rng& rng, RayCounters& counters) const;
   glm::vec3 specular_punctual(const ShadingPoint& p, const GgxLobe& lobe,
                               RayCounters& counters) const;
   glm::vec3 specular_light(const ShadingPoint& p, const GgxLobe& lobe,
