@@ -27,6 +27,8 @@ struct RenderOptions {
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
   std::string cache = "auto", cache_debug, cache_trace, radius_rule = "paper";
+  std::string adaptive = "auto";
+  render::AdaptiveSampling adaptive_settings;
   render::CacheSettings cache_settings;
   preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
   bool quiet = false;
@@ -134,6 +136,9 @@ int run_render(const RenderOptions& o) {
     s.cache.sample_quality = render::recommended_sample_quality(s.spp);
   s.cache.cache = radiance_cache.get();
   s.cache.radius_rule = render::parse_radius_rule(o.radius_rule);
+  // auto: on for drt, whose remaining noise (the lens) gathers where out-of-focus edges blur.
+  s.adaptive = o.adaptive_settings;
+  s.adaptive.enabled = o.adaptive == "on" || (o.adaptive == "auto" && o.mode == "drt");
 
   if (!o.quiet) {
     std::printf("scene   %s: %zu triangles, %zu emissive, %zu punctual lights\n",
@@ -184,6 +189,8 @@ int run_render(const RenderOptions& o) {
     nlohmann::json j = {
         {"scene", scene.source}, {"camera", camera.name}, {"mode", render::mode_name(s.mode)},
         {"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"seed", s.seed},
+        {"adaptive", s.adaptive.enabled &&
+                         render::pilot_samples(s.adaptive, s.spp) > 0},
         {"threads", st.threads}, {"seconds", st.seconds}, {"camera_rays", st.camera_rays},
         {"rays", st.rays}, {"rays_per_second", st.rays_per_second()},
         {"shading_points", st.shading_points},
@@ -247,6 +254,22 @@ Runner add_render_command(CLI::App& app) {
   add_seed_and_threads(cmd, o->seed, o->threads,
                        "Random seed; a fixed seed gives the same image");
   add_shading_options(cmd, o->shading);
+  cmd->add_option("--adaptive", o->adaptive,
+                  "Adaptive lens sampling (drt): a pilot of --adaptive-pilot of the samples "
+                  "measures each pixel's noise, the rest go where it is; --spp is then the mean "
+                  "per pixel. auto: on for drt")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "on", "off"}));
+  cmd->add_option("--adaptive-pilot", o->adaptive_settings.pilot_fraction,
+                  "Adaptive sampling: the pilot's fraction of the samples (rounded down to a "
+                  "power of two, at least 8 per pixel; below 16 spp sampling stays uniform)")
+      ->capture_default_str()->check(CLI::Range(1e-3, 1.0));
+  cmd->add_option("--adaptive-min", o->adaptive_settings.min_factor,
+                  "Adaptive sampling: every pixel takes at least this fraction of --spp")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--adaptive-max", o->adaptive_settings.max_factor,
+                  "Adaptive sampling: no pixel takes more than this many times --spp")
+      ->capture_default_str()->check(CLI::Range(1.0, 1024.0));
   cmd->add_option("--cache", o->cache,
                   "Radiance cache: none (shade every lens ray), octree (the paper's) or vdb "
                   "(OpenVDB grids keyed by depth-dependent voxel size); auto: vdb for drt and "

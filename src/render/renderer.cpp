@@ -15,6 +15,7 @@
 #include "dofcache/cache/sample_radius.h"
 #include "dofcache/cache/tile_buffer.h"
 #include "dofcache/core/error.h"
+#include "dofcache/render/adaptive_sampling.h"
 #include "dofcache/render/sampler.h"
 
 namespace dofcache::render {
@@ -47,6 +48,10 @@ struct Context {
   ThinLensCamera camera;
   Shader shader;
   Shader sample_shader;  // for cache samples: more light and gather samples
+  // Adaptive lens sampling: each pixel's sample count (null: settings.spp everywhere), and the
+  // pilot's luminance moments to fill (null: none kept). A pixel is written by its own tile only.
+  const std::uint32_t* pixel_samples = nullptr;
+  PixelMoments* moments = nullptr;
 };
 
 // Per-pixel cache statistics (debug images); each pixel is written by its own tile only.
@@ -171,33 +176,47 @@ void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters
     }
 }
 
-// Samples [s0, s1) of every pixel of a tile, added into `sum`.
-void render_samples(const Context& c, const Tile& t, std::uint32_t s0, std::uint32_t s1,
-                    std::vector<double>& sum, TileWork& work, PixelCacheStats& pixel_stats) {
+// Samples [s0, s1) of every pixel of a tile (up to the pixel's own count), added into `sum`.
+// Returns the number of samples taken.
+std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, std::uint32_t s1,
+                             std::vector<double>& sum, TileWork& work,
+                             PixelCacheStats& pixel_stats) {
   const RenderSettings& st = c.settings;
+  std::uint64_t taken = 0;
   for (int y = t.y0; y < t.y1; ++y)
     for (int x = t.x0; x < t.x1; ++x) {
       if (masked_out(st, x, y)) continue;
+      const std::size_t index = static_cast<std::size_t>(y) * st.width + x;
+      const std::uint32_t end = c.pixel_samples ? std::min(s1, c.pixel_samples[index]) : s1;
+      if (end <= s0) continue;
+      taken += end - s0;
+      PixelMoments* moments = c.moments ? &c.moments[index] : nullptr;
       std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
       glm::dvec3 acc(0.0);
       std::uint64_t lookups_before = work.lookups, hits_before = work.hits + work.tile_hits;
       float* density = pixel_stats.enabled() ? pixel_stats.created.pixel(x, y) : nullptr;
-      for (std::uint32_t s = s0; s < s1; ++s) {
+      for (std::uint32_t s = s0; s < end; ++s) {
         glm::vec2 film, lens_u;
         sample_point(c, x, y, s, &film, &lens_u);
         scene::Ray ray = clipped(c, c.camera.generate_ray(film, lens_u));
         std::uint64_t key = hash_combine(pixel, s);
         Rng rng(key, s);
         glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
-        if (std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z)) acc += glm::dvec3(l);
+        if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
+        acc += glm::dvec3(l);
+        if (moments) {
+          const double v = scene::luminance(l);
+          moments->sum += v, moments->sum2 += v * v, ++moments->count;
+        }
       }
       if (pixel_stats.enabled()) {
         pixel_stats.hits.at(x, y, 0) += static_cast<float>(work.hits + work.tile_hits - hits_before);
         pixel_stats.lookups.at(x, y, 0) += static_cast<float>(work.lookups - lookups_before);
       }
-      double* px = &sum[(static_cast<size_t>(y) * st.width + x) * 3];
+      double* px = &sum[index * 3];
       px[0] += acc.x, px[1] += acc.y, px[2] += acc.z;
     }
+  return taken;
 }
 
 }  // namespace
@@ -248,6 +267,10 @@ void RenderSettings::validate() const {
     throw Error("render mask must be a 1-channel image of the render size");
   lens.validate();
   shading.validate();
+  adaptive.validate();
+  if (adaptive.enabled && mode != Mode::Drt)
+    throw Error(std::string("adaptive lens sampling applies to drt renders, not ") +
+                mode_name(mode));
   if (cache.cache) {
     if (!std::isfinite(cache.min_factor) || cache.min_factor <= 0.0 || cache.min_factor > 1e4)
       throw Error("cache min factor must be a positive number, got " +
@@ -316,22 +339,39 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   // Passes of sample ranges. Accumulation: one lens position per pass. With a cache: doubling
   // passes, so early passes fill the cache that later (larger) passes read. Otherwise: one pass.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> passes;
+  // Adaptive sampling (drt): the passes up to the pilot's count, the allocation, then the passes
+  // on to the largest count a pixel got.
+  using Passes = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+  const bool accumulation = settings.mode == Mode::Accumulation;
+  auto passes_between = [&](std::uint32_t begin, std::uint32_t end) {
+    Passes passes;
+    if (accumulation) {
+      for (std::uint32_t s = begin; s < end; ++s) passes.emplace_back(s, s + 1);
+    } else if (cache) {
+      for (std::uint32_t s0 = begin, n = std::max(begin, 1u); s0 < end; s0 += n, n = s0)
+        passes.emplace_back(s0, std::min(end, s0 + n));
+    } else if (begin < end) {
+      passes.emplace_back(begin, end);
+    }
+    return passes;
+  };
   const auto spp = static_cast<std::uint32_t>(settings.spp);
-  if (settings.visibility_only) {
-  } else if (settings.mode == Mode::Accumulation) {
-    for (std::uint32_t s = 0; s < spp; ++s) passes.emplace_back(s, s + 1);
-  } else if (cache) {
-    for (std::uint32_t s0 = 0, n = 1; s0 < spp; s0 += n, n = s0)
-      passes.emplace_back(s0, std::min(spp, s0 + n));
-  } else {
-    passes.emplace_back(0, spp);
-  }
+  const bool shaded = !settings.visibility_only;
+  const std::uint32_t pilot =
+      shaded && settings.mode == Mode::Drt ? pilot_samples(settings.adaptive, settings.spp) : 0;
+  std::vector<char> rendered(static_cast<size_t>(w) * h, 0);
+  std::uint64_t rendered_count = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      rendered_count += rendered[static_cast<size_t>(y) * w + x] = !masked_out(settings, x, y);
+  std::vector<PixelMoments> moments(pilot > 0 ? rendered.size() : 0);
+  std::vector<std::uint32_t> pixel_samples;
+  c.moments = pilot > 0 ? moments.data() : nullptr;
 
   std::vector<double> sum(static_cast<size_t>(w) * h * 3, 0.0);
   std::vector<TileWork> work(tiles.size());
   RenderStats& st = out.stats;
-  std::uint64_t rays = 0, shading_points = 0;
+  std::uint64_t rays = 0, shading_points = 0, camera_rays = 0;
   auto collect = [&](TileWork& tw) {  // after each parallel loop, in tile order
     rays += tw.rays.rays;
     shading_points += tw.rays.shading_points;
@@ -343,7 +383,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
     tw.lookups = tw.hits = tw.tile_hits = 0;
     tw.lookup_seconds = 0.0;
   };
-  std::uint64_t total_work = static_cast<std::uint64_t>(w) * h * (passes.empty() ? 1 : spp);
+  const std::uint64_t total_work = shaded ? rendered_count * spp : rendered_count;
   Progress progress(settings.progress_label, total_work, settings.progress);
 
   tbb::task_arena arena(threads);
@@ -353,21 +393,22 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
     });
   });
   for (TileWork& tw : work) collect(tw);
-  if (passes.empty()) progress.advance(total_work);
+  if (!shaded) progress.advance(total_work);
 
-  for (auto [s0, s1] : passes) {
-    arena.execute([&, s0 = s0, s1 = s1] {
+  auto run_pass = [&](std::uint32_t s0, std::uint32_t s1) {
+    std::vector<std::uint64_t> taken(tiles.size(), 0);
+    arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1), [&](const auto& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
-          const Tile& t = tiles[i];
-          render_samples(c, t, s0, s1, sum, work[i], pixel_stats);
-          progress.advance(static_cast<std::uint64_t>(t.x1 - t.x0) * (t.y1 - t.y0) * (s1 - s0));
+          taken[i] = render_samples(c, tiles[i], s0, s1, sum, work[i], pixel_stats);
+          progress.advance(taken[i]);
         }
       });
     });
     ++st.passes;
+    for (size_t i = 0; i < tiles.size(); ++i) camera_rays += taken[i];
     for (TileWork& tw : work) collect(tw);
-    if (!cache) continue;
+    if (!cache) return;
     // Merge the tiles' new samples in tile order; insert() sorts them canonically anyway.
     std::vector<cache::CacheSample> batch;
     std::vector<cache::TraceLookup> traced;
@@ -387,12 +428,34 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
       settings.cache.trace->add_lookups(traced);
       settings.cache.trace->add_inserts(batch);
     }
+  };
+
+  if (shaded) {
+    std::uint32_t largest = spp;
+    if (pilot > 0) {
+      for (auto [s0, s1] : passes_between(0, pilot)) run_pass(s0, s1);
+      pixel_samples =
+          allocate_samples(moments, rendered, w, h, settings.spp, settings.adaptive, settings.seed);
+      c.pixel_samples = pixel_samples.data();
+      c.moments = nullptr;
+      largest = *std::max_element(pixel_samples.begin(), pixel_samples.end());
+    }
+    for (auto [s0, s1] : passes_between(pilot, largest)) run_pass(s0, s1);
   }
   progress.finish();
 
-  if (!passes.empty()) {
+  if (shaded) {
     std::vector<float>& color = out.color.data();
-    for (size_t i = 0; i < color.size(); ++i) color[i] = static_cast<float>(sum[i] / spp);
+    for (size_t i = 0; i < rendered.size(); ++i) {
+      const double n = pixel_samples.empty() ? spp : pixel_samples[i];
+      for (int k = 0; k < 3; ++k)
+        color[i * 3 + k] = n > 0 ? static_cast<float>(sum[i * 3 + k] / n) : 0.0f;
+    }
+    if (!pixel_samples.empty()) {
+      out.samples = image::Image(w, h, 1, 0.0f);
+      for (size_t i = 0; i < rendered.size(); ++i)
+        out.samples.data()[i] = static_cast<float>(pixel_samples[i]);
+    }
   }
   if (cache) {
     out.cache_hits = image::Image(w, h, 1, 0.0f);
@@ -405,10 +468,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
     st.cache_memory_bytes = cache->memory_bytes();
   }
   st.seconds = seconds_since(start);
-  std::uint64_t rendered = 0;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) rendered += !masked_out(settings, x, y);
-  st.camera_rays = passes.empty() ? 0 : rendered * spp;
+  st.camera_rays = camera_rays;
   st.rays = rays;
   st.shading_points = shading_points;
   st.threads = threads;

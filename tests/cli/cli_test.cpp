@@ -105,6 +105,26 @@ TEST_F(Cli, CacheSampleQualityFollowsSppUnlessGiven) {
   EXPECT_EQ(quality(" --spp 96 --cache-sample-quality 5"), 5);
 }
 
+// drt renders sample adaptively by default from 16 spp on; --adaptive off and other modes do not,
+// and asking for it in accumulation mode is refused in one line.
+TEST_F(Cli, AdaptiveSamplingIsTheDrtDefault) {
+  auto adaptive = [&](const std::string& extra) {
+    testing::CliResult r = run("render --out " + (dir_ / "d.png").string() +
+                               " --width 8 --height 6 --gather-rays 1 --light-samples 1 -q "
+                               "--stats-json " + (dir_ / "d.json").string() + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return slurp(dir_ / "d.json").find("\"adaptive\": true") != std::string::npos;
+  };
+  EXPECT_TRUE(adaptive(" --spp 16"));
+  EXPECT_FALSE(adaptive(" --spp 8"));  // too few samples for a pilot: uniform
+  EXPECT_FALSE(adaptive(" --spp 16 --adaptive off"));
+  EXPECT_FALSE(adaptive(" --spp 16 --mode accumulation"));
+  fs::remove(dir_ / "d.png");
+  fs::remove(dir_ / "d.json");
+  expect_clean_failure("render --mode accumulation --adaptive on --out " +
+                           (dir_ / "o.png").string() + kTiny, "adaptive");
+}
+
 TEST_F(Cli, CompareIdenticalImagesIsExact) {
   ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
   testing::CliResult r = run("compare --json " + (dir_ / "a.exr").string() + " " + (dir_ / "a.exr").string());

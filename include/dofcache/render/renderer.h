@@ -15,6 +15,7 @@
 #include "dofcache/core/progress.h"
 #include "dofcache/image/image.h"
 #include "dofcache/lens/thin_lens.h"
+#include "dofcache/render/adaptive_sampling.h"
 #include "dofcache/render/camera.h"
 #include "dofcache/render/shading.h"
 #include "dofcache/scene/accel.h"
@@ -111,6 +112,8 @@ struct RenderSettings {
   // masks need them to tell a revealed part of an object from its clipped front.
   bool triangle_ids = false;
   CacheSettings cache;
+  // Lens samples spread by measured noise (drt only); spp is then the mean per pixel.
+  AdaptiveSampling adaptive;
   Progress::Display progress = Progress::Display::Auto;
   std::string progress_label = "render";
 
@@ -149,6 +152,8 @@ struct RenderOutput {
   // created there (1 channel each; empty without a cache).
   image::Image cache_hits;
   image::Image cache_density;
+  // With adaptive sampling: the lens samples each pixel took (1 channel; else empty).
+  image::Image samples;
   RenderStats stats;
 };
 
