@@ -94,8 +94,10 @@ COLUMNS = [
     "dofcache_default_s", "dofcache_default_process_s",
     "dofcache_best_uncached_s", "dofcache_best_uncached_process_s", "dofcache_best_config",
     "dofcache_cached_s", "dofcache_cached_process_s",
-    "ratio_default", "ratio_best_uncached", "ratio_cached",
+    "dofcache_cached_uniform_s", "dofcache_cached_uniform_process_s",
+    "ratio_default", "ratio_best_uncached", "ratio_cached", "ratio_cached_uniform",
     "ratio_default_process", "ratio_best_uncached_process", "ratio_cached_process",
+    "ratio_cached_uniform_process",
     "cache_speedup_vs_best_uncached", "extrapolated",
 ]
 
@@ -354,6 +356,9 @@ def config_args(config):
         args += ["--light-samples", str(config["light"])]
     # Uncached unless a cache is named: render's own default is the vdb cache.
     args += ["--cache", config.get("cache") or "none"]
+    # Adaptive lens sampling is render's default for drt; "off" samples every pixel alike.
+    if config.get("adaptive"):
+        args += ["--adaptive", config["adaptive"]]
     return args
 
 
@@ -365,6 +370,8 @@ def config_label(config):
         parts.append("gather %d" % config["gather"])
     if config.get("light") is not None:
         parts.append("light %d" % config["light"])
+    if config.get("adaptive") == "off":
+        parts.append("uniform lens sampling")
     return ", ".join(parts) if parts else "uncached, default shading"
 
 
@@ -529,7 +536,9 @@ class SceneBench:
             return path, m
         log("  dofcache reference: rendering %s, %d spp ..." % (config_label(config), spp))
         tmp = os.path.join(self.work, "dofcache_ref.exr")
-        r = self.dof.render(self.path, self.lens, spp, self.seed + 7919, tmp, config, self.work)
+        # References sample uniformly: an adaptive sampler's counts depend on its own pilot.
+        r = self.dof.render(self.path, self.lens, spp, self.seed + 7919, tmp,
+                            dict(config, adaptive="off"), self.work)
         shutil.copyfile(tmp, path + ".tmp.exr")
         os.replace(path + ".tmp.exr", path)
         m = {"key": self.dofcache_base_key(), "config": config, "config_label": config_label(config),
@@ -553,7 +562,8 @@ class SceneBench:
         log("  dofcache reference: topping up %d -> %d spp ..." % (meta["spp"], meta["spp"] + extra))
         tmp = os.path.join(self.work, "dofcache_ref_topup.exr")
         seed = self.seed + 7919 + 1000 * (1 + len(meta.get("top_ups", [])))
-        r = self.dof.render(self.path, self.lens, extra, seed, tmp, meta["config"], self.work)
+        r = self.dof.render(self.path, self.lens, extra, seed, tmp,
+                            dict(meta["config"], adaptive="off"), self.work)
         total = meta["spp"] + extra
         mixed = os.path.join(self.work, "dofcache_ref_mixed.exr")
         run(["oiiotool", path, "--ch", "R,G,B", "--mulc", repr(meta["spp"] / total),
@@ -720,6 +730,12 @@ class SceneBench:
         ladders["cached"] = {"config": cached_cfg, "label": config_label(cached_cfg),
                              "points": self.dof_ladder(cached_cfg, plan["cached_start"], dof_ref,
                                                        min_target, cap, "cached")}
+        # The cache without adaptive lens sampling: what each of the two contributes.
+        uniform_cfg = {"cache": "vdb", "adaptive": "off"}
+        ladders["cached_uniform"] = {
+            "config": uniform_cfg, "label": config_label(uniform_cfg),
+            "points": self.dof_ladder(uniform_cfg, plan["cached_start"], dof_ref, min_target, cap,
+                                      "cached_uniform")}
         # The reference's budget may have needed more samples than the search predicted (fireflies
         # make the error fall slower than 1/N): top it up to 16x its ladder's largest point (within
         # --max-reference-minutes) and measure every dofcache render again.
@@ -779,6 +795,9 @@ class SceneBench:
                     extrap.append("best_uncached")
                 k_t = row["dofcache_cached%s_s" % col] = reach(ladders["cached"]["points"],
                                                                  "cached")
+                u_t = row["dofcache_cached_uniform%s_s" % col] = reach(
+                    ladders["cached_uniform"]["points"], "cached_uniform")
+                row["ratio_cached_uniform%s" % col] = u_t / c_t if u_t and c_t else None
                 for name, v in (("default", d_t), ("best_uncached", best_t), ("cached", k_t)):
                     row["ratio_%s%s" % (name, col)] = v / c_t if v and c_t else None
                 if key == "seconds":
@@ -864,14 +883,17 @@ def fmt(v, digits=3):
 
 def print_table(rows):
     head = ["target", "relMSE", "Cycles s", "dof default s", "dof best s", "best config",
-            "dof cached s", "def/C", "best/C", "cached/C", "best/cached", "extrapolated"]
+            "dof cached s", "uniform s", "def/C", "best/C", "cached/C", "uniform/C",
+            "best/cached", "extrapolated"]
     body = []
     for r in rows:
         body.append([r["target"], fmt(r["target_rel_mse"]), fmt(r["cycles_s"]),
                      fmt(r["dofcache_default_s"]), fmt(r["dofcache_best_uncached_s"]),
                      fmt(r["dofcache_best_config"]), fmt(r["dofcache_cached_s"]),
+                     fmt(r["dofcache_cached_uniform_s"]),
                      fmt(r["ratio_default"]), fmt(r["ratio_best_uncached"]),
-                     fmt(r["ratio_cached"]), fmt(r["cache_speedup_vs_best_uncached"]),
+                     fmt(r["ratio_cached"]), fmt(r["ratio_cached_uniform"]),
+                     fmt(r["cache_speedup_vs_best_uncached"]),
                      fmt(r["extrapolated"])])
     widths = [max(len(x[i]) for x in [head] + body) for i in range(len(head))]
     line = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w)
