@@ -37,6 +37,15 @@ PixelMoments moments(double mean, double sd, std::uint32_t count) {
   return m;
 }
 
+// A 16x16 pilot of 8 samples per pixel, quiet (standard deviation `quiet`) but for a 3x3 block
+// around (7, 7) with standard deviation 0.4.
+std::vector<PixelMoments> quiet_with_noisy_block(double quiet) {
+  std::vector<PixelMoments> pilot(16 * 16, moments(0.5, quiet, 8));
+  for (int y = 6; y < 9; ++y)
+    for (int x = 6; x < 9; ++x) pilot[y * 16 + x] = moments(0.5, 0.4, 8);
+  return pilot;
+}
+
 std::uint64_t total(const std::vector<std::uint32_t>& n) {
   return std::accumulate(n.begin(), n.end(), std::uint64_t{0});
 }
@@ -64,12 +73,9 @@ TEST(AdaptiveSampling, EqualNoiseGivesEverySampleCountEqually) {
 
 TEST(AdaptiveSampling, NoisyPixelsGetMoreAndTheBudgetIsKept) {
   const int w = 16, h = 16, spp = 32;
-  std::vector<PixelMoments> pilot(w * h, moments(0.5, 0.02, 8));
-  for (int y = 6; y < 9; ++y)
-    for (int x = 6; x < 9; ++x) pilot[y * w + x] = moments(0.5, 0.4, 8);
-  std::vector<char> rendered(w * h, 1);
-  AdaptiveSampling a = enabled();
-  const std::vector<std::uint32_t> n = allocate_samples(pilot, rendered, w, h, spp, a, 5);
+  const AdaptiveSampling a = enabled();
+  const std::vector<std::uint32_t> n = allocate_samples(
+      quiet_with_noisy_block(0.02), std::vector<char>(w * h, 1), w, h, spp, a, 5);
   const double budget = double(spp) * w * h;
   EXPECT_NEAR(double(total(n)), budget, 0.01 * budget);
   for (std::uint32_t v : n) {
@@ -83,12 +89,9 @@ TEST(AdaptiveSampling, TheCapHoldsAndTheRestGoesElsewhere) {
   // 400 times the quiet pixels' deviation would want far more than 8x the mean: the centre gets
   // the cap, and the budget it cannot take goes to the others.
   const int w = 16, h = 16, spp = 32;
-  std::vector<PixelMoments> pilot(w * h, moments(0.5, 0.001, 8));
-  for (int y = 6; y < 9; ++y)
-    for (int x = 6; x < 9; ++x) pilot[y * w + x] = moments(0.5, 0.4, 8);
-  std::vector<char> rendered(w * h, 1);
   const AdaptiveSampling a = enabled();
-  const std::vector<std::uint32_t> n = allocate_samples(pilot, rendered, w, h, spp, a, 5);
+  const std::vector<std::uint32_t> n = allocate_samples(
+      quiet_with_noisy_block(0.001), std::vector<char>(w * h, 1), w, h, spp, a, 5);
   EXPECT_EQ(n[7 * w + 7], static_cast<std::uint32_t>(a.max_factor * spp));
   const double budget = double(spp) * w * h;
   EXPECT_NEAR(double(total(n)), budget, 0.01 * budget);
