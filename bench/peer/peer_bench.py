@@ -832,7 +832,7 @@ class SceneBench:
         # The uncached ladder fastest at Cycles' middle error.
         best_key, best_time = "default", None
         for k, L in ladders.items():
-            if k == "cached":
+            if not (k == "default" or k.startswith("uncached_")):
                 continue
             v, _ = time_to_error(L["points"], mid["rel_mse"])
             if v is not None and (best_time is None or v < best_time):
