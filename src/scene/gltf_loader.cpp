@@ -108,6 +108,7 @@ class Loader : gltf::Document {
     // material, if a primitive needs it, is appended after them.
     for (std::size_t i = 0; i < model_.materials.size(); ++i)
       scene_.materials.push_back(convert_material(static_cast<int>(i)));
+    reached_.assign(model_.nodes.size(), false);
     std::vector<int> path;
     for (int root : roots) visit(root, glm::dmat4(1.0), path);
     if (scene_.mesh.triangles.empty())
@@ -167,6 +168,17 @@ class Loader : gltf::Document {
   void visit(int n, const glm::dmat4& parent, std::vector<int>& path) {
     if (std::find(path.begin(), path.end(), n) != path.end())
       fail(node_label(n), "the node hierarchy has a cycle");
+    // glTF node hierarchies are disjoint trees (glTF 3.5.3); a node shared by several parents
+    // would multiply everything below it, exponentially in the depth of such sharing.
+    if (reached_[static_cast<std::size_t>(n)])
+      fail(node_label(n), "is reached twice (a child of two nodes, or listed twice as a root); "
+                          "glTF node hierarchies must be trees");
+    reached_[static_cast<std::size_t>(n)] = true;
+    // Recursion depth is bounded, so a deep hierarchy cannot exhaust the stack.
+    if (path.size() >= static_cast<std::size_t>(std::max(options_.limits.max_node_depth, 1)))
+      fail(node_label(n), "is deeper than the node depth limit (" +
+                              std::to_string(options_.limits.max_node_depth) +
+                              "; raise it with --max-node-depth)");
     path.push_back(n);
     const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(n)];
     glm::dmat4 world = parent * local_matrix(n);
@@ -235,16 +247,20 @@ class Loader : gltf::Document {
                         std::to_string(vertex_count) + " positions)");
 
     // Vertex indices of the primitive, as triangles in the primitive's own numbering.
-    std::vector<std::uint32_t> order;
+    std::optional<AccessorView> idx;
     if (prim.indices != -1) {
-      AccessorView idx = accessor(prim.indices, TINYGLTF_TYPE_SCALAR, label + " indices");
-      if (idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
-          idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-          idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+      idx = accessor(prim.indices, TINYGLTF_TYPE_SCALAR, label + " indices");
+      if (idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+          idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+          idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
         fail(label + " indices", "index componentType must be an unsigned integer type");
-      order.resize(idx.count);
-      for (std::size_t i = 0; i < idx.count; ++i) {
-        order[i] = idx.index(i);
+    }
+    reserve_budget(label, vertex_count, idx ? idx->count : vertex_count, mode);
+    std::vector<std::uint32_t> order;
+    if (idx) {
+      order.resize(idx->count);
+      for (std::size_t i = 0; i < idx->count; ++i) {
+        order[i] = idx->index(i);
         if (order[i] >= vertex_count)
           fail(label + " indices", "index " + std::to_string(order[i]) + " at position " +
                                        std::to_string(i) + " is out of range (" +
@@ -346,6 +362,26 @@ class Loader : gltf::Document {
         push_triangle(glm::uvec3(first, first + 1, first + 2), material, node);
       }
     }
+  }
+
+  // Counts a primitive's vertices and triangles (at most: before degenerate ones are dropped)
+  // against the limits before anything is allocated for it. A primitive without NORMAL gets
+  // three vertices per triangle.
+  void reserve_budget(const std::string& label, std::uint64_t vertices, std::uint64_t indices,
+                      int mode) {
+    std::uint64_t triangles = mode == TINYGLTF_MODE_TRIANGLES ? indices / 3
+                              : indices >= 2                  ? indices - 2
+                                                              : 0;
+    vertices = std::max(vertices, 3 * triangles);
+    const LoadLimits& limits = options_.limits;
+    if (vertices > limits.max_vertices - std::min(vertices_, limits.max_vertices))
+      fail(label, "the scene would exceed the vertex limit (" +
+                      std::to_string(limits.max_vertices) + "; raise it with --max-vertices)");
+    if (triangles > limits.max_triangles - std::min(triangles_, limits.max_triangles))
+      fail(label, "the scene would exceed the triangle limit (" +
+                      std::to_string(limits.max_triangles) + "; raise it with --max-triangles)");
+    vertices_ += vertices;
+    triangles_ += triangles;
   }
 
   void push_uvs(const std::optional<AccessorView> (&uv)[2], std::size_t v) {
@@ -667,12 +703,15 @@ class Loader : gltf::Document {
   int default_material_ = -1;
   bool has_uv_[2] = {false, false};
   std::map<int, int> texture_map_;  // glTF texture -> Scene::textures
+  std::vector<bool> reached_;       // nodes visited so far
+  std::uint64_t vertices_ = 0, triangles_ = 0;  // counted against LoadLimits
   std::vector<std::pair<std::uint32_t, glm::vec3>> repaired_;
 };
 
 Scene load_model(const std::string& data, const std::string& name, const std::string& base_dir,
                  const LoadOptions& options) {
-  gltf::Parsed parsed = gltf::parse(data, name, base_dir, /*load_images=*/true);
+  gltf::Parsed parsed = gltf::parse(data, name, base_dir, /*load_images=*/true,
+                                    options.limits.max_texture_pixels);
   Scene scene = Loader(parsed.model, name, options).load();
   scene.warnings.insert(scene.warnings.begin(), parsed.warnings.begin(), parsed.warnings.end());
   return scene;
