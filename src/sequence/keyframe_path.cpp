@@ -35,7 +35,7 @@ class KeyframeParser {
     json doc;
     try {
       doc = json::parse(text);
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse_error, and out_of_range for 1e400
       std::string what = e.what();
       std::size_t at = what.find("] ");
       fail("invalid JSON: " + (at == std::string::npos ? what : what.substr(at + 2)));
