@@ -313,8 +313,9 @@ std::string exr_declaring_100000_squared(const std::string& one_pixel_exr) {
   return d.substr(0, end) + table + d.substr(static_cast<std::size_t>(chunk));
 }
 
-// Found by the sanitizer and fuzzing work (docs/reliability.md): such a file made every reader
-// allocate 120 GB of floats from its header alone ("std::bad_alloc", or the machine's memory).
+// Found while writing the preview-inputs fuzz target (docs/reliability.md): such a file made every
+// reader allocate 120 GB of floats from its header alone ("std::bad_alloc", or the machine's
+// memory).
 TEST_F(ImageIo, HugeDeclaredSizeIsRefusedBeforeReading) {
   write_image(path("one.exr"), Image(1, 1, 3, 0.5f));
   std::ofstream(path("huge.exr"), std::ios::binary)
