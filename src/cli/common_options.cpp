@@ -3,10 +3,23 @@
 namespace dofcache::cli {
 
 void add_scene_options(CLI::App* cmd, std::string& scene_path, std::string& camera,
-                       int& scene_index) {
+                       int& scene_index, scene::LoadLimits& limits) {
   cmd->add_option("SCENE", scene_path, ".gltf or .glb file; omit for the built-in scene");
   cmd->add_option("--camera", camera, "Camera name (default: the scene's first camera)");
   cmd->add_option("--scene-index", scene_index, "glTF scene to load (default: the file's default)");
+  // Limits on what a scene file may make the loader allocate (docs/reliability.md).
+  cmd->add_option("--max-vertices", limits.max_vertices,
+                  "Refuse a scene with more vertices (all mesh instances)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--max-triangles", limits.max_triangles,
+                  "Refuse a scene with more triangles (all mesh instances)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--max-texture-pixels", limits.max_texture_pixels,
+                  "Refuse a scene whose images have more pixels in all")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--max-node-depth", limits.max_node_depth,
+                  "Refuse a scene whose node hierarchy is deeper")
+      ->capture_default_str()->check(CLI::Range(1, 100000));
 }
 
 void add_size_options(CLI::App* cmd, int& width, int& height) {

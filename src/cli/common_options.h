@@ -10,12 +10,14 @@
 
 #include "dofcache/preview/options.h"
 #include "dofcache/render/renderer.h"
+#include "dofcache/scene/gltf_loader.h"
 
 namespace dofcache::cli {
 
-// SCENE (positional), --camera, --scene-index.
+// SCENE (positional), --camera, --scene-index, and the loader's limits on what a file may make
+// it allocate: --max-vertices, --max-triangles, --max-texture-pixels, --max-node-depth.
 void add_scene_options(CLI::App* cmd, std::string& scene_path, std::string& camera,
-                       int& scene_index);
+                       int& scene_index, scene::LoadLimits& limits);
 // --width, --height.
 void add_size_options(CLI::App* cmd, int& width, int& height);
 // --fstop, --focal-length, --focus-distance (render, sequence, refocus): each overrides the lens

@@ -19,6 +19,7 @@ struct RefocusOptions {
   std::string input, out = "refocus.png", method;
   std::optional<double> fstop, focal_length, focus_distance;  // add_lens_options
   int threads = 0;
+  std::uint64_t max_image_values = image::kMaxImageValues;
   preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
   bool quiet = false;
 };
@@ -30,7 +31,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 int run_refocus(const RefocusOptions& o) {
   image::check_output_path(o.out);
   auto t0 = std::chrono::steady_clock::now();
-  preview::SavedPreviewInputs saved = preview::load_preview_inputs(o.input);
+  preview::SavedPreviewInputs saved = preview::load_preview_inputs(o.input, o.max_image_values);
   const double load_ms = ms_since(t0);
 
   lens::ThinLens lens = saved.inputs.imaging.lens;
@@ -86,6 +87,10 @@ Runner add_refocus_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 4096));
   add_composite_options(cmd, o->composite);
+  cmd->add_option("--max-image-values", o->max_image_values,
+                  "Refuse inputs whose images (read, and the revealed layers expanded) hold more "
+                  "float values (docs/reliability.md)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_flag("-q,--quiet", o->quiet, "Print only the output path");
   return [o] { return run_refocus(*o); };
 }

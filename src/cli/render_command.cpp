@@ -23,6 +23,7 @@ struct RenderOptions {
   std::string scene_path, out = "dofcache.png", camera, mode = "drt", stats_json;
   std::string save_preview_inputs;
   int scene_index = -1, width = 640, height = 0, spp = 16, threads = 0;
+  scene::LoadLimits limits;
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
@@ -106,7 +107,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
 }
 
 int run_render(const RenderOptions& o) {
-  scene::Scene scene = render::load_scene(o.scene_path, o.scene_index);
+  scene::Scene scene = render::load_scene(o.scene_path, o.scene_index, o.limits);
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
   const scene::Camera& camera = scene.camera_or_first(o.camera);
   scene::Accel accel(scene);
@@ -232,7 +233,7 @@ Runner add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
   CLI::App* cmd = app.add_subcommand(
       "render", "Render a glTF 2.0 scene (default: the built-in Cornell box) with depth of field.");
-  add_scene_options(cmd, o->scene_path, o->camera, o->scene_index);
+  add_scene_options(cmd, o->scene_path, o->camera, o->scene_index, o->limits);
   cmd->add_option("-o,--out", o->out,
                   "Output image: .png (sRGB) or .exr (linear, with Z, N and id channels)")
       ->capture_default_str();

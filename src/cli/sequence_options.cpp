@@ -10,7 +10,7 @@
 namespace dofcache::cli {
 
 void add_sequence_options(CLI::App* cmd, SequenceOptions& o) {
-  add_scene_options(cmd, o.scene_path, o.camera, o.scene_index);
+  add_scene_options(cmd, o.scene_path, o.camera, o.scene_index, o.limits);
   cmd->add_option("--path", o.path,
                   "JSON keyframe file (docs/sequence.md); default: the glTF animation that moves "
                   "the camera");
@@ -66,7 +66,7 @@ void add_sequence_options(CLI::App* cmd, SequenceOptions& o) {
 
 PreparedSequence prepare_sequence(const SequenceOptions& o) {
   PreparedSequence p;
-  p.scene = std::make_unique<scene::Scene>(render::load_scene(o.scene_path, o.scene_index));
+  p.scene = std::make_unique<scene::Scene>(render::load_scene(o.scene_path, o.scene_index, o.limits));
   const scene::Scene& scene = *p.scene;
   p.camera = &scene.camera_or_first(o.camera);
   const scene::Camera& camera = *p.camera;

@@ -12,6 +12,7 @@
 
 #include "dofcache/render/renderer.h"
 #include "dofcache/scene/accel.h"
+#include "dofcache/scene/gltf_loader.h"
 #include "dofcache/scene/scene.h"
 #include "dofcache/sequence/camera_path.h"
 #include "dofcache/sequence/sequence_renderer.h"
@@ -23,6 +24,7 @@ struct SequenceOptions {
   std::string stats_json;
   std::optional<double> fps;
   int scene_index = -1, width = 320, height = 0, spp = 16, threads = 0, frame_step = 1;
+  scene::LoadLimits limits;
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;

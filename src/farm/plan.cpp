@@ -81,6 +81,10 @@ void FarmSettings::validate() const {
   sequence::frame_path(output, first);  // a pattern with one run of '#'
   if (first < 0 || last < first)
     throw Error(fmt::format("farm plan: frame range {}-{} is empty or negative", first, last));
+  // Every frame may become a chunk, and every chunk a line in each script.
+  if (static_cast<long long>(last) - first >= kMaxFarmFrames)
+    throw Error(fmt::format("farm plan: frame range {}-{} has more than {} frames", first, last,
+                            kMaxFarmFrames));
   if (chunk < 1) throw Error(fmt::format("farm plan: --chunk must be >= 1, got {}", chunk));
   if (width < 1 || height < 1)
     throw Error(fmt::format("farm plan: frame size {}x{} is invalid", width, height));

@@ -195,18 +195,41 @@ OpenedInput open_input(const std::string& path) {
   auto in = ImageInput::open(path, &config);
   if (!in) fail_read(path, OIIO::geterror());
   ImageSpec spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) fail_read(path, "empty image");
-  if (spec.depth > 1) fail_read(path, "volume images are not supported");
   return {std::move(in), std::move(spec)};
 }
 
-// All channels of the current subimage as float, interleaved.
+// A read's allowance of values (pixels x channels), shared by the parts of a file.
+struct ValueBudget {
+  std::uint64_t limit, left;
+  explicit ValueBudget(std::uint64_t max_values) : limit(max_values), left(max_values) {}
+};
+
+// All channels of the current subimage as float, interleaved. Their number, as the header
+// declares it, is taken from `budget` first: a header may declare any size, and is refused
+// before the memory is allocated.
 std::vector<float> read_pixels(const std::string& path, ImageInput& in, const ImageSpec& spec,
-                               int subimage) {
-  std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
-  if (!in.read_image(subimage, 0, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data()))
-    fail_read(path, in.geterror());
-  return pixels;
+                               int subimage, ValueBudget& budget) {
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) fail_read(path, "empty image");
+  if (spec.depth > 1) fail_read(path, "volume images are not supported");
+  const std::uint64_t pixels = std::uint64_t(spec.width) * std::uint64_t(spec.height);
+  const auto channels = std::uint64_t(spec.nchannels);
+  if (channels > budget.left || pixels > budget.left / channels)
+    fail_read(path, std::to_string(spec.width) + "x" + std::to_string(spec.height) + " pixels of " +
+                        std::to_string(channels) + " channels exceed the image size limit (" +
+                        std::to_string(budget.limit) + " values in all)");
+  budget.left -= pixels * channels;
+  std::vector<float> values(static_cast<size_t>(pixels) * spec.nchannels);
+  // Float scanline images (all that dofcache writes) are read straight into `values`:
+  // read_image stages every call through a 64 MB buffer, whatever the image's size.
+  const bool float_scanlines = spec.tile_width == 0 && spec.format == TypeDesc::FLOAT &&
+                               spec.channelformats.empty();
+  const bool ok =
+      float_scanlines
+          ? in.read_native_scanlines(subimage, 0, spec.y, spec.y + spec.height, spec.z, 0,
+                                     spec.nchannels, values.data())
+          : in.read_image(subimage, 0, 0, spec.nchannels, TypeDesc::FLOAT, values.data());
+  if (!ok) fail_read(path, in.geterror());
+  return values;
 }
 
 // Copies the channels `indices` (in that order) of an interleaved buffer into a new image.
@@ -276,10 +299,11 @@ void write_image(const std::string& path, const Image& color,
     write_png(path, color);
 }
 
-Image read_image(const std::string& path) {
+Image read_image(const std::string& path, std::uint64_t max_values) {
+  ValueBudget budget(max_values);
   OpenedInput file = open_input(path);
   const ImageSpec& spec = file.spec;
-  std::vector<float> pixels = read_pixels(path, *file.in, spec, 0);
+  std::vector<float> pixels = read_pixels(path, *file.in, spec, 0, budget);
 
   // Prefer channels named R,G,B; otherwise a luminance "Y" or the first channel is grey, and a
   // file of three or more unnamed channels is taken as RGB in order. Alpha is never colour.
@@ -301,7 +325,9 @@ Image read_image(const std::string& path) {
   return out;
 }
 
-Image read_channels(const std::string& path, const std::vector<std::string>& names) {
+Image read_channels(const std::string& path, const std::vector<std::string>& names,
+                    std::uint64_t max_values) {
+  ValueBudget budget(max_values);
   OpenedInput file = open_input(path);
   const ImageSpec& spec = file.spec;
   std::vector<int> indices;
@@ -311,7 +337,7 @@ Image read_channels(const std::string& path, const std::vector<std::string>& nam
       fail_read(path, "no channel '" + name + "' (it has " + join(channel_names(spec), ", ") + ")");
     indices.push_back(c);
   }
-  std::vector<float> pixels = read_pixels(path, *file.in, spec, 0);
+  std::vector<float> pixels = read_pixels(path, *file.in, spec, 0, budget);
   return select_channels(pixels, spec.width, spec.height, spec.nchannels, indices);
 }
 
@@ -365,7 +391,8 @@ void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& pa
   });
 }
 
-std::vector<ExrPart> read_multipart_exr(const std::string& path) {
+std::vector<ExrPart> read_multipart_exr(const std::string& path, std::uint64_t max_values) {
+  ValueBudget budget(max_values);
   OpenedInput file = open_input(path);
   std::vector<ExrPart> parts;
   const std::string prefix = kAttributePrefix;
@@ -389,7 +416,7 @@ std::vector<ExrPart> read_multipart_exr(const std::string& path) {
     std::vector<int> indices;
     for (const std::string& name : order) indices.push_back(channel_index(spec, name));
 
-    std::vector<float> pixels = read_pixels(path, *file.in, spec, subimage);
+    std::vector<float> pixels = read_pixels(path, *file.in, spec, subimage, budget);
     part.image = select_channels(pixels, spec.width, spec.height, spec.nchannels, indices);
     part.channel_names = order;
     for (const OIIO::ParamValue& p : spec.extra_attribs) {

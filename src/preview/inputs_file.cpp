@@ -145,8 +145,8 @@ void save_preview_inputs(const std::string& path, const PreviewInputs& in,
   image::write_multipart_exr(path, parts);
 }
 
-SavedPreviewInputs load_preview_inputs(const std::string& path) {
-  std::vector<image::ExrPart> parts = image::read_multipart_exr(path);
+SavedPreviewInputs load_preview_inputs(const std::string& path, std::uint64_t max_values) {
+  std::vector<image::ExrPart> parts = image::read_multipart_exr(path, max_values);
   Reader rd(path);
   image::ExrPart& color = rd.part(parts, "color", {"R", "G", "B"});
   if (color.attributes.count("format") == 0 || color.attributes.at("format") != kFormat)
@@ -202,6 +202,14 @@ SavedPreviewInputs load_preview_inputs(const std::string& path) {
     if (part.image.width() != w) rd.fail("part '" + part.name + "' has the wrong width");
     revealed.push_back(&part);
   }
+  // Each list expands to a dense layer (RGB, depth, mask) of the image's size: bound what the
+  // file makes us allocate, not only what it holds.
+  if (revealed.size() > 64) rd.fail("more than 64 revealed layers");
+  const std::uint64_t dense = (5 + 5 * std::uint64_t(revealed.size())) * std::uint64_t(w) * h;
+  if (dense > max_values)
+    rd.fail(std::to_string(revealed.size()) + " revealed layers of " + std::to_string(w) + "x" +
+            std::to_string(h) + " exceed the image size limit (" + std::to_string(max_values) +
+            " values; raise it with --max-image-values)");
   // Expanding the lists into dense layers is most of the time after reading: one task per layer.
   in.revealed.resize(revealed.size());
   tbb::parallel_for(size_t{0}, revealed.size(), [&](size_t k) {
@@ -215,9 +223,11 @@ SavedPreviewInputs load_preview_inputs(const std::string& path) {
     for (size_t i = 0; i < part.image.pixel_count(); ++i) {
       const float* v = part.image.data().data() + 6 * i;
       if (v[0] < 0.0f) continue;  // padding
-      const int x = static_cast<int>(v[0]), y = static_cast<int>(v[1]);
-      if (x != v[0] || y != v[1] || x >= w || y < 0 || y >= h)
+      // Range first (NaN fails it): converting an out-of-range float to int is undefined.
+      if (!(v[0] < w && v[1] >= 0.0f && v[1] < h) || v[0] != std::floor(v[0]) ||
+          v[1] != std::floor(v[1]))
         rd.fail("part '" + part.name + "' lists a pixel outside the image");
+      const int x = static_cast<int>(v[0]), y = static_cast<int>(v[1]);
       std::copy_n(v + 2, 3, r.color.pixel(x, y));
       r.depth.at(x, y, 0) = v[5];
       r.mask.at(x, y, 0) = 1.0f;

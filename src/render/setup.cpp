@@ -9,9 +9,11 @@
 
 namespace dofcache::render {
 
-scene::Scene load_scene(const std::string& path, int scene_index) {
+scene::Scene load_scene(const std::string& path, int scene_index,
+                        const scene::LoadLimits& limits) {
   scene::LoadOptions options;
   options.scene_index = scene_index;
+  options.limits = limits;
   if (path.empty())
     return scene::load_gltf_from_memory(scene::default_scene_gltf(), scene::default_scene_name(),
                                         options);

@@ -35,6 +35,53 @@ bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, in
   return true;
 }
 
+std::uint32_t big_endian(const unsigned char* p, int bytes) {
+  std::uint32_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = v << 8 | p[i];
+  return v;
+}
+
+// What the image callback needs besides its arguments: the model being parsed (its buffers are
+// read before the images) and the pixel budget.
+struct ImageBudget {
+  const tinygltf::Model* model = nullptr;
+  std::uint64_t max_pixels = 0, used = 0;
+};
+
+// tinygltf's image callback: checks what tinygltf does not (that a bufferView image lies inside
+// its buffer) and the pixel budget from the header, and only then lets stb_image decode. Formats
+// whose size image_header_size cannot read are left undecoded (a texture using one is refused).
+bool load_image(tinygltf::Image* image, const int index, std::string* err, std::string* warn,
+                int req_width, int req_height, const unsigned char* bytes, int size,
+                void* user_data) {
+  auto& budget = *static_cast<ImageBudget*>(user_data);
+  const std::string label = "image " + std::to_string(index) + gltf::quoted(image->name);
+  if (image->bufferView >= 0) {  // tinygltf checked the index, not the byte range
+    const tinygltf::BufferView& bv = budget.model->bufferViews[std::size_t(image->bufferView)];
+    std::size_t buffer_size = std::size_t(bv.buffer) < budget.model->buffers.size()
+                                  ? budget.model->buffers[std::size_t(bv.buffer)].data.size()
+                                  : 0;
+    if (bv.byteOffset > buffer_size || bv.byteLength > buffer_size - bv.byteOffset) {
+      if (err) *err += label + ": bufferView " + std::to_string(image->bufferView) +
+                       " exceeds its buffer\n";
+      return false;
+    }
+  }
+  std::uint32_t width = 0, height = 0;
+  if (size <= 0 || !image_header_size(bytes, std::size_t(size), &width, &height)) return true;
+  const std::uint64_t pixels = std::uint64_t{width} * height;
+  if (pixels > budget.max_pixels - std::min(budget.used, budget.max_pixels)) {
+    if (err)
+      *err += label + ": " + std::to_string(width) + "x" + std::to_string(height) +
+              " pixels exceed the texture limit (" + std::to_string(budget.max_pixels) +
+              " pixels for all images of a file; raise it with --max-texture-pixels)\n";
+    return false;
+  }
+  budget.used += pixels;
+  return tinygltf::LoadImageData(image, index, err, warn, req_width, req_height, bytes, size,
+                                 nullptr);
+}
+
 }  // namespace
 
 std::string read_file(const std::string& path) {
@@ -51,11 +98,15 @@ std::string base_dir_of(const std::string& path) {
 }
 
 Parsed parse(const std::string& data, const std::string& name, const std::string& base_dir,
-             bool load_images) {
+             bool load_images, std::uint64_t max_image_pixels) {
   if (data.size() > 0xffffffffu) throw Error(name + ": file is too large (over 4 GiB)");
   tinygltf::TinyGLTF parser;
-  if (!load_images) parser.SetImageLoader(skip_image, nullptr);
   Parsed parsed;
+  ImageBudget budget{&parsed.model, max_image_pixels};
+  if (load_images)
+    parser.SetImageLoader(load_image, &budget);
+  else
+    parser.SetImageLoader(skip_image, nullptr);
   std::string err, warn;
   bool ok;
   if (is_glb(data)) {
@@ -70,6 +121,62 @@ Parsed parse(const std::string& data, const std::string& name, const std::string
   for (const std::string* note : {&warn, &err})
     if (!note->empty()) parsed.warnings.push_back(name + ": " + one_line(*note));
   return parsed;
+}
+
+bool image_header_size(const unsigned char* p, std::size_t size, std::uint32_t* width,
+                       std::uint32_t* height) {
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (size >= 24 && std::memcmp(p, kPng, 8) == 0) {  // the IHDR chunk comes first
+    if (std::memcmp(p + 12, "IHDR", 4) != 0) return false;
+    *width = big_endian(p + 16, 4);
+    *height = big_endian(p + 20, 4);
+    return true;
+  }
+  auto little_endian = [&](std::size_t at, int bytes) {
+    std::uint32_t v = 0;
+    for (int i = bytes - 1; i >= 0; --i) v = v << 8 | p[at + std::size_t(i)];
+    return v;
+  };
+  if (size >= 26 && p[0] == 'B' && p[1] == 'M') {  // BMP: the DIB header's size says which
+    bool core = little_endian(14, 4) == 12;
+    auto magnitude = [](std::uint32_t v) { return v & 0x80000000u ? 0u - v : v; };  // top-down
+    *width = core ? little_endian(18, 2) : magnitude(little_endian(18, 4));
+    *height = core ? little_endian(20, 2) : magnitude(little_endian(22, 4));
+    return true;
+  }
+  if (size >= 10 && std::memcmp(p, "GIF8", 4) == 0) {
+    *width = little_endian(6, 2);
+    *height = little_endian(8, 2);
+    return true;
+  }
+  if (size < 4 || p[0] != 0xff || p[1] != 0xd8) return false;
+  // JPEG: walk the marker segments to the first start-of-frame (SOF0-SOF15 but DHT, JPG, DAC).
+  std::size_t at = 2;
+  while (at + 4 <= size) {
+    if (p[at] != 0xff) return false;
+    unsigned marker = p[at + 1];
+    if (marker == 0xff) {  // fill byte
+      ++at;
+      continue;
+    }
+    if (marker == 0x01 || (marker >= 0xd0 && marker <= 0xd8)) {  // no length
+      at += 2;
+      continue;
+    }
+    if (marker == 0xd9 || marker == 0xda) return false;  // end of image, or data without a frame
+    std::size_t length = big_endian(p + at + 2, 2);
+    if (length < 2) return false;
+    bool frame = marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 &&
+                 marker != 0xcc;
+    if (frame) {
+      if (length < 7 || at + 9 > size) return false;
+      *height = big_endian(p + at + 5, 2);
+      *width = big_endian(p + at + 7, 2);
+      return true;
+    }
+    at += 2 + length;
+  }
+  return false;
 }
 
 std::string quoted(const std::string& name) { return name.empty() ? "" : " '" + name + "'"; }

@@ -108,8 +108,7 @@ class Loader : gltf::Document {
     // material, if a primitive needs it, is appended after them.
     for (std::size_t i = 0; i < model_.materials.size(); ++i)
       scene_.materials.push_back(convert_material(static_cast<int>(i)));
-    std::vector<int> path;
-    for (int root : roots) visit(root, glm::dmat4(1.0), path);
+    visit_nodes(roots);
     if (scene_.mesh.triangles.empty())
       throw Error(name_ + ": no triangle geometry in " + scene_label_ +
                   " (no node with a mesh of triangles)");
@@ -164,12 +163,52 @@ class Loader : gltf::Document {
 
   glm::dmat4 local_matrix(int n) const { return node_transform(n).local(); }
 
-  void visit(int n, const glm::dmat4& parent, std::vector<int>& path) {
-    if (std::find(path.begin(), path.end(), n) != path.end())
-      fail(node_label(n), "the node hierarchy has a cycle");
-    path.push_back(n);
+  // A node waiting to be visited: its parent's world matrix and its depth below the root.
+  struct PendingNode {
+    int node, parent;
+    glm::dmat4 parent_world;
+    std::size_t depth;
+  };
+
+  // Every node below `roots`, depth first: each after its parent and before its next sibling
+  // (the order meshes are appended in). An explicit stack rather than recursion, so that a deep
+  // hierarchy is bounded by the depth limit alone, not by the call stack.
+  void visit_nodes(const std::vector<int>& roots) {
+    reached_.assign(model_.nodes.size(), false);
+    parent_.assign(model_.nodes.size(), -1);
+    std::vector<PendingNode> pending;
+    for (auto r = roots.rbegin(); r != roots.rend(); ++r)
+      pending.push_back({*r, -1, glm::dmat4(1.0), 0});
+    while (!pending.empty()) {
+      PendingNode p = pending.back();
+      pending.pop_back();
+      visit(p, pending);
+    }
+  }
+
+  bool is_ancestor(int candidate, int node) const {
+    for (int a = node; a != -1; a = parent_[static_cast<std::size_t>(a)])
+      if (a == candidate) return true;
+    return false;
+  }
+
+  void visit(const PendingNode& p, std::vector<PendingNode>& pending) {
+    const int n = p.node;
+    // glTF node hierarchies are disjoint trees (glTF 3.5.3); a node shared by several parents
+    // would multiply everything below it, exponentially in the depth of such sharing.
+    if (reached_[static_cast<std::size_t>(n)])
+      fail(node_label(n), is_ancestor(n, p.parent)
+                              ? "the node hierarchy has a cycle"
+                              : "is reached twice (a child of two nodes, or listed twice as a "
+                                "root); glTF node hierarchies must be trees");
+    reached_[static_cast<std::size_t>(n)] = true;
+    parent_[static_cast<std::size_t>(n)] = p.parent;
+    if (p.depth >= static_cast<std::size_t>(std::max(options_.limits.max_node_depth, 1)))
+      fail(node_label(n), "is deeper than the node depth limit (" +
+                              std::to_string(options_.limits.max_node_depth) +
+                              "; raise it with --max-node-depth)");
     const tinygltf::Node& node = model_.nodes[static_cast<std::size_t>(n)];
-    glm::dmat4 world = parent * local_matrix(n);
+    glm::dmat4 world = p.parent_world * local_matrix(n);
     if (node.mesh != -1) {
       at(model_.meshes, node.mesh, "mesh", node_label(n));
       add_mesh(n, node.mesh, world);
@@ -180,11 +219,9 @@ class Loader : gltf::Document {
     }
     auto light = node.extensions.find(kLightsExt);
     if (light != node.extensions.end()) add_light(n, light->second, world);
-    for (int child : node.children) {
-      at(model_.nodes, child, "node", node_label(n));
-      visit(child, world, path);
-    }
-    path.pop_back();
+    for (int child : node.children) at(model_.nodes, child, "node", node_label(n));
+    for (auto c = node.children.rbegin(); c != node.children.rend(); ++c)
+      pending.push_back({*c, n, world, p.depth + 1});
   }
 
   // -- meshes
@@ -235,16 +272,20 @@ class Loader : gltf::Document {
                         std::to_string(vertex_count) + " positions)");
 
     // Vertex indices of the primitive, as triangles in the primitive's own numbering.
-    std::vector<std::uint32_t> order;
+    std::optional<AccessorView> idx;
     if (prim.indices != -1) {
-      AccessorView idx = accessor(prim.indices, TINYGLTF_TYPE_SCALAR, label + " indices");
-      if (idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
-          idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
-          idx.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+      idx = accessor(prim.indices, TINYGLTF_TYPE_SCALAR, label + " indices");
+      if (idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+          idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+          idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
         fail(label + " indices", "index componentType must be an unsigned integer type");
-      order.resize(idx.count);
-      for (std::size_t i = 0; i < idx.count; ++i) {
-        order[i] = idx.index(i);
+    }
+    reserve_budget(label, vertex_count, idx ? idx->count : vertex_count, mode);
+    std::vector<std::uint32_t> order;
+    if (idx) {
+      order.resize(idx->count);
+      for (std::size_t i = 0; i < idx->count; ++i) {
+        order[i] = idx->index(i);
         if (order[i] >= vertex_count)
           fail(label + " indices", "index " + std::to_string(order[i]) + " at position " +
                                        std::to_string(i) + " is out of range (" +
@@ -346,6 +387,26 @@ class Loader : gltf::Document {
         push_triangle(glm::uvec3(first, first + 1, first + 2), material, node);
       }
     }
+  }
+
+  // Counts a primitive's vertices and triangles (at most: before degenerate ones are dropped)
+  // against the limits before anything is allocated for it. A primitive without NORMAL gets
+  // three vertices per triangle.
+  void reserve_budget(const std::string& label, std::uint64_t vertices, std::uint64_t indices,
+                      int mode) {
+    std::uint64_t triangles = mode == TINYGLTF_MODE_TRIANGLES ? indices / 3
+                              : indices >= 2                  ? indices - 2
+                                                              : 0;
+    vertices = std::max(vertices, 3 * triangles);
+    const LoadLimits& limits = options_.limits;
+    if (vertices > limits.max_vertices - std::min(vertices_, limits.max_vertices))
+      fail(label, "the scene would exceed the vertex limit (" +
+                      std::to_string(limits.max_vertices) + "; raise it with --max-vertices)");
+    if (triangles > limits.max_triangles - std::min(triangles_, limits.max_triangles))
+      fail(label, "the scene would exceed the triangle limit (" +
+                      std::to_string(limits.max_triangles) + "; raise it with --max-triangles)");
+    vertices_ += vertices;
+    triangles_ += triangles;
   }
 
   void push_uvs(const std::optional<AccessorView> (&uv)[2], std::size_t v) {
@@ -667,12 +728,16 @@ class Loader : gltf::Document {
   int default_material_ = -1;
   bool has_uv_[2] = {false, false};
   std::map<int, int> texture_map_;  // glTF texture -> Scene::textures
+  std::vector<bool> reached_;       // nodes visited so far
+  std::vector<int> parent_;         // the parent each was reached from (-1: a root)
+  std::uint64_t vertices_ = 0, triangles_ = 0;  // counted against LoadLimits
   std::vector<std::pair<std::uint32_t, glm::vec3>> repaired_;
 };
 
 Scene load_model(const std::string& data, const std::string& name, const std::string& base_dir,
                  const LoadOptions& options) {
-  gltf::Parsed parsed = gltf::parse(data, name, base_dir, /*load_images=*/true);
+  gltf::Parsed parsed = gltf::parse(data, name, base_dir, /*load_images=*/true,
+                                    options.limits.max_texture_pixels);
   Scene scene = Loader(parsed.model, name, options).load();
   scene.warnings.insert(scene.warnings.begin(), parsed.warnings.begin(), parsed.warnings.end());
   return scene;

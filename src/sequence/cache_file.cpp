@@ -14,6 +14,7 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointAttribute.h>
 #include <openvdb/points/PointConversion.h>
+#include <openvdb/points/PointCount.h>
 #include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/PointIndexGrid.h>
 
@@ -226,7 +227,7 @@ class MetaReader {
   std::string path_;
 };
 
-CacheFile read_vdb(const std::string& path) {
+CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
   vdb::initialize();
   vdb::io::File in(path);
   in.open(/*delayLoad=*/false);
@@ -248,8 +249,11 @@ CacheFile read_vdb(const std::string& path) {
   file.identity.sample_quality = m.int32("dofcache.sample_quality");
   file.min_factor = m.real("dofcache.min_factor");
   const std::int64_t count = m.int64("dofcache.sample_count");
-  if (count < 0 || count > (std::int64_t{1} << 32))
+  if (count < 0)
     throw Error(path + ": cache file is damaged (sample count " + std::to_string(count) + ")");
+  if (static_cast<std::uint64_t>(count) > max_samples)
+    throw Error(path + ": cache file declares " + std::to_string(count) +
+                " samples, more than the limit of " + std::to_string(max_samples));
   if (m.has("dofcache.sequence_key")) {
     SequenceCheckpoint cp;
     cp.sequence_key = m.hex("dofcache.sequence_key");
@@ -264,7 +268,12 @@ CacheFile read_vdb(const std::string& path) {
   PointDataGrid::Ptr grid = vdb::gridPtrCast<PointDataGrid>(base);
   if (!grid) throw Error(path + ": the '" + std::string(kGridName) + "' grid is not a point grid");
   const vdb::math::Transform& xform = grid->transform();
-  file.records.reserve(static_cast<std::size_t>(count));
+  // Reserve for the points the grid holds, never for what the metadata claims.
+  const vdb::Index64 points = vdb::points::pointCount(grid->tree());
+  if (points != static_cast<vdb::Index64>(count))
+    throw Error(path + ": cache file is damaged (" + std::to_string(points) +
+                " samples, metadata says " + std::to_string(count) + ")");
+  file.records.reserve(static_cast<std::size_t>(points));
   for (auto leaf = grid->tree().cbeginLeaf(); leaf; ++leaf) {
     using vdb::points::AttributeHandle;
     auto p = AttributeHandle<vdb::Vec3f>::create(leaf->constAttributeArray("P"));
@@ -352,11 +361,11 @@ void write_cache_file(const std::string& path, const CacheFile& file) {
   }
 }
 
-CacheFile read_cache_file(const std::string& path) {
+CacheFile read_cache_file(const std::string& path, std::uint64_t max_samples) {
   check_integrity(path);
   CacheFile file;
   try {
-    file = read_vdb(path);
+    file = read_vdb(path, max_samples);
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {  // openvdb::Exception derives from std::exception

@@ -35,14 +35,14 @@ class KeyframeParser {
     json doc;
     try {
       doc = json::parse(text);
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse_error, and out_of_range for 1e400
       std::string what = e.what();
       std::size_t at = what.find("] ");
       fail("invalid JSON: " + (at == std::string::npos ? what : what.substr(at + 2)));
     }
     if (!doc.is_object()) fail("the file must hold a JSON object");
-    for (const auto& [key, value] : doc.items()) {
-      (void)value;
+    for (const auto& item : doc.items()) {
+      const std::string& key = item.key();  // a plain name: C++17 lambdas cannot capture bindings
       static const char* known[] = {kFormatKey, "fps", "interpolation", "up", "keys",
                                     "description", "scene"};
       if (std::find_if(std::begin(known), std::end(known),
@@ -95,8 +95,8 @@ class KeyframeParser {
       const json& key = keys[k];
       key_ = "key " + std::to_string(k);
       if (!key.is_object()) fail("must be an object");
-      for (const auto& [member, value] : key.items()) {
-        (void)value;
+      for (const auto& item : key.items()) {
+        const std::string& member = item.key();
         static const char* known[] = {"frame", "time", "position", "target", "rotation", "yfov",
                                       "focal_length", "fstop", "focus_distance"};
         if (std::find_if(std::begin(known), std::end(known),

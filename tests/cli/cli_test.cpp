@@ -201,6 +201,20 @@ TEST_F(Cli, AbsurdParameters) {
   expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
 }
 
+// The loader's limits (docs/reliability.md) on the command line: the built-in Cornell box (a
+// sphere among its boxes) is over 10 triangles, so it is refused in one line naming the option
+// that raises the limit.
+TEST_F(Cli, SceneLimitsAreOptions) {
+  const std::string out = " --out " + (dir_ / "o.png").string() + kTiny;
+  expect_clean_failure("render --max-triangles 10" + out, "--max-triangles");
+  expect_clean_failure("render --max-vertices 10" + out, "--max-vertices");
+  expect_clean_failure("sequence --max-triangles 10 --frames 0-0 --out " +
+                           (dir_ / "f" / "####.png").string() + kTiny,
+                       "--max-triangles");
+  EXPECT_EQ(run("render --max-triangles 0" + out).exit_code, 2);  // not a positive number
+  EXPECT_EQ(run("render --max-triangles 100000 --max-node-depth 5" + out).exit_code, 0);
+}
+
 TEST_F(Cli, CommandLineSyntaxErrorsExitWithTwo) {
   testing::CliResult r = run("render --width 10 --width 20");
   EXPECT_EQ(r.exit_code, 2);

@@ -132,6 +132,13 @@ TEST_F(FarmPlanTest, SettingsAreValidated) {
   expect_bad([](FarmSettings& s) { s.sequence_args.push_back("--frames"); }, "--frames");
   expect_bad([](FarmSettings& s) { s.slurm.job_name = "two words"; }, "job name");
   expect_bad([](FarmSettings& s) { s.slurm.extra = {"qos=low"}; }, "sbatch option");
+  // A plan of two billion frames would be two billion chunks (and script lines): refused
+  // before the chunks are made.
+  expect_bad([](FarmSettings& s) { s.first = 0, s.last = 2147483647; }, "more than 1000000 frames");
+  FarmSettings most = settings();
+  most.first = 0, most.last = kMaxFarmFrames - 1, most.chunk = 1000;
+  EXPECT_EQ(FarmPlan(most).chunks().size(), 1000u);
+  expect_bad([](FarmSettings& s) { s.first = 0, s.last = kMaxFarmFrames; }, "more than");
 }
 
 TEST_F(FarmPlanTest, ChunkCommandsStartFromTheWarmCacheWithTheirOwnCheckpoint) {

@@ -9,8 +9,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -281,6 +284,61 @@ TEST_F(ImageIo, ReadingMissingOrCorruptFilesIsAnError) {
   write_image(path("cut.exr"), random_image(64, 64, 3, 10, 0.0f, 1.0f));
   fs::resize_file(path("cut.exr"), fs::file_size(path("cut.exr")) / 2);
   error_of([&] { read_image(path("cut.exr")); });
+}
+
+// A small EXR whose header declares a 100000x100000 image (a 1x1 file with its data window
+// widened and a line offset table long enough for OpenEXR to open it: about 50 KB).
+std::string exr_declaring_100000_squared(const std::string& one_pixel_exr) {
+  std::ifstream in(one_pixel_exr, std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto i32 = [](std::int32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  const std::string window("dataWindow\0box2i\0", 17);
+  std::size_t at = d.find(window);
+  EXPECT_NE(at, std::string::npos);
+  d.replace(at + window.size() + 4, 16, i32(0) + i32(0) + i32(99999) + i32(99999));
+  std::size_t end = 8;  // magic and version, then attributes "name\0type\0<i32 size><value>"
+  while (d.at(end) != 0) {
+    std::size_t type_end = d.find('\0', d.find('\0', end) + 1);
+    std::int32_t size;
+    std::memcpy(&size, d.data() + type_end + 1, 4);
+    end = type_end + 5 + static_cast<std::size_t>(size);
+  }
+  ++end;
+  std::uint64_t chunk;
+  std::memcpy(&chunk, d.data() + end, 8);
+  const std::size_t chunks = (100000 + 15) / 16;  // ZIP: 16 lines per chunk
+  const std::uint64_t moved = end + 8 * chunks;
+  std::string table;
+  for (std::size_t k = 0; k < chunks; ++k) table.append(reinterpret_cast<const char*>(&moved), 8);
+  return d.substr(0, end) + table + d.substr(static_cast<std::size_t>(chunk));
+}
+
+// Found while writing the preview-inputs fuzz target (docs/reliability.md): such a file made every
+// reader allocate 120 GB of floats from its header alone ("std::bad_alloc", or the machine's
+// memory).
+TEST_F(ImageIo, HugeDeclaredSizeIsRefusedBeforeReading) {
+  write_image(path("one.exr"), Image(1, 1, 3, 0.5f));
+  std::ofstream(path("huge.exr"), std::ios::binary)
+      << exr_declaring_100000_squared(path("one.exr"));
+  EXPECT_LT(fs::file_size(path("huge.exr")), 60000u);
+  for (auto read : std::vector<std::function<void()>>{
+           [&] { read_image(path("huge.exr")); },
+           [&] { read_channels(path("huge.exr"), {"R"}); },
+           [&] { read_multipart_exr(path("huge.exr")); }}) {
+    std::string msg = error_of(read);
+    EXPECT_NE(msg.find("huge.exr"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("100000x100000 pixels of 3 channels exceed the image size limit"),
+              std::string::npos) << msg;
+  }
+  // The limit is exact and shared by the parts of a file.
+  write_image(path("small.exr"), Image(4, 2, 3, 0.5f));
+  EXPECT_EQ(read_image(path("small.exr"), 24).width(), 4);
+  EXPECT_NE(error_of([&] { read_image(path("small.exr"), 23); }).find("(23 values in all)"),
+            std::string::npos);
+  write_multipart_exr(path("parts.exr"), {{"a", {"Y"}, Image(4, 2, 1), {}},
+                                          {"b", {"Y"}, Image(4, 2, 1), {}}});
+  EXPECT_EQ(read_multipart_exr(path("parts.exr"), 16).size(), 2u);
+  error_of([&] { read_multipart_exr(path("parts.exr"), 15); });
 }
 
 }  // namespace

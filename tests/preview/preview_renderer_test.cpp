@@ -266,5 +266,62 @@ TEST_F(SavedInputs, BadFilesAreOneLineErrors) {
   EXPECT_THROW(load_preview_inputs((dir_ / "other.exr").string()), Error);
 }
 
+// An 8x6 set of inputs with one revealed layer of three pixels (row 3, x = 2..4).
+PreviewInputs small_inputs() {
+  PreviewInputs in;
+  in.color = image::Image(8, 6, 3, 0.5f);
+  in.depth = image::Image(8, 6, 1, 2.0f);
+  in.ids = image::Image(8, 6, 1, 1.0f);
+  in.imaging.lens = {0.05, 2.8, 2.0};
+  in.imaging.y_resolution = 6;
+  RevealedLayer r;
+  r.near_depth = 1.5;
+  r.color = image::Image(8, 6, 3, 0.25f);
+  r.depth = image::Image(8, 6, 1, 3.0f);
+  r.mask = image::Image(8, 6, 1, 0.0f);
+  for (int x = 2; x < 5; ++x) r.mask.at(x, 3, 0) = 1.0f;
+  in.revealed.push_back(r);
+  return in;
+}
+
+// A revealed pixel at x = 3e9 was converted to int before its range was checked (undefined
+// behaviour; UBSan's float-cast-overflow): now refused like any pixel outside the image.
+TEST_F(SavedInputs, RevealedPixelFarOutsideTheImageIsRefused) {
+  const std::string good = (dir_ / "good.exr").string(), bad = (dir_ / "bad.exr").string();
+  save_preview_inputs(good, small_inputs(), {true, 1.5, 4.0, 0.05 / 2.8});
+  ASSERT_EQ(load_preview_inputs(good).inputs.revealed.size(), 1u);
+  for (float x : {3e9f, std::nanf(""), 1e30f}) {
+    std::vector<image::ExrPart> parts = image::read_multipart_exr(good);
+    for (image::ExrPart& p : parts)
+      if (p.name == "revealed.0") p.image.data()[0] = x;  // the first entry's x
+    image::write_multipart_exr(bad, parts);
+    try {
+      load_preview_inputs(bad);
+      ADD_FAILURE() << "accepted x = " << x;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("lists a pixel outside the image"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+// The revealed lists expand to dense layers: the limit counts what the file makes the loader
+// allocate, not only what it holds.
+TEST_F(SavedInputs, ExpandedLayersCountAgainstTheImageLimit) {
+  const std::string path = (dir_ / "inputs.exr").string();
+  save_preview_inputs(path, small_inputs(), {true, 1.5, 4.0, 0.05 / 2.8});
+  // Read: colour 3 x 48, depth 48, ids 48, one row of 8 revealed entries x 6 = 288 values;
+  // expanded: (5 + 5 x 1 layer) x 48 = 480.
+  EXPECT_EQ(load_preview_inputs(path, 480).inputs.revealed.size(), 1u);
+  try {
+    load_preview_inputs(path, 479);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("1 revealed layers of 8x6 exceed the image size limit"),
+              std::string::npos) << e.what();
+  }
+  EXPECT_THROW(load_preview_inputs(path, 287), Error);  // already while reading
+}
+
 }  // namespace
 }  // namespace dofcache::preview

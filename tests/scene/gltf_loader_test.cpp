@@ -66,6 +66,11 @@ class Gltf {
     accessors_ += (accessors_.empty() ? "" : ",") + json;
     return count_++;
   }
+  // A raw bufferView (for bad input): the caller writes the JSON object.
+  int add_view_json(const std::string& json) {
+    views_ += (views_.empty() ? "" : ",") + json;
+    return views_count_++;
+  }
   int add_view(const void* data, std::size_t bytes, std::size_t stride = 0) {
     while (bin_.size() % 4) bin_.push_back(0);
     views_ += std::string(views_.empty() ? "" : ",") +
@@ -718,8 +723,152 @@ TEST_F(GltfLoaderTest, GarbageNeverCrashes) {
     } catch (const Error&) {
     }
   }
-  std::string glb("glTF\x02\x00\x00\x00\xff\xff\x00\x00\x10\x00\x00\x00JSON{}", 26);
+  // Exactly the literal's 22 bytes: a longer length reads past it (ASan: global buffer overflow).
+  std::string glb("glTF\x02\x00\x00\x00\xff\xff\x00\x00\x10\x00\x00\x00JSON{}", 22);
   EXPECT_THROW(load_gltf_from_memory(glb, "bad glb"), Error);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Limits on hostile input (LoadLimits, docs/reliability.md): refused in one line from what the
+// file declares, before the loader allocates for it.
+
+// A PNG of the given size as far as its header goes (IHDR first, then a token IDAT and IEND):
+// enough for the size check, which must refuse it before anything tries to decode it.
+std::vector<unsigned char> png_header(std::uint32_t w, std::uint32_t h) {
+  std::vector<unsigned char> out = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  auto u32 = [&](std::uint32_t v) {
+    for (int shift = 24; shift >= 0; shift -= 8) out.push_back((v >> shift) & 0xff);
+  };
+  auto chunk = [&](const char* tag, const std::vector<unsigned char>& data) {
+    u32(static_cast<std::uint32_t>(data.size()));
+    out.insert(out.end(), tag, tag + 4);
+    out.insert(out.end(), data.begin(), data.end());
+    u32(0);  // CRC: not reached
+  };
+  std::vector<unsigned char> ihdr;
+  for (std::uint32_t v : {w, h})
+    for (int shift = 24; shift >= 0; shift -= 8) ihdr.push_back((v >> shift) & 0xff);
+  ihdr.insert(ihdr.end(), {8, 6, 0, 0, 0});
+  chunk("IHDR", ihdr);
+  chunk("IDAT", {0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01});
+  chunk("IEND", {});
+  return out;
+}
+
+TEST_F(GltfLoaderTest, BillionsOfDeclaredVerticesAreRefused) {
+  Gltf g;
+  int view = g.add_view(kTriangle.data(), kTriangle.size() * sizeof(float));
+  int pos = g.add_accessor_json("{\"bufferView\":" + std::to_string(view) +
+                                ",\"componentType\":5126,\"count\":3000000000,"
+                                "\"type\":\"VEC3\"}");
+  std::string path =
+      write("billions.gltf", g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                                    triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(path); }, {path, "3000000000 elements", "exceed"});
+  // Without a bufferView nothing bounds the count by bytes: the vertex limit does.
+  Gltf z;
+  z.add_floats(kTriangle, "VEC3");  // a buffer for the file to have (its accessor is unused)
+  int zeros = z.add_accessor_json(
+      "{\"componentType\":5126,\"count\":3000000000,\"type\":\"VEC3\"}");
+  std::string no_view =
+      write("billions_no_view.gltf", z.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                                            triangle_mesh(zeros) + "]"));
+  expect_error([&] { load_gltf(no_view); }, {no_view, "implausible count 3000000000"});
+}
+
+TEST_F(GltfLoaderTest, VertexAndTriangleLimitsCountEveryMeshInstance) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  // Three nodes place three meshes sharing one accessor: 9 vertices, 3 triangles in all.
+  std::string path = write(
+      "instances.gltf",
+      g.json("\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]},"
+             "{\"mesh\":2,\"translation\":[4,0,0]}],\"meshes\":[" +
+             triangle_mesh(pos) + "," + triangle_mesh(pos) + "," + triangle_mesh(pos) + "]"));
+  LoadOptions options;
+  options.limits.max_vertices = 9;
+  options.limits.max_triangles = 3;
+  EXPECT_EQ(load_gltf(path, options).mesh.triangles.size(), 3u);  // exactly at the limits
+  options.limits.max_vertices = 8;
+  expect_error([&] { load_gltf(path, options); },
+               {path, "mesh (2) primitive 0", "vertex limit (8", "--max-vertices"});
+  options.limits.max_vertices = 9;
+  options.limits.max_triangles = 2;
+  expect_error([&] { load_gltf(path, options); },
+               {path, "triangle limit (2", "--max-triangles"});
+}
+
+TEST_F(GltfLoaderTest, HugeTextureIsRefusedFromItsHeader) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  auto with_image = [&](const std::vector<unsigned char>& bytes, const std::string& mime) {
+    return g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos, "", -1, 0) +
+                  "],\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":"
+                  "{\"index\":0}}}],\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"data:" +
+                  mime + ";base64," + base64(bytes) + "\"}]");
+  };
+  // 100000^2 RGBA would be 40 GB decoded (160 GB as float texels).
+  std::string huge = write("huge_texture.gltf", with_image(png_header(100000, 100000), "image/png"));
+  expect_error([&] { load_gltf(huge); },
+               {huge, "image 0", "100000x100000", "texture limit", "--max-texture-pixels"});
+  // The limit is on all images together, and exact.
+  std::string small = write("small_texture.gltf",
+                            with_image(bmp(4, 2, std::vector<std::uint8_t>(24, 7)), "image/bmp"));
+  LoadOptions options;
+  options.limits.max_texture_pixels = 8;
+  EXPECT_EQ(load_gltf(small, options).textures.at(0).width, 4);
+  options.limits.max_texture_pixels = 7;
+  expect_error([&] { load_gltf(small, options); }, {small, "4x2 pixels", "texture limit (7"});
+}
+
+TEST_F(GltfLoaderTest, ImageBufferViewOutsideItsBufferIsRefused) {
+  // tinygltf hands an image's bufferView to the decoder without checking its byte range.
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  int view = g.add_view_json("{\"buffer\":0,\"byteOffset\":16,\"byteLength\":100000}");
+  std::string path = write(
+      "image_view.gltf",
+      g.json("\"nodes\":[{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) +
+             "],\"images\":[{\"bufferView\":" + std::to_string(view) +
+             ",\"mimeType\":\"image/png\"}]"));
+  expect_error([&] { load_gltf(path); }, {path, "image 0", "exceeds its buffer"});
+}
+
+TEST_F(GltfLoaderTest, DeepNodeHierarchyIsRefused) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  auto chain = [&](int depth) {  // node k's child is k + 1; the last one has the mesh
+    std::string nodes;
+    for (int k = 0; k < depth; ++k)
+      nodes += std::string(k ? "," : "") +
+               (k + 1 < depth ? "{\"children\":[" + std::to_string(k + 1) + "]}"
+                              : std::string("{\"mesh\":0}"));
+    return g.json("\"scenes\":[{\"nodes\":[0]}],\"nodes\":[" + nodes + "],\"meshes\":[" +
+                  triangle_mesh(pos) + "]");
+  };
+  std::string deep = write("deep.gltf", chain(5000));
+  expect_error([&] { load_gltf(deep); },
+               {deep, "node (1000)", "node depth limit (1000", "--max-node-depth"});
+  LoadOptions options;
+  options.limits.max_node_depth = 5000;
+  EXPECT_EQ(load_gltf(deep, options).mesh.triangles.size(), 1u);
+  options.limits.max_node_depth = 4999;
+  expect_error([&] { load_gltf(deep, options); }, {deep, "node (4999)", "depth limit"});
+}
+
+TEST_F(GltfLoaderTest, NodeReachedTwiceIsRefused) {
+  // Shared children would multiply everything below them: 2^depth copies for a chain of pairs.
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  std::string shared = write(
+      "shared_child.gltf",
+      g.json("\"scenes\":[{\"nodes\":[0,1]}],\"nodes\":[{\"children\":[2]},"
+             "{\"children\":[2]},{\"mesh\":0}],\"meshes\":[" + triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(shared); }, {shared, "node (2)", "reached twice", "trees"});
+  std::string twice = write("root_twice.gltf",
+                            g.json("\"scenes\":[{\"nodes\":[0,0]}],\"nodes\":[{\"mesh\":0}],"
+                                   "\"meshes\":[" + triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(twice); }, {twice, "node (0)", "reached twice"});
 }
 
 }  // namespace

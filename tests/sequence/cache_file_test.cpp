@@ -227,4 +227,18 @@ TEST_F(CacheFileTest, RefusesDamagedFiles) {
   EXPECT_EQ(read_cache_file(path("good.vdb")).records.size(), 500u);
 }
 
+// A file's declared sample count is checked against a limit before anything is read for it,
+// and nothing is reserved for what the metadata claims, only for the points the grid holds.
+TEST_F(CacheFileTest, DeclaredSampleCountIsBounded) {
+  write_cache_file(path("ten.vdb"), sample_file(10));
+  EXPECT_EQ(read_cache_file(path("ten.vdb"), 10).records.size(), 10u);
+  try {
+    read_cache_file(path("ten.vdb"), 9);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("declares 10 samples, more than the limit of 9"),
+              std::string::npos) << e.what();
+  }
+}
+
 }  // namespace

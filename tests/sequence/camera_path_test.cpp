@@ -343,6 +343,22 @@ TEST(KeyframePath, RefusesMistakes) {
   EXPECT_THROW(p.at(0.0), Error);
 }
 
+// Found by fuzzing (docs/reliability.md): a number beyond double's range made nlohmann::json
+// throw out_of_range, which escaped as another exception type than dofcache::Error. The input is
+// the one the fuzzer found, reduced to the number.
+TEST(KeyframePath, NumberBeyondDoubleRangeIsAOneLineError) {
+  try {
+    parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [
+        {"time": 0, "position": [0, 0, 3], "rotation": [0, 0, 0, 1e3081]}]})",
+                        "overflow.json", base_camera());
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    std::string what = e.what();
+    EXPECT_NE(what.find("overflow.json: invalid JSON: number overflow parsing '1e3081'"),
+              std::string::npos) << what;
+  }
+}
+
 TEST(KeyframePath, ShippedPathsLoad) {
   std::string dir = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/";
   scene::Scene sc = render::load_scene(dir + "cornell_box.gltf");

@@ -34,6 +34,9 @@ struct SlurmOptions {
   std::vector<std::string> extra;   // further sbatch options, verbatim (e.g. "--qos=low")
 };
 
+// Frames one plan may hold (docs/reliability.md): over eleven hours at 24 fps.
+constexpr int kMaxFarmFrames = 1'000'000;
+
 struct FarmSettings {
   std::string dofcache;  // the executable, as the compute nodes see it (absolute)
   std::string work_dir;  // plan, scripts, logs, warm cache, checkpoints, stats (absolute)

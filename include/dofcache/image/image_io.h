@@ -4,6 +4,7 @@
 // compression keeps the files reasonable), .png is 8-bit sRGB colour. Writes are atomic
 // (dofcache/core/atomic_file.h): a temporary file in the same directory, renamed over the target
 // only once complete.
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -28,12 +29,18 @@ void write_image(const std::string& path, const Image& color,
 // so callers can refuse a bad output path before spending time on a render.
 void check_output_path(const std::string& path);
 
+// The most values (pixels x channels, all parts of a file together) a read may allocate: checked
+// against the file's headers before any pixel is read, so a small file declaring a huge image is
+// refused (docs/reliability.md). 2^30 floats are 4 GiB, e.g. RGBA at 16384x16384.
+constexpr std::uint64_t kMaxImageValues = std::uint64_t{1} << 30;
+
 // Reads the colour channels (RGB; alpha dropped) as linear float. PNG/JPEG are decoded from sRGB.
-// Throws dofcache::Error if missing or unreadable.
-Image read_image(const std::string& path);
+// Throws dofcache::Error if missing, unreadable or larger than `max_values`.
+Image read_image(const std::string& path, std::uint64_t max_values = kMaxImageValues);
 
 // Reads the named channels of an EXR (e.g. {"Z"}); throws if any is absent.
-Image read_channels(const std::string& path, const std::vector<std::string>& names);
+Image read_channels(const std::string& path, const std::vector<std::string>& names,
+                    std::uint64_t max_values = kMaxImageValues);
 
 // One part of a multi-part EXR: a named layer (e.g. "color", "depth", "ids") with its own channels
 // and string metadata. channel_names.size() must equal image.channels(); all parts of a file may
@@ -54,8 +61,9 @@ void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& pa
 
 // Reads every part of an EXR (a single-part file gives one part) with its channels in the order
 // they were written and the "dofcache:" attributes (prefix stripped). Throws dofcache::Error if
-// missing or unreadable.
-std::vector<ExrPart> read_multipart_exr(const std::string& path);
+// missing, unreadable, or if its parts together hold more than `max_values`.
+std::vector<ExrPart> read_multipart_exr(const std::string& path,
+                                        std::uint64_t max_values = kMaxImageValues);
 
 // The sRGB transfer functions (IEC 61966-2-1): encode = linear -> display, decode the inverse.
 float linear_to_srgb(float linear);

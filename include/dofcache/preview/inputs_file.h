@@ -20,8 +20,10 @@
 //                                and load time.
 //
 // Numbers are stored as decimal strings that round-trip (%.17g; "inf" for infinity).
+#include <cstdint>
 #include <string>
 
+#include "dofcache/image/image_io.h"
 #include "dofcache/preview/options.h"
 #include "dofcache/preview/preview.h"
 #include "dofcache/preview/refocus.h"
@@ -40,7 +42,9 @@ void save_preview_inputs(const std::string& path, const PreviewInputs& inputs,
                          const RevealedCoverage& coverage, const PreviewOptions& options = {});
 
 // Throws dofcache::Error (one line, naming the file) if it is missing, unreadable, not a
-// preview-inputs file, or holds inconsistent sizes or an absurd lens.
-SavedPreviewInputs load_preview_inputs(const std::string& path);
+// preview-inputs file, or holds inconsistent sizes or an absurd lens, or if its images, read or
+// expanded (the revealed layers), would hold more than `max_values` floats.
+SavedPreviewInputs load_preview_inputs(const std::string& path,
+                                       std::uint64_t max_values = image::kMaxImageValues);
 
 }  // namespace dofcache::preview

@@ -6,12 +6,14 @@
 
 #include "dofcache/lens/thin_lens.h"
 #include "dofcache/scene/accel.h"
+#include "dofcache/scene/gltf_loader.h"
 #include "dofcache/scene/scene.h"
 
 namespace dofcache::render {
 
-// Loads `path` (.gltf/.glb), or the built-in default scene if `path` is empty.
-scene::Scene load_scene(const std::string& path, int scene_index = -1);
+// Loads `path` (.gltf/.glb), or the built-in default scene if `path` is empty, within `limits`.
+scene::Scene load_scene(const std::string& path, int scene_index = -1,
+                        const scene::LoadLimits& limits = {});
 
 // Lens values given on the command line; each overrides the camera's `extras.lens`.
 struct LensOverrides {

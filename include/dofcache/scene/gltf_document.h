@@ -25,10 +25,17 @@ struct Parsed {
   tinygltf::Model model;
   std::vector<std::string> warnings;  // tinygltf's non-fatal complaints, one line each
 };
-// Parses glTF JSON or GLB bytes (by their magic). Images are decoded only if `load_images`.
-// Throws dofcache::Error "<name>: <problem>" (one line, in our words where tinygltf is terse).
+// Parses glTF JSON or GLB bytes (by their magic). Images are decoded only if `load_images`, and
+// only PNG and JPEG ones (the formats glTF allows) and BMP and GIF: their sizes are read from the
+// headers first and the file is refused if they add up to more than `max_image_pixels`. Throws dofcache::Error
+// "<name>: <problem>" (one line, in our words where tinygltf is terse).
 Parsed parse(const std::string& data, const std::string& name, const std::string& base_dir,
-             bool load_images);
+             bool load_images, std::uint64_t max_image_pixels = 0);
+
+// Width and height from a PNG, JPEG, BMP or GIF header (false for another format or a broken
+// header).
+bool image_header_size(const unsigned char* bytes, std::size_t size, std::uint32_t* width,
+                       std::uint32_t* height);
 
 // " 'name'", or "" for an unnamed element.
 std::string quoted(const std::string& name);

@@ -64,10 +64,16 @@ struct CacheFile {
 // Writes atomically (temporary file, then rename). Throws dofcache::Error on failure.
 void write_cache_file(const std::string& path, const CacheFile& file);
 
+// Sample count a cache file may declare (docs/reliability.md): 2^28 samples are 16 GiB of records,
+// beyond any cache a render keeps in memory.
+constexpr std::uint64_t kMaxCacheFileSamples = std::uint64_t{1} << 28;
+
 // Throws dofcache::Error (one line naming the file) if it is missing, not a dofcache cache file,
-// damaged, of another format version, or holds invalid samples (non-finite values, non-positive
-// radii, duplicate ids, counts that disagree with the metadata).
-CacheFile read_cache_file(const std::string& path);
+// damaged, of another format version, declares more than `max_samples` samples, or holds invalid
+// samples (non-finite values, non-positive radii, duplicate ids, counts that disagree with the
+// metadata).
+CacheFile read_cache_file(const std::string& path,
+                          std::uint64_t max_samples = kMaxCacheFileSamples);
 
 // Appends the integrity trailer to the file at `path` (write_cache_file does this after OpenVDB
 // has written the file; public so that tests and tools can seal hand-made files).
