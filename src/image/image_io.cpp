@@ -189,7 +189,8 @@ struct OpenedInput {
 // OpenEXR sizes what it allocates for a header from the header itself: an attribute's declared
 // size (a 2.7 KB file declaring a 1.9 GB string made it allocate and fill 1.9 GB) and the data
 // window (its line offset table). So the headers of an EXR are walked first, every attribute
-// checked against the bytes the file has and every data window against `max_values`.
+// checked against the bytes the file has, every data window against `max_values` and every
+// channel's pixel type.
 void check_exr_headers(const std::string& path, std::uint64_t max_values) {
   std::error_code ec;
   const std::uint64_t file_size = fs::file_size(path, ec);
@@ -208,7 +209,7 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
   for (int part = 0;; ++part) {
     if (part > 0 && in.peek() == 0) break;  // the end of a multi-part file's headers
     for (std::string attribute = name(); !attribute.empty(); attribute = name()) {
-      name();  // its type
+      const std::string type = name();
       std::int32_t size;
       if (!in.read(reinterpret_cast<char*>(&size), 4)) damaged("truncated");
       const auto offset = static_cast<std::uint64_t>(in.tellg());
@@ -225,6 +226,20 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
           fail_read(path, std::to_string(w) + "x" + std::to_string(h) +
                               " pixels exceed the image size limit (" +
                               std::to_string(max_values) + " values in all)");
+      } else if (type == "chlist" && size <= (1 << 20)) {
+        // OpenImageIO aborts (an assertion) on a pixel type other than UINT, HALF and FLOAT.
+        std::string list(static_cast<std::size_t>(size), '\0');
+        in.read(list.data(), size);
+        for (std::size_t c = 0; c < list.size() && list[c] != '\0';) {
+          std::size_t end = list.find('\0', c);
+          if (end == std::string::npos || end + 17 > list.size()) damaged("channel list");
+          std::int32_t pixel_type;
+          std::memcpy(&pixel_type, list.data() + end + 1, 4);
+          if (pixel_type < 0 || pixel_type > 2)
+            damaged("channel '" + list.substr(c, end - c) + "' has unknown pixel type " +
+                    std::to_string(pixel_type));
+          c = end + 17;
+        }
       } else {
         in.seekg(size, std::ios::cur);
       }

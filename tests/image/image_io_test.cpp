@@ -361,5 +361,26 @@ TEST_F(ImageIo, ExrAttributeLongerThanTheFileIsRefused) {
             std::string::npos) << msg;
 }
 
+// Found by fuzzing (preview_inputs): a channel of pixel type 3 made OpenImageIO abort on an
+// assertion ("Unknown Imf::PixelType 3"), killing the process.
+TEST_F(ImageIo, ExrChannelOfUnknownPixelTypeIsRefused) {
+  write_image(path("ok.exr"), Image(2, 2, 3, 0.5f));
+  std::ifstream in(path("ok.exr"), std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string list("channels\0chlist\0", 16);
+  std::size_t at = d.find(list);
+  ASSERT_NE(at, std::string::npos);
+  at += list.size() + 4;  // the attribute's size, then the first channel: "B\0", pixel type
+  ASSERT_EQ(d.substr(at, 2), std::string("B\0", 2));
+  const std::int32_t type = 3;
+  d.replace(at + 2, 4, reinterpret_cast<const char*>(&type), 4);
+  std::ofstream(path("bad.exr"), std::ios::binary) << d;
+  for (auto read : std::vector<std::function<void()>>{
+           [&] { read_image(path("bad.exr")); }, [&] { read_multipart_exr(path("bad.exr")); }}) {
+    std::string msg = error_of(read);
+    EXPECT_NE(msg.find("channel 'B' has unknown pixel type 3"), std::string::npos) << msg;
+  }
+}
+
 }  // namespace
 }  // namespace dofcache::image
