@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <set>
 
@@ -185,10 +186,73 @@ struct OpenedInput {
   ImageSpec spec;
 };
 
-OpenedInput open_input(const std::string& path) {
+// OpenEXR sizes what it allocates for a header from the header itself: an attribute's declared
+// size (a 2.7 KB file declaring a 1.9 GB string made it allocate and fill 1.9 GB) and the data
+// window (its line offset table). So the headers of an EXR are walked first, every attribute
+// checked against the bytes the file has, every data window against `max_values` and every
+// channel's pixel type.
+void check_exr_headers(const std::string& path, std::uint64_t max_values) {
+  std::error_code ec;
+  const std::uint64_t file_size = fs::file_size(path, ec);
+  std::ifstream in(path, std::ios::binary);
+  char magic[8];
+  if (ec || !in.read(magic, 8) || std::memcmp(magic, "\x76\x2f\x31\x01", 4) != 0) return;
+  const bool multipart = (static_cast<unsigned char>(magic[5]) & 0x10) != 0;
+  auto damaged = [&](const std::string& what) {
+    fail_read(path, "damaged EXR header (" + what + ")");
+  };
+  auto name = [&] {  // null-terminated; OpenEXR's longest names are 255 bytes
+    std::string n;
+    if (!std::getline(in, n, '\0') || n.size() > 255) damaged("unterminated name");
+    return n;
+  };
+  for (int part = 0;; ++part) {
+    if (part > 0 && in.peek() == 0) break;  // the end of a multi-part file's headers
+    for (std::string attribute = name(); !attribute.empty(); attribute = name()) {
+      const std::string type = name();
+      std::int32_t size;
+      if (!in.read(reinterpret_cast<char*>(&size), 4)) damaged("truncated");
+      const auto offset = static_cast<std::uint64_t>(in.tellg());
+      if (size < 0 || static_cast<std::uint64_t>(size) > file_size - offset)
+        damaged("attribute '" + attribute + "' claims " + std::to_string(size) +
+                " bytes, the file has " + std::to_string(file_size));
+      if (attribute == "dataWindow" && size == 16) {
+        std::int32_t box[4];
+        in.read(reinterpret_cast<char*>(box), 16);
+        const std::int64_t w = std::int64_t(box[2]) - box[0] + 1;
+        const std::int64_t h = std::int64_t(box[3]) - box[1] + 1;
+        if (w <= 0 || h <= 0) damaged("empty data window");
+        if (std::uint64_t(w) * std::uint64_t(h) > max_values)
+          fail_read(path, std::to_string(w) + "x" + std::to_string(h) +
+                              " pixels exceed the image size limit (" +
+                              std::to_string(max_values) + " values in all)");
+      } else if (type == "chlist" && size <= (1 << 20)) {
+        // OpenImageIO aborts (an assertion) on a pixel type other than UINT, HALF and FLOAT.
+        std::string list(static_cast<std::size_t>(size), '\0');
+        in.read(list.data(), size);
+        for (std::size_t c = 0; c < list.size() && list[c] != '\0';) {
+          std::size_t end = list.find('\0', c);
+          if (end == std::string::npos || end + 17 > list.size()) damaged("channel list");
+          std::int32_t pixel_type;
+          std::memcpy(&pixel_type, list.data() + end + 1, 4);
+          if (pixel_type < 0 || pixel_type > 2)
+            damaged("channel '" + list.substr(c, end - c) + "' has unknown pixel type " +
+                    std::to_string(pixel_type));
+          c = end + 17;
+        }
+      } else {
+        in.seekg(size, std::ios::cur);
+      }
+    }
+    if (!multipart) break;
+  }
+}
+
+OpenedInput open_input(const std::string& path, std::uint64_t max_values) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail_read(path, "no such file");
   if (fs::is_directory(path, ec)) fail_read(path, "is a directory");
+  check_exr_headers(path, max_values);
   // Keep straight (unassociated) colour: alpha is dropped, so premultiplying would darken it.
   ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
@@ -301,7 +365,7 @@ void write_image(const std::string& path, const Image& color,
 
 Image read_image(const std::string& path, std::uint64_t max_values) {
   ValueBudget budget(max_values);
-  OpenedInput file = open_input(path);
+  OpenedInput file = open_input(path, max_values);
   const ImageSpec& spec = file.spec;
   std::vector<float> pixels = read_pixels(path, *file.in, spec, 0, budget);
 
@@ -328,7 +392,7 @@ Image read_image(const std::string& path, std::uint64_t max_values) {
 Image read_channels(const std::string& path, const std::vector<std::string>& names,
                     std::uint64_t max_values) {
   ValueBudget budget(max_values);
-  OpenedInput file = open_input(path);
+  OpenedInput file = open_input(path, max_values);
   const ImageSpec& spec = file.spec;
   std::vector<int> indices;
   for (const std::string& name : names) {
@@ -393,7 +457,7 @@ void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& pa
 
 std::vector<ExrPart> read_multipart_exr(const std::string& path, std::uint64_t max_values) {
   ValueBudget budget(max_values);
-  OpenedInput file = open_input(path);
+  OpenedInput file = open_input(path, max_values);
   std::vector<ExrPart> parts;
   const std::string prefix = kAttributePrefix;
   for (int subimage = 0; file.in->seek_subimage(subimage, 0); ++subimage) {
