@@ -108,6 +108,7 @@ std::uint64_t draw_key(Rng& rng) {
 // The GGX lobe of one shading point: F0, roughness, and how likely its ray is traced.
 struct GgxLobe {
   float alpha = 1.0f, n_v = 0.0f, keep = 0.0f;  // keep 0: no lobe here
+  float fresnel = 0.0f;  // luminance of F(n.v): how much the lobe reflects towards the viewer
   glm::vec3 f0{0.0f};
   // f_s(wi) (n.wi) and the density of sampling wi by the lobe's ray, for a light direction.
   glm::vec3 eval(const glm::vec3& n, const glm::vec3& wo, const glm::vec3& wi, float* pdf) const {
@@ -422,13 +423,15 @@ glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint6
 glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng,
                         RayCounters& counters) const {
   glm::vec3 l = emitted(p);
-  if (has_diffuse(p)) l += diffuse_reflectance(p) * diffuse_illum;
+  const bool diffuse = has_diffuse(p);
+  const glm::vec3 rho = diffuse ? diffuse_reflectance(p) : glm::vec3(0.0f);
+  if (diffuse) l += rho * diffuse_illum;
   // The specular lobe at a camera hit, where no diffuse light sample is taken to share (the
   // diffuse light may come from the cache): a light sample of its own and the lobe's ray.
   const PathDepth depth{0, settings_.bounces, 0};
   const GgxLobe lobe = specular_lobe(p, depth);
   if (lobe.keep <= 0.0f) return l;
-  const float p_lobe = has_diffuse(p) ? rough_lobe_probability(p, lobe) : 1.0f;
+  const float p_lobe = diffuse ? rough_lobe_probability(lobe, luminance(rho)) : 1.0f;
   if (p_lobe < 1.0f) {
     if (rng.uniform() >= p_lobe) return l;
     return l + specular_at_camera_hit(p, lobe, depth, rng, counters) / p_lobe;
@@ -436,7 +439,7 @@ glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng
   return l + specular_at_camera_hit(p, lobe, depth, rng, counters);
 }
 
-float Shader::rough_lobe_probability(const ShadingPoint& p, const GgxLobe& lobe) const {
+float Shader::rough_lobe_probability(const GgxLobe& lobe, float diffuse_luminance) const {
   // A rough dielectric lobe (roughness >= kRoughLobeAlpha) reflects a few percent of a broad
   // cone of light: its share of the outgoing radiance is about F / (F + (1 - F) c), the
   // diffuse lobe seeing the same surroundings, and its estimate is bounded by the same light
@@ -444,8 +447,7 @@ float Shader::rough_lobe_probability(const ShadingPoint& p, const GgxLobe& lobe)
   // light sample and ray are most of a lens ray's cost, so the lobe is evaluated on a fraction
   // of the lens rays, in proportion to its share (unbiased: weighted by the inverse).
   if (lobe.alpha < kRoughLobeAlpha || settings_.rough_lobe_rate <= 0.0f) return 1.0f;
-  const float f = luminance(fresnel_schlick(lobe.f0, lobe.n_v));
-  const float share = f / std::max(f + luminance(diffuse_reflectance(p)), 1e-6f);
+  const float share = lobe.fresnel / std::max(lobe.fresnel + diffuse_luminance, 1e-6f);
   return std::clamp(settings_.rough_lobe_rate * share, kMinRoughLobeProbability, 1.0f);
 }
 
@@ -475,7 +477,8 @@ GgxLobe Shader::specular_lobe(const ShadingPoint& p, PathDepth depth) const {
   // keep 1). The light sample is always taken, and in the MIS weights the ray's density is keep
   // times its pdf: a ray that meets a light is then weighted as the rare strategy it is. (Under a
   // roulette of the whole lobe, grazing reflection rays that met the light were fireflies.)
-  lobe.keep = std::clamp(4.0f * luminance(fresnel_schlick(lobe.f0, lobe.n_v)), 0.125f, 1.0f);
+  lobe.fresnel = luminance(fresnel_schlick(lobe.f0, lobe.n_v));
+  lobe.keep = std::clamp(4.0f * lobe.fresnel, 0.125f, 1.0f);
   return lobe;
 }
 

@@ -134,8 +134,9 @@ class Shader {
   // The GGX lobe at p (keep 0 where it is off) and its estimators: punctual lights, a visible
   // light sample (MIS-weighted against the lobe's ray), and the ray itself.
   GgxLobe specular_lobe(const ShadingPoint& p, PathDepth depth) const;
-  // How likely a camera hit evaluates its specular lobe (1 unless the lobe is rough).
-  float rough_lobe_probability(const ShadingPoint& p, const GgxLobe& lobe) const;
+  // How likely a camera hit evaluates its specular lobe (1 unless the lobe is rough), given the
+  // luminance of the point's diffuse reflectance (1 - F) c.
+  float rough_lobe_probability(const GgxLobe& lobe, float diffuse_luminance) const;
   // The lobe at a camera hit: punctual lights, a light sample of its own and the lobe's ray.
   glm::vec3 specular_at_camera_hit(const ShadingPoint& p, const GgxLobe& lobe, PathDepth depth,
                                    Rng& rng, RayCounters& counters) const;
