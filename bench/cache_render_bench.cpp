@@ -89,26 +89,22 @@ image::Image reference(const SceneSetup& s, const Options& o) {
   return bench::converged_reference(s.name, s.scene, *s.accel, s.scene.cameras[0], base, o.ref_spp);
 }
 
-// The sample quality "auto" picks: render::recommended_sample_quality(spp) for the default gather
-// rays, scaled by default / actual gather rays (at least 1), so that a cache sample's gather rays
-// (quality times gather rays) stay where the recommendation puts them whatever --gather-rays is.
+// The sample quality "auto" picks for `spp` lens samples with this run's gather rays.
 int auto_sample_quality(int spp, const Options& o) {
-  const long default_gather = render::ShadingSettings{}.gather_rays;
-  const long scaled_spp = static_cast<long>(spp) * default_gather / o.shading.gather_rays;
-  return render::recommended_sample_quality(static_cast<int>(std::max(scaled_spp, 1L)));
+  return render::recommended_sample_quality(spp, o.shading.gather_rays);
 }
 
 // A cached render's variant: radius rule, sample quality (0: auto for the spp) and, for
 // the adaptive rule, the radius cap in pixel footprints (0: --max-radius-px).
 struct Variant {
   const char* name;
-  render::RadiusRule rule;
+  cache::RadiusRule rule;
   int quality;
   double max_radius_px = 0.0;
 };
 
 Run run(const SceneSetup& s, const image::Image& ref, int spp, const std::string& backend,
-        double min_factor = 0.5, render::RadiusRule rule = render::RadiusRule::Paper,
+        double min_factor = 0.5, cache::RadiusRule rule = cache::RadiusRule::Paper,
         int quality = -1, double max_radius_px = 0.0) {
   render::RenderSettings r = s.base;
   r.spp = spp;
@@ -117,14 +113,16 @@ Run run(const SceneSetup& s, const image::Image& ref, int spp, const std::string
     r.shading.gather_rays = g_options->uncached_gather_rays;
   auto cache = cache::make_radiance_cache(backend);
   r.cache.cache = cache.get();
-  r.cache.min_factor = min_factor;
-  r.cache.radius_rule = rule;
+  r.cache.radius.min_factor = min_factor;
+  r.cache.radius.rule = rule;
   if (quality < 0) quality = g_options->sample_quality;
-  r.cache.sample_quality = quality > 0 ? quality : auto_sample_quality(spp, *g_options);
-  r.cache.accuracy = g_options->accuracy;
-  r.cache.max_radius_pixels = max_radius_px > 0.0 ? max_radius_px : g_options->max_radius_px;
+  r.cache.sample_quality = quality > 0 ? quality : render::kAutoSampleQuality;
+  r.cache.radius.accuracy = g_options->accuracy;
+  r.cache.radius.max_radius_pixels =
+      max_radius_px > 0.0 ? max_radius_px : g_options->max_radius_px;
   render::RenderOutput out = render::render(s.scene, *s.accel, s.scene.cameras[0], r);
-  return {out.stats.seconds, image::compare(out.color, ref), out.stats, r.cache.sample_quality};
+  return {out.stats.seconds, image::compare(out.color, ref), out.stats,
+          render::effective_sample_quality(r)};
 }
 
 // Time uncached DRT needs to reach `target` relMSE: doubling spp until below it, then log-log
@@ -191,7 +189,7 @@ int run_bench(const Options& o) {
     for (const char* backend : {"none", "octree", "vdb", "vdb adaptive"}) {
       bool adaptive = !std::strcmp(backend, "vdb adaptive");
       Run r = !std::strcmp(backend, "none") ? none
-              : adaptive ? run(s, ref, o.spp, "vdb", 0.5, render::RadiusRule::Adaptive)
+              : adaptive ? run(s, ref, o.spp, "vdb", 0.5, cache::RadiusRule::Adaptive)
                          : run(s, ref, o.spp, backend);
       t41.add_row({s.name, backend, o.spp, bench::Table::Cell(r.seconds, 2),
                    bench::Table::Cell(none.seconds / r.seconds, 2),
@@ -202,8 +200,8 @@ int run_bench(const Options& o) {
       if (!std::strcmp(backend, "vdb") || adaptive) equal_quality(backend, o.spp, r);
     }
     // The same with the recommended sample quality, then the many-lens-samples regime.
-    const render::RadiusRule paper = render::RadiusRule::Paper;
-    const render::RadiusRule wide = render::RadiusRule::Adaptive;
+    const cache::RadiusRule paper = cache::RadiusRule::Paper;
+    const cache::RadiusRule wide = cache::RadiusRule::Adaptive;
     for (const Variant& v : {Variant{"vdb", paper, 0}, Variant{"vdb adaptive", wide, 0}})
       equal_quality(v.name, o.spp, run(s, ref, o.spp, "vdb", 0.5, v.rule, v.quality));
     if (o.hi_spp > 0) {

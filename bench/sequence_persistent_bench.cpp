@@ -161,7 +161,8 @@ int run(const Options& o) {
     for (const sequence::FrameSpec& f : frames)
       refs.push_back(reference(scene, accel, f, base, o, pc.name));
 
-    sequence::PersistentCache fresh("vdb", policy), persistent("vdb", policy);
+    sequence::PersistentCache fresh("vdb", policy, base.cache.radius),
+        persistent("vdb", policy, base.cache.radius);
     std::vector<std::vector<FrameResult>> results(kMethods);
     std::vector<image::Image> previous(kMethods);
     for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -277,7 +278,7 @@ int run(const Options& o) {
   nlohmann::json results;
   results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"reference_spp", o.ref_spp},
                          {"backend", "vdb"}, {"evict_after", policy.evict_after},
-                         {"min_factor", policy.min_factor}, {"shading", "defaults"}};
+                         {"min_factor", render::CacheSettings{}.radius.min_factor}, {"shading", "defaults"}};
   results["columns"] = summary.header();
   results["rows"] = summary.to_json();
   results["per_frame"] = per_frame_json;

@@ -68,21 +68,22 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading) {
       ->capture_default_str()->check(CLI::Range(0.0, 1e3));
 }
 
-void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
-                              std::string& radius_rule) {
-  cmd->add_option("--min-factor", cache.min_factor,
+void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache) {
+  cmd->add_option("--min-factor", cache.radius.min_factor,
                   "Cache sample radius in focus, in pixel footprints (Algorithm 1's minFactor)")
       ->capture_default_str()->check(CLI::Range(1e-3, 1e4));
-  cmd->add_option("--cache-radius", radius_rule,
-                  "How far a cache sample is reused: paper (eqs. 4.1-4.2: CoC out of focus, half "
+  cmd->add_option_function<std::string>(
+         "--cache-radius",
+         [&cache](const std::string& name) { cache.radius.rule = cache::parse_radius_rule(name); },
+         "How far a cache sample is reused: paper (eqs. 4.1-4.2: CoC out of focus, half "
                   "a pixel in focus) or adaptive (also widened where the illumination is smooth, "
                   "from the distances its gather rays measured)")
-      ->capture_default_str()
+      ->default_str(cache::radius_rule_name(cache.radius.rule))
       ->check(CLI::IsMember({"paper", "adaptive"}));
-  cmd->add_option("--cache-accuracy", cache.accuracy,
+  cmd->add_option("--cache-accuracy", cache.radius.accuracy,
                   "Adaptive radius: fraction of the harmonic mean distance to nearby geometry")
       ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
-  cmd->add_option("--cache-max-radius", cache.max_radius_pixels,
+  cmd->add_option("--cache-max-radius", cache.radius.max_radius_pixels,
                   "Adaptive radius: cap in pixel footprints")
       ->capture_default_str()->check(CLI::Range(0.0, 1e4));
   cmd->add_option("--cache-normal-angle", cache.lookup.max_normal_angle_deg,
@@ -94,7 +95,7 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
   cmd->add_option("--cache-sample-quality", cache.sample_quality,
                   "A cache sample uses this many times the light and gather samples of a "
                   "per-ray shade (it is reused by many lens rays); 0: chosen from --spp, "
-                  "round(spp / 32), at least 1 (docs/cache.md)")
+                  "round(spp / 32) for the default --gather-rays, at least 1 (docs/cache.md)")
       ->capture_default_str()->check(CLI::Range(0, 256));
   cmd->add_option("--cache-sample-rounds", cache.max_sample_rounds,
                   "A cache sample whose gather rays disagree (their mean's standard error above "
@@ -106,14 +107,15 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
       ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
 }
 
-nlohmann::json cache_settings_json(const std::string& backend, const std::string& radius_rule,
-                                   const render::CacheSettings& cache) {
+nlohmann::json cache_settings_json(const std::string& backend,
+                                   const render::RenderSettings& settings) {
+  const render::CacheSettings& cache = settings.cache;
   return {{"backend", backend},
-          {"radius_rule", radius_rule},
-          {"min_factor", cache.min_factor},
-          {"accuracy", cache.accuracy},
-          {"max_radius_pixels", cache.max_radius_pixels},
-          {"sample_quality", cache.sample_quality},
+          {"radius_rule", cache::radius_rule_name(cache.radius.rule)},
+          {"min_factor", cache.radius.min_factor},
+          {"accuracy", cache.radius.accuracy},
+          {"max_radius_pixels", cache.radius.max_radius_pixels},
+          {"sample_quality", render::effective_sample_quality(settings)},
           {"sample_error", cache.sample_error},
           {"max_sample_rounds", cache.max_sample_rounds},
           {"max_normal_angle_deg", cache.lookup.max_normal_angle_deg},

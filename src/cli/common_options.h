@@ -33,14 +33,14 @@ void add_seed_and_threads(CLI::App* cmd, std::uint64_t& seed, int& threads,
 void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading);
 // --min-factor, --cache-radius, --cache-accuracy, --cache-max-radius, --cache-normal-angle,
 // --cache-min-samples, --cache-sample-quality (the backend option --cache is each command's own).
-void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
-                              std::string& radius_rule);
+void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache);
 
 // The cache settings as every statistics file records them (render and sequence --stats-json,
 // one writer so both use the same keys): backend, radius_rule, min_factor, accuracy,
-// max_radius_pixels, sample_quality, max_normal_angle_deg, min_samples.
-nlohmann::json cache_settings_json(const std::string& backend, const std::string& radius_rule,
-                                   const render::CacheSettings& cache);
+// max_radius_pixels, sample_quality (as the render uses it: "auto" resolved), max_normal_angle_deg,
+// min_samples.
+nlohmann::json cache_settings_json(const std::string& backend,
+                                   const render::RenderSettings& settings);
 
 // The layered previews' composite (render and refocus): --layer-composite over|slabs and
 // --edge-rays N, into options.layer_composite and options.edge_rays.

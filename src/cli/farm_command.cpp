@@ -76,7 +76,7 @@ int run_plan(FarmOptions& f) {
     s.sequence_args = farm::without_option(s.sequence_args, "--cache-sample-quality", true);
     s.sequence_args.insert(s.sequence_args.end(),
                            {"--cache-sample-quality",
-                            std::to_string(seq.settings.render.cache.sample_quality)});
+                            std::to_string(render::effective_sample_quality(seq.settings.render))});
   }
   s.first = seq.first;
   s.last = seq.last;

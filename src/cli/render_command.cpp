@@ -27,7 +27,7 @@ struct RenderOptions {
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
-  std::string cache = "auto", cache_debug, cache_trace, radius_rule = "paper";
+  std::string cache = "auto", cache_debug, cache_trace;
   std::string adaptive = "auto";
   render::AdaptiveSampling adaptive_settings;
   render::CacheSettings cache_settings;
@@ -133,10 +133,7 @@ int run_render(const RenderOptions& o) {
   std::unique_ptr<cache::RadianceCache> radiance_cache = cache::make_radiance_cache(backend);
   std::unique_ptr<cache::TraceWriter> trace;
   s.cache = o.cache_settings;
-  if (s.cache.sample_quality == 0)
-    s.cache.sample_quality = render::recommended_sample_quality(s.spp);
   s.cache.cache = radiance_cache.get();
-  s.cache.radius_rule = render::parse_radius_rule(o.radius_rule);
   // auto: on for drt, whose remaining noise (the lens) gathers where out-of-focus edges blur.
   s.adaptive = o.adaptive_settings;
   s.adaptive.enabled = o.adaptive == "on" || (o.adaptive == "auto" && o.mode == "drt");
@@ -202,7 +199,7 @@ int run_render(const RenderOptions& o) {
                      {"specular_depth", s.shading.specular_depth},
                      {"rough_lobe_rate", s.shading.rough_lobe_rate}}},
         {"output", o.out},
-        {"cache", cache_settings_json(backend, o.radius_rule, s.cache)}};
+        {"cache", cache_settings_json(backend, s)}};
     j["cache"].update({{"lookups", st.cache_lookups}, {"hits", st.cache_hits},
                        {"tile_hits", st.cache_tile_hits}, {"hit_rate", st.cache_hit_rate()},
                        {"inserted", st.cache_inserted}, {"samples", st.cache_samples},
@@ -279,14 +276,9 @@ Runner add_render_command(CLI::App& app) {
       ->check(CLI::IsMember(with_auto(cache::radiance_cache_backends())));
   // A single image chooses the cache sample quality from its lens samples by default (measured
   // best at equal quality); sequences keep a fixed default, since cache files record it.
-  o->cache_settings.sample_quality = 0;
-  // In focus a sample covers a whole pixel footprint, not the paper's half (Table 4.2 of the
-  // paper found 1.0 faster too): a lens ray lands anywhere in its pixel, so half-pixel samples are
-  // each used by about one pixel. Measured at 160x120 with adaptive sampling: relMSE x rays
-  // 1.2-1.4x lower on the Cornell box, colour bars and glossy close-up at 16 and 64 spp.
-  // Sequences keep 0.5: their cache files and reuse rule record it.
-  o->cache_settings.min_factor = 1.0;
-  add_cache_tuning_options(cmd, o->cache_settings, o->radius_rule);
+  o->cache_settings.sample_quality = render::kAutoSampleQuality;
+  o->cache_settings.radius.min_factor = cache::kSingleImageMinFactor;
+  add_cache_tuning_options(cmd, o->cache_settings);
   cmd->add_option("--cache-debug", o->cache_debug,
                   "Write PREFIX-hits.png (fraction of lookups served) and PREFIX-density.png "
                   "(samples created per pixel)");

@@ -90,7 +90,7 @@ int run_sequence(const SequenceOptions& o) {
         {"scene", scene.source}, {"path", path.source}, {"fps", fps},
         {"frames", {first, last}}, {"width", r.width}, {"height", r.height}, {"spp", r.spp},
         {"mode", render::mode_name(r.mode)}, {"seed", r.seed},
-        {"cache", cache_settings_json(s.cache_backend, o.radius_rule, r.cache)},
+        {"cache", cache_settings_json(s.cache_backend, r)},
         {"rendered", sum.rendered}, {"skipped", sum.skipped},
         {"resumed_after", sum.resumed_after}, {"seconds", sum.seconds}, {"per_frame", rows}};
     j["cache"].update({{"mode", sequence::cache_mode_name(s.cache_mode)},

@@ -45,7 +45,7 @@ void add_sequence_options(CLI::App* cmd, SequenceOptions& o) {
       ->each([&o](const std::string&) { o.cache_given = true; });
   cmd->add_flag("--persistent", o.persistent,
                 "Carry the cache across frames (the vdb backend unless --cache says otherwise)");
-  add_cache_tuning_options(cmd, o.cache_settings, o.radius_rule);
+  add_cache_tuning_options(cmd, o.cache_settings);
   cmd->add_option("--cache-evict-after", o.evict_after,
                   "Evict cache samples no lookup used for this many frames (0: never)")
       ->capture_default_str()->check(CLI::Range(0, 1 << 30));
@@ -94,9 +94,6 @@ PreparedSequence prepare_sequence(const SequenceOptions& o) {
   r.threads = o.threads;
   r.shading = o.shading;
   r.cache = o.cache_settings;
-  if (r.cache.sample_quality == 0)
-    r.cache.sample_quality = render::recommended_sample_quality(r.spp);
-  r.cache.radius_rule = render::parse_radius_rule(o.radius_rule);
   r.progress = o.quiet ? Progress::Display::Never : Progress::Display::Auto;
   // --persistent alone means the OpenVDB cache.
   std::string backend = o.persistent && !o.cache_given ? std::string("vdb") : o.cache;

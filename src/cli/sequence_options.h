@@ -28,7 +28,7 @@ struct SequenceOptions {
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
-  std::string cache = "none", radius_rule = "paper";
+  std::string cache = "none";
   bool persistent = false, cache_given = false, restart = false, quiet = false;
   render::CacheSettings cache_settings;
   int evict_after = 8;

@@ -106,18 +106,15 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
     sample.position = x;
     sample.normal = p.n;
     sample.value = e;
-    const double depth = c.camera.depth(x);
-    double radius = cache::sample_radius(c.camera.imaging(), depth, cs.min_factor);
-    if (cs.radius_rule == RadiusRule::Adaptive) {
-      // Gather rays measure how near the geometry is, not how near the lights are: next to a
-      // lamp, direct light changes as 1/d^2 while the surroundings may be far, so the widening is
-      // also bounded by the distance to the nearest light.
-      const double light = c.shader.light_sampler().nearest_light_distance(x);
-      const double smooth = std::min(static_cast<double>(harmonic), light);
-      const double cap = cs.max_radius_pixels * c.camera.imaging().pixel_footprint(depth);
-      radius = std::max(radius, std::min(cs.accuracy * smooth, cap));
-    }
-    sample.radius = static_cast<float>(radius);
+    // Gather rays measure how near the geometry is, not how near the lights are: next to a lamp,
+    // direct light changes as 1/d^2 while the surroundings may be far, so the adaptive rule's
+    // smooth distance is also bounded by the distance to the nearest light.
+    double smooth = 0.0;
+    if (cs.radius.rule == cache::RadiusRule::Adaptive)
+      smooth = std::min(static_cast<double>(harmonic),
+                        static_cast<double>(c.shader.light_sampler().nearest_light_distance(x)));
+    sample.radius =
+        cache::new_sample_radius(cs.radius, c.camera.imaging(), c.camera.depth(x), smooth).radius;
     sample.frame = cs.frame;
     work.buffer.add(sample);
     if (density) *density += 1.0f;
@@ -228,14 +225,17 @@ ShadingSettings cache_sample_shading(const ShadingSettings& per_ray, int sample_
   return q;
 }
 
-int recommended_sample_quality(int spp) {
-  return std::clamp((std::max(spp, 0) + 16) / 32, 1, 256);
+int recommended_sample_quality(int spp, int gather_rays) {
+  const long default_gather = ShadingSettings{}.gather_rays;
+  const long scaled = std::max(static_cast<long>(std::max(spp, 0)) * default_gather /
+                                   std::max(gather_rays, 1),
+                               1L);
+  return static_cast<int>(std::clamp((scaled + 16) / 32, 1L, 256L));
 }
 
-RadiusRule parse_radius_rule(const std::string& name) {
-  if (name == "paper") return RadiusRule::Paper;
-  if (name == "adaptive") return RadiusRule::Adaptive;
-  throw Error("unknown cache radius rule '" + name + "' (valid: paper, adaptive)");
+int effective_sample_quality(const RenderSettings& settings) {
+  if (settings.cache.sample_quality != kAutoSampleQuality) return settings.cache.sample_quality;
+  return recommended_sample_quality(settings.spp, settings.shading.gather_rays);
 }
 
 Mode parse_mode(const std::string& name) {
@@ -272,22 +272,17 @@ void RenderSettings::validate() const {
     throw Error(std::string("adaptive lens sampling applies to drt renders, not ") +
                 mode_name(mode));
   if (cache.cache) {
-    if (!std::isfinite(cache.min_factor) || cache.min_factor <= 0.0 || cache.min_factor > 1e4)
-      throw Error("cache min factor must be a positive number, got " +
-                  std::to_string(cache.min_factor));
-    if (!(cache.accuracy > 0.0 && cache.accuracy <= 10.0))
-      throw Error("cache accuracy must be in (0, 10]");
-    if (!(cache.max_radius_pixels >= 0.0 && cache.max_radius_pixels <= 1e4))
-      throw Error("cache maximum radius must be in [0, 10000] pixels");
-    if (cache.sample_quality < 1 || cache.sample_quality > 256)
-      throw Error("cache sample quality must be in [1, 256]");
+    cache.radius.validate();
+    if (cache.sample_quality != kAutoSampleQuality &&
+        (cache.sample_quality < 1 || cache.sample_quality > 256))
+      throw Error("cache sample quality must be in [1, 256] (0: auto)");
     if (!(cache.sample_error > 0.0f) ||
         !(cache.max_sample_rounds >= 1 && cache.max_sample_rounds <= 64))
       throw Error("cache sample refinement: error must be positive, rounds in [1, 64]");
     try {
-      cache_sample_shading(shading, cache.sample_quality).validate();
+      cache_sample_shading(shading, effective_sample_quality(*this)).validate();
     } catch (const Error& e) {
-      throw Error("cache samples (" + std::to_string(cache.sample_quality) +
+      throw Error("cache samples (" + std::to_string(effective_sample_quality(*this)) +
                   " times the per-ray shading): " + e.what());
     }
     if (cache.lookup.min_samples < 1 || cache.lookup.min_samples > 1024)
@@ -313,7 +308,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   auto start = std::chrono::steady_clock::now();
   cache::RadianceCache* cache = settings.cache.cache;
   const ShadingSettings sample_shading =
-      cache_sample_shading(settings.shading, settings.cache.sample_quality);
+      cache_sample_shading(settings.shading, effective_sample_quality(settings));
   Context c{scene,
             accel,
             settings,

@@ -104,9 +104,9 @@ void write_vdb(const std::string& path, const CacheFile& file) {
     normal[i] = {s.normal.x, s.normal.y, s.normal.z};
     value[i] = {s.value.x, s.value.y, s.value.z};
     radius[i] = s.radius;
-    base_radius[i] = r.base_radius;
-    view_radius[i] = r.view_radius;
-    footprint[i] = r.footprint;
+    base_radius[i] = r.origin.radius;
+    view_radius[i] = r.origin.view_radius;
+    footprint[i] = r.origin.footprint;
     std::memcpy(&id[i], &s.id, 4);  // uint32 stored as its int32 bit pattern
     std::memcpy(&frame[i], &s.frame, 4);
     last_used[i] = r.last_used;
@@ -299,9 +299,9 @@ CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
       s.normal = glm::vec3(nv.x(), nv.y(), nv.z());
       s.value = glm::vec3(vv.x(), vv.y(), vv.z());
       s.radius = rad->get(i);
-      r.base_radius = base_rad->get(i);
-      r.view_radius = view_rad->get(i);
-      r.footprint = foot->get(i);
+      r.origin.radius = base_rad->get(i);
+      r.origin.view_radius = view_rad->get(i);
+      r.origin.footprint = foot->get(i);
       std::int32_t id = ids->get(i), fr = frames->get(i);
       std::memcpy(&s.id, &id, 4);
       std::memcpy(&s.frame, &fr, 4);
@@ -325,9 +325,10 @@ void validate_records(CacheFile& file, const std::string& path) {
     const cache::CacheSample& s = r.sample;
     float nl = std::sqrt(glm::dot(s.normal, s.normal));
     bool ok = finite3(s.position) && finite3(s.value) && std::abs(nl - 1.0f) < 1e-3f &&
-              s.radius > 0.0f && std::isfinite(s.radius) && r.base_radius > 0.0f &&
-              std::isfinite(r.base_radius) && r.view_radius > 0.0f &&
-              std::isfinite(r.view_radius) && r.footprint >= 0.0f && std::isfinite(r.footprint);
+              s.radius > 0.0f && std::isfinite(s.radius) && r.origin.radius > 0.0f &&
+              std::isfinite(r.origin.radius) && r.origin.view_radius > 0.0f &&
+              std::isfinite(r.origin.view_radius) && r.origin.footprint >= 0.0f &&
+              std::isfinite(r.origin.footprint);
     if (!ok)
       throw Error(path + ": cache file holds an invalid sample (id " + std::to_string(s.id) +
                   ": non-finite value, non-unit normal or non-positive radius)");
@@ -344,7 +345,7 @@ CacheIdentity cache_identity(const scene::Scene& scene, const render::RenderSett
   id.light_samples = settings.shading.light_samples;
   id.gather_rays = settings.shading.gather_rays;
   id.bounces = settings.shading.bounces;
-  id.sample_quality = settings.cache.sample_quality;
+  id.sample_quality = render::effective_sample_quality(settings);
   return id;
 }
 

@@ -98,28 +98,12 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
   mutable tbb::enumerable_thread_specific<Counters> counters_;
 };
 
-float reuse_radius(const SampleRecord& record, const render::ThinLensCamera& camera,
-                   double min_factor) {
-  const cache::CacheSample& s = record.sample;
-  double depth = camera.depth(s.position);
-  // Behind the lens or nearer than the focal length: no image forms there, the frame cannot
-  // see the sample; leave it as it is.
-  if (!(depth > camera.lens().focal_length)) return s.radius;
-  auto required = static_cast<float>(cache::sample_radius(camera.imaging(), depth, min_factor));
-  if (!(required > 0.0f) || !std::isfinite(required)) return s.radius;
-  float r = std::min(record.base_radius, required);
-  if (record.base_radius > record.view_radius * 1.0001f && record.footprint > 0.0f) {
-    auto scale = static_cast<float>(camera.imaging().pixel_footprint(depth) / record.footprint);
-    r = std::max(r, std::min(record.base_radius, record.base_radius * scale));
-  }
-  return r;
-}
-
-PersistentCache::PersistentCache(std::string backend, ReusePolicy policy)
-    : backend_(std::move(backend)), policy_(policy) {
+PersistentCache::PersistentCache(std::string backend, ReusePolicy policy,
+                                 cache::RadiusSettings radius)
+    : backend_(std::move(backend)), policy_(policy), radius_(radius) {
   cache::check_radiance_cache_backend(backend_, /*allow_none=*/false);
   if (policy_.evict_after < 0) throw Error("--cache-evict-after must be >= 0");
-  if (!(policy_.min_factor > 0.0)) throw Error("cache min factor must be positive");
+  radius_.validate();
 }
 
 PersistentCache::~PersistentCache() = default;
@@ -152,7 +136,8 @@ cache::RadianceCache* PersistentCache::begin_frame(std::int32_t frame,
   camera_ = camera;
   stats_ = FrameCacheStats{};
   for (SampleRecord& r : records_) {
-    float radius = reuse_radius(r, camera, policy_.min_factor);
+    float radius = cache::reuse_radius(r.origin, r.sample.radius, camera.imaging(),
+                                       camera.depth(r.sample.position), radius_.min_factor);
     if (radius < r.sample.radius) ++stats_.shrunk;
     if (radius > r.sample.radius) ++stats_.grown;
     r.sample.radius = radius;
@@ -178,14 +163,8 @@ FrameCacheStats PersistentCache::end_frame() {
     if (s.id < first_new) return;  // increasing ids: the new ones come last
     SampleRecord r;
     r.sample = s;
-    r.base_radius = s.radius;
-    r.view_radius = s.radius;
-    const double depth = camera_->depth(s.position);
-    if (depth > camera_->lens().focal_length) {
-      r.view_radius = static_cast<float>(
-          cache::sample_radius(camera_->imaging(), depth, policy_.min_factor));
-      r.footprint = static_cast<float>(camera_->imaging().pixel_footprint(depth));
-    }
+    r.origin = cache::radius_origin(s.radius, camera_->imaging(), camera_->depth(s.position),
+                                    radius_.min_factor);
     r.last_used = frame_;
     records_.push_back(r);
     ++st.inserted;

@@ -108,9 +108,9 @@ std::uint64_t records_hash(const std::vector<SampleRecord>& records) {
       h.add(s.value[k]);
     }
     h.add(s.radius);
-    h.add(r.base_radius);
-    h.add(r.view_radius);
-    h.add(r.footprint);
+    h.add(r.origin.radius);
+    h.add(r.origin.view_radius);
+    h.add(r.origin.footprint);
     h.add(static_cast<std::uint64_t>(s.id) << 32 | s.frame);
     h.add(static_cast<int>(r.last_used));
   }
@@ -131,9 +131,9 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
   h.add(r.near_depth);
   h.add(static_cast<int>(settings.cache_mode));
   h.add(settings.cache_backend);
-  h.add(r.cache.min_factor), h.add(r.cache.sample_quality);
-  h.add(static_cast<int>(r.cache.radius_rule)), h.add(r.cache.accuracy);
-  h.add(r.cache.max_radius_pixels);
+  h.add(r.cache.radius.min_factor), h.add(render::effective_sample_quality(r));
+  h.add(static_cast<int>(r.cache.radius.rule)), h.add(r.cache.radius.accuracy);
+  h.add(r.cache.radius.max_radius_pixels);
   h.add(r.cache.lookup.max_normal_angle_deg), h.add(r.cache.lookup.min_samples);
   h.add(r.cache.lookup.reject_in_front), h.add(r.cache.lookup.front_tolerance);
   h.add(settings.evict_after), h.add(settings.cache_memory_mb);
@@ -214,10 +214,9 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
   const std::uint64_t initial_hash = records_hash(initial);
   if (s.cache_mode != CacheMode::None) {
     ReusePolicy policy;
-    policy.min_factor = s.render.cache.min_factor;
     policy.evict_after = s.evict_after;
     policy.memory_limit = static_cast<std::size_t>(s.cache_memory_mb * 1e6);
-    cache_ = std::make_unique<PersistentCache>(s.cache_backend, policy);
+    cache_ = std::make_unique<PersistentCache>(s.cache_backend, policy, s.render.cache.radius);
     cache_->assign(initial);
   }
 
@@ -321,7 +320,7 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
       CacheFile cp;
       cp.identity = identity;
       cp.scene_source = scene_.source;
-      cp.min_factor = s.render.cache.min_factor;
+      cp.min_factor = s.render.cache.radius.min_factor;
       cp.records = cache_->records();
       cp.checkpoint = SequenceCheckpoint{sequence_key(scene_, s, frames_, i + 1, initial_hash),
                                          frames_.front().number, spec.number};
@@ -341,7 +340,7 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
       CacheFile out;
       out.identity = identity;
       out.scene_source = scene_.source;
-      out.min_factor = s.render.cache.min_factor;
+      out.min_factor = s.render.cache.radius.min_factor;
       out.records = cache_->records();
       write_cache_file(s.cache_out, out);
     }

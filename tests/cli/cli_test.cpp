@@ -93,7 +93,7 @@ TEST_F(Cli, DefaultSceneRendersToPngAndExr) {
 TEST_F(Cli, CacheSampleQualityFollowsSppUnlessGiven) {
   auto quality = [&](const std::string& extra) {
     testing::CliResult r = run("render --out " + (dir_ / "c.png").string() +
-                               " --width 8 --height 6 --gather-rays 1 --light-samples 1 -q "
+                               " --width 8 --height 6 --light-samples 1 -q "
                                "--cache vdb --stats-json " + (dir_ / "q.json").string() + extra);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     std::string j = slurp(dir_ / "q.json");
@@ -102,6 +102,8 @@ TEST_F(Cli, CacheSampleQualityFollowsSppUnlessGiven) {
   };
   EXPECT_EQ(quality(" --spp 16"), 1);
   EXPECT_EQ(quality(" --spp 96"), 3);
+  // A quarter of the default gather rays: four times the quality (a sample's gather rays stay).
+  EXPECT_EQ(quality(" --spp 96 --gather-rays 8"), 12);
   EXPECT_EQ(quality(" --spp 96 --cache-sample-quality 5"), 5);
 }
 

@@ -31,8 +31,7 @@ void cache_file_seed(const fs::path& dir, int samples, bool checkpoint) {
     r.sample.value = {0.5f, 0.25f, 0.125f};
     r.sample.radius = 0.01f;
     r.sample.id = static_cast<std::uint32_t>(i);
-    r.base_radius = r.view_radius = 0.01f;
-    r.footprint = 0.001f;
+    r.origin = {0.01f, 0.01f, 0.001f};
     f.records.push_back(r);
   }
   if (checkpoint) f.checkpoint = sequence::SequenceCheckpoint{0xfeedULL, 0, 3};

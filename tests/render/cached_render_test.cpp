@@ -123,7 +123,7 @@ TEST(CachedRender, LargerMinFactorStoresFewerSamples) {
   auto large = cache::make_radiance_cache("octree");
   RenderSettings a = settings(2, 4, small.get());
   RenderSettings b = settings(2, 4, large.get());
-  b.cache.min_factor = 4.0;
+  b.cache.radius.min_factor = 4.0;
   render(s, accel, s.cameras[0], a);
   render(s, accel, s.cameras[0], b);
   EXPECT_LT(large->size(), small->size());
@@ -137,6 +137,19 @@ TEST(CachedRender, RecommendedSampleQualityIsSppOver32) {
   EXPECT_EQ(recommended_sample_quality(64), 2);
   EXPECT_EQ(recommended_sample_quality(256), 8);
   EXPECT_EQ(recommended_sample_quality(1000), 31);  // 31.25
+  // Other gather-ray counts g: that of spp * 32 / g lens samples.
+  EXPECT_EQ(recommended_sample_quality(64, 8), 8);     // as 256 spp
+  EXPECT_EQ(recommended_sample_quality(64, 128), 1);   // as 16 spp
+  EXPECT_EQ(recommended_sample_quality(256, 64), 4);   // as 128 spp
+  EXPECT_EQ(recommended_sample_quality(1 << 20, 1), 256);  // clamped
+  RenderSettings s;
+  s.spp = 256;
+  s.cache.sample_quality = kAutoSampleQuality;
+  EXPECT_EQ(effective_sample_quality(s), 8);
+  s.shading.gather_rays = 64;
+  EXPECT_EQ(effective_sample_quality(s), 4);
+  s.cache.sample_quality = 3;
+  EXPECT_EQ(effective_sample_quality(s), 3);
   EXPECT_EQ(recommended_sample_quality(1 << 20), 256);
 }
 

@@ -37,9 +37,9 @@ std::vector<SampleRecord> random_records(std::size_t n, std::uint32_t seed) {
     s.normal = glm::normalize(glm::vec3(u(rng), u(rng), u(rng)) + glm::vec3(0.0f, 0.0f, 2.0f));
     s.value = glm::vec3(u(rng) + 1.0f, u(rng) + 1.0f, 7.0f * (u(rng) + 1.0f));
     s.radius = 1e-3f + 0.01f * (u(rng) + 1.0f);
-    r.base_radius = s.radius * 2.0f;
-    r.view_radius = s.radius * 0.5f;
-    r.footprint = s.radius * 0.25f;
+    r.origin.radius = s.radius * 2.0f;
+    r.origin.view_radius = s.radius * 0.5f;
+    r.origin.footprint = s.radius * 0.25f;
     s.id = static_cast<std::uint32_t>(3 * i + 7);
     s.frame = static_cast<std::uint32_t>(i % 5);
     r.last_used = static_cast<std::int32_t>(i % 7) - 1;
@@ -54,9 +54,10 @@ bool same_bits(const SampleRecord& a, const SampleRecord& b) {
          std::memcmp(&x.normal, &y.normal, sizeof x.normal) == 0 &&
          std::memcmp(&x.value, &y.value, sizeof x.value) == 0 &&
          std::memcmp(&x.radius, &y.radius, 4) == 0 && x.id == y.id && x.frame == y.frame &&
-         std::memcmp(&a.base_radius, &b.base_radius, 4) == 0 &&
-         std::memcmp(&a.view_radius, &b.view_radius, 4) == 0 &&
-         std::memcmp(&a.footprint, &b.footprint, 4) == 0 && a.last_used == b.last_used;
+         std::memcmp(&a.origin.radius, &b.origin.radius, 4) == 0 &&
+         std::memcmp(&a.origin.view_radius, &b.origin.view_radius, 4) == 0 &&
+         std::memcmp(&a.origin.footprint, &b.origin.footprint, 4) == 0 &&
+         a.last_used == b.last_used;
 }
 
 CacheFile sample_file(std::size_t n) {

@@ -74,7 +74,7 @@ TEST_P(PersistentCacheTest, SampleMadeOutOfFocusIsRejectedOnceTheFocusMovesOntoI
   EXPECT_EQ(s2.shrunk, 1u);
   ASSERT_EQ(pc.size(), 1u);
   EXPECT_FLOAT_EQ(pc.records()[0].sample.radius, r_focused);
-  EXPECT_FLOAT_EQ(pc.records()[0].base_radius, r_blurred);
+  EXPECT_FLOAT_EQ(pc.records()[0].origin.radius, r_blurred);
 
   // Frame 3: focus back at 3 m: the sample regrows, but not beyond the radius it was made with.
   c = pc.begin_frame(3, blurred);
@@ -183,29 +183,34 @@ TEST(PersistentCache, RefusesBadBackendAndDuplicateIds) {
   PersistentCache pc("vdb", ReusePolicy{});
   SampleRecord r;
   r.sample = sample_at(glm::vec3(0.0f), 0.1f, 0);
-  r.base_radius = 0.1f;
+  r.origin.radius = 0.1f;
   EXPECT_THROW(pc.assign({r, r}), Error);
 }
 
-TEST(PersistentCache, WidenedSamplesKeepTheirWideningScaledByTheFootprint) {
-  // A sample the renderer widened to 10x the radius of eqs. 4.1/4.2 (smooth illumination).
+TEST(PersistentCache, RecordsTheRadiusOriginUnderTheRenderersRule) {
+  // The persistent cache is given the renderer's radius settings, and records each new sample's
+  // origin under them: a min factor other than the default shows in the recorded view radius.
   render::ThinLensCamera cam = camera(1.0);
-  SampleRecord r;
-  r.view_radius = static_cast<float>(cache::sample_radius(cam.imaging(), 1.0, 0.5));
-  r.footprint = static_cast<float>(cam.imaging().pixel_footprint(1.0));
-  r.base_radius = 10.0f * r.view_radius;
-  r.sample = sample_at(glm::vec3(0.0f, 0.0f, -1.0f), r.base_radius, 0);
-  EXPECT_FLOAT_EQ(reuse_radius(r, cam, 0.5), r.base_radius);
-  // Twice as close: the footprint halves, so does the widened radius.
+  cache::RadiusSettings rule;
+  rule.min_factor = 2.0;
+  PersistentCache pc("vdb", ReusePolicy{}, rule);
+  cache::RadianceCache* c = pc.begin_frame(0, cam);
+  const float view = static_cast<float>(cache::sample_radius(cam.imaging(), 1.0, 2.0));
+  c->insert({sample_at(glm::vec3(0.0f, 0.0f, -1.0f), 3.0f * view, 0)});
+  pc.end_frame();
+  ASSERT_EQ(pc.size(), 1u);
+  const cache::RadiusOrigin& o = pc.records()[0].origin;
+  EXPECT_FLOAT_EQ(o.view_radius, view);
+  EXPECT_FLOAT_EQ(o.radius, 3.0f * view);
+  EXPECT_FLOAT_EQ(o.footprint, static_cast<float>(cam.imaging().pixel_footprint(1.0)));
+  EXPECT_TRUE(o.widened());
+  // The next frame, seen from twice as close, keeps the widening scaled by the footprint.
   render::ThinLensCamera closer = camera(0.5, glm::vec3(0.0f, 0.0f, -0.5f));
-  EXPECT_NEAR(reuse_radius(r, closer, 0.5), 0.5f * r.base_radius, 1e-3f * r.base_radius);
-  // Twice as far: no growth beyond the radius it was made with.
-  render::ThinLensCamera farther = camera(2.0, glm::vec3(0.0f, 0.0f, 1.0f));
-  EXPECT_FLOAT_EQ(reuse_radius(r, farther, 0.5), r.base_radius);
-  // A sample made with the radius of eqs. 4.1/4.2 shrinks to exactly the new frame's radius.
-  r.base_radius = r.view_radius;
-  EXPECT_FLOAT_EQ(reuse_radius(r, closer, 0.5),
-                  static_cast<float>(cache::sample_radius(closer.imaging(), 0.5, 0.5)));
+  pc.begin_frame(1, closer);
+  EXPECT_NEAR(pc.records()[0].sample.radius, 1.5f * view, 1e-3f * view);
+  pc.end_frame();
+  rule.min_factor = -1.0;
+  EXPECT_THROW(PersistentCache("vdb", ReusePolicy{}, rule), Error);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "dofcache/cache/radiance_cache.h"
+#include "dofcache/cache/sample_radius.h"
 #include "dofcache/cache/trace.h"
 #include "dofcache/core/progress.h"
 #include "dofcache/image/image.h"
@@ -42,28 +43,14 @@ const char* mode_name(Mode mode);
 // the circle of confusion (eqs. 4.1, 4.2). Rendering then runs in passes of doubling sample counts
 // (1, 1, 2, 4, ...): during a pass the cache is read only and new samples go to per-tile buffers
 // (a tile reuses its own new samples at once); between passes the buffers are merged in tile order.
-// So the image is the same for any thread count.
-// How far a cache sample may be reused.
-//   paper:    radius(D) = factor1(D) max(CoC_px(D), minFactor), eqs. (4.1), (4.2): in focus, half a
-//             pixel footprint, so every in-focus pixel pays about one full shade.
-//   adaptive: the paper's radius as a floor, widened where the illumination is smooth: up to
-//             `accuracy` times the harmonic mean distance to the surrounding geometry (Ward's
-//             split-sphere bound, measured by the gather rays the sample already traced), capped at
-//             `max_radius_pixels` pixel footprints. The albedo is applied per hit, so textures stay
-//             sharp; only the illumination is interpolated farther.
-enum class RadiusRule { Paper, Adaptive };
-RadiusRule parse_radius_rule(const std::string& name);
-
+// So the image is the same for any thread count. The sample radius: cache/sample_radius.h.
 struct CacheSettings {
   cache::RadianceCache* cache = nullptr;  // not owned; null: shade every hit
-  double min_factor = 0.5;                // minFactor of Algorithm 1
-  RadiusRule radius_rule = RadiusRule::Paper;
-  double accuracy = 0.1;                  // adaptive rule: fraction of the harmonic mean distance
-  double max_radius_pixels = 8.0;         // adaptive rule: cap, in pixel footprints
+  cache::RadiusSettings radius;           // how far a new sample may be reused
   cache::LookupOptions lookup;
   // A cache sample is reused by many lens rays, so it is computed with more light and gather
   // samples than a per-ray shade: these multiply ShadingSettings::light_samples / gather_rays.
-  // recommended_sample_quality(spp) chooses it from the lens samples per pixel.
+  // kAutoSampleQuality: effective_sample_quality chooses it from the lens samples per pixel.
   int sample_quality = 4;
   // A cache sample's gather rays are taken again, in doubling rounds up to max_sample_rounds,
   // while their mean's standard error exceeds sample_error times the sample's value
@@ -75,8 +62,13 @@ struct CacheSettings {
   cache::TraceWriter* trace = nullptr;    // if set, records lookups and inserts for replay
 };
 
+// CacheSettings::sample_quality meaning "choose from the lens samples" (the `render` default).
+constexpr int kAutoSampleQuality = 0;
+
 // The cache sample quality that balances a cached render's two error sources at `spp` lens
-// samples per pixel: round(spp / 32), clamped to [1, 256].
+// samples per pixel: round(spp / 32) for the default 32 gather rays, clamped to [1, 256]; for
+// other gather-ray counts g, that of spp * 32 / g lens samples, so that a cache sample's gather
+// rays (quality times g), whose count sets its frozen noise, stay where they would be.
 // Why: a pixel averages about k = 8 cache samples (measured: 3.3 samples per pixel footprint under
 // the paper radius, each lookup weighting those within half a pixel), so their frozen noise has
 // variance V/(q k), V that of one per-ray shade; the lens rays' own noise falls as 1/spp and, on
@@ -85,7 +77,7 @@ struct CacheSettings {
 // (q shades each, about 3.3 q per pixel) stays a fixed fraction of the lens rays' cost. Measured
 // on the Cornell box (bench/cache_render_bench): q = 2 at 64 spp and q = 4-8 at 256 spp give the
 // best equal-quality speed-up; the fixed q = 8 at 64 spp spent about 90% of the render on samples.
-int recommended_sample_quality(int spp);
+int recommended_sample_quality(int spp, int gather_rays = ShadingSettings{}.gather_rays);
 
 // The shading of a cache sample: `per_ray` with its light samples and gather rays multiplied by
 // `sample_quality` (CacheSettings::sample_quality).
@@ -119,6 +111,10 @@ struct RenderSettings {
 
   void validate() const;  // throws dofcache::Error on absurd values
 };
+
+// The cache sample quality a render uses: CacheSettings::sample_quality, or for kAutoSampleQuality
+// recommended_sample_quality(spp, gather rays). The one place "auto" is resolved.
+int effective_sample_quality(const RenderSettings& settings);
 
 struct RenderStats {
   double seconds = 0.0;

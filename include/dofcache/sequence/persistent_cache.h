@@ -7,19 +7,11 @@
 // confusion at the sample's depth). The value computed at p_i is exact at p_i; the radius only
 // says how far it may be extrapolated before the error shows in the image. So, per frame:
 //
-//  1. Reuse rule (begin_frame). Every sample in front of the new camera gets the radius
-//       r_i = min(base_i, sample_radius(new camera, depth_i))
-//     base_i being the radius it was created with. Where the new frame needs samples denser than
-//     the sample's radius (closer, more magnified, or brought into focus) it shrinks to exactly
-//     the radius a sample made now would get, so a sample created out of focus is used only
-//     within half a pixel footprint once the focus moves onto it; where the new frame is blurrier
-//     it grows back, but never beyond base_i (growing further would be as valid, but would let
-//     every lookup accept many more samples and slow lookups down). A sample the renderer widened
-//     beyond the radius of eqs. 4.1/4.2 when it made it (an adaptive radius rule that measures how
-//     smooth the illumination is) keeps that widening, which is a property of the scene, scaled
-//     down where the new frame's pixel footprint is smaller:
-//       r_i = max(r_i, min(base_i, base_i * footprint_new / footprint_i)).
-//     Samples behind the lens (depth <= F) keep their radius: the frame cannot see them.
+//  1. Reuse rule (begin_frame). Every sample gets the radius cache::reuse_radius gives it for the
+//     new camera (cache/sample_radius.h), from the radius it was made with and what that was made
+//     of (RadiusOrigin, recorded when the sample entered the cache): it shrinks where the new frame
+//     needs denser samples, grows back towards its original radius where the frame is blurrier,
+//     and keeps an adaptive widening scaled by the pixel footprint.
 //  2. Usage (during the frame). The renderer gets a wrapper of the cache that records, per lookup,
 //     which samples were accepted: a lookup all of whose accepted samples predate the frame is a
 //     reuse; every accepted sample is marked used.
@@ -38,6 +30,7 @@
 #include <vector>
 
 #include "dofcache/cache/radiance_cache.h"
+#include "dofcache/cache/sample_radius.h"
 #include "dofcache/render/camera.h"
 
 namespace dofcache::sequence {
@@ -45,16 +38,11 @@ namespace dofcache::sequence {
 // One cached sample and its history across frames.
 struct SampleRecord {
   cache::CacheSample sample;  // radius: the radius in effect after the last frame's reuse rule
-  float base_radius = 0.0f;   // the radius it was created with
-  // At creation: the radius of eqs. 4.1/4.2 (sample_radius) and the pixel footprint (eq. 4.1's
-  // factor1) at the sample's depth. base_radius > view_radius means the renderer widened it.
-  float view_radius = 0.0f;
-  float footprint = 0.0f;
+  cache::RadiusOrigin origin;  // the radius it was made with, and of what
   std::int32_t last_used = 0;  // last frame whose lookups accepted it (or that created it)
 };
 
 struct ReusePolicy {
-  double min_factor = 0.5;       // Algorithm 1's minFactor, as the renderer uses it
   int evict_after = 8;           // evict samples unused for this many frames (0: never)
   std::size_t memory_limit = 0;  // bytes of RadianceCache::memory_bytes(); 0: no cap
 };
@@ -82,8 +70,9 @@ struct FrameCacheStats {
 
 class PersistentCache {
  public:
-  // `backend`: "octree" or "vdb". Throws dofcache::Error for anything else.
-  PersistentCache(std::string backend, ReusePolicy policy);
+  // `backend`: "octree" or "vdb". `radius`: the rule the renderer makes samples with
+  // (CacheSettings::radius). Throws dofcache::Error for a bad backend or policy.
+  PersistentCache(std::string backend, ReusePolicy policy, cache::RadiusSettings radius = {});
   ~PersistentCache();
   PersistentCache(const PersistentCache&) = delete;
   PersistentCache& operator=(const PersistentCache&) = delete;
@@ -104,6 +93,7 @@ class PersistentCache {
   FrameCacheStats end_frame();
 
   const ReusePolicy& policy() const { return policy_; }
+  const cache::RadiusSettings& radius_settings() const { return radius_; }
   const std::string& backend() const { return backend_; }
 
   // The wrapper handed to the renderer (public for tests).
@@ -114,6 +104,7 @@ class PersistentCache {
 
   std::string backend_;
   ReusePolicy policy_;
+  cache::RadiusSettings radius_;
   std::vector<SampleRecord> records_;  // increasing id
   std::unique_ptr<Tracked> live_;      // during a frame
   std::int32_t frame_ = 0;
@@ -121,9 +112,5 @@ class PersistentCache {
   FrameCacheStats stats_;
   double begin_seconds_ = 0.0;
 };
-
-// The radius the reuse rule gives a sample at `position` in a frame seen by `camera`.
-float reuse_radius(const SampleRecord& record, const render::ThinLensCamera& camera,
-                   double min_factor);
 
 }  // namespace dofcache::sequence
