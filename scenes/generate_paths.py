@@ -13,6 +13,9 @@ Outputs (docs/sequence.md):
   paths/cornell_focus_pull.json  a keyframe file for cornell_box.gltf: the camera holds still and
                                  the focus pulls from the sphere (0.97 m) to the tall box (1.30 m)
                                  over 1.5 seconds, eased in and out ("smooth").
+  paths/gallery_walk.json        a keyframe file for gallery.glb: a 48-frame walk of 4.8 m down the
+                                 gallery, turning slightly left, the focus held on the red sphere
+                                 as the camera nears it, then racked to the gold ring further on.
 
 The geometry is copied from cornell_box.gltf unchanged, so both render the same scene (same
 content hash) and a cache saved from one can be used with the other.
@@ -98,6 +101,41 @@ def cornell_focus_pull():
     print("paths/cornell_focus_pull.json: focus 0.97 -> 1.30 m over frames 0-35 at 24 fps")
 
 
+def gallery_walk():
+    """Keys every 14-17 frames along a straight walk (Catmull-Rom through evenly spaced keys: a
+    steady pace, eased at both ends); the focus distance of each key is the axial distance of the
+    object it holds (as generate_scenes.py computes a camera's focus)."""
+    red_sphere, gold_ring = (-0.75, 1.05, -1.0), (-0.75, 1.0, -5.0)
+    start, end = (0.0, 1.6, 1.5), (0.15, 1.55, -3.3)
+    look_start, look_end = (0.0, 1.3, -10.0), (-0.6, 1.2, -10.0)
+    keys = []
+    for frame, subject in ((0, red_sphere), (14, red_sphere), (30, gold_ring), (47, gold_ring)):
+        t = frame / 47.0
+        eye = [round(a + (b - a) * t, 4) for a, b in zip(start, end)]
+        target = [round(a + (b - a) * t, 4) for a, b in zip(look_start, look_end)]
+        forward = [b - a for a, b in zip(eye, target)]
+        norm = math.sqrt(sum(f * f for f in forward))
+        focus = sum((o - e) * f / norm for o, e, f in zip(subject, eye, forward))
+        keys.append({"frame": frame, "position": eye, "target": target,
+                     "focus_distance": round(focus, 4)})
+    path = {
+        "dofcache_camera_path": 1,
+        "description": "Walk-through of gallery.glb: 4.8 m in 48 frames, focus on the red sphere, "
+                       "then racked to the gold ring",
+        "scene": "../gallery.glb",
+        "fps": 24,
+        "interpolation": "smooth",
+        "keys": keys,
+    }
+    out = os.path.join(HERE, "paths", "gallery_walk.json")
+    with open(out, "w", encoding="utf-8") as f:
+        json.dump(path, f, indent=2)
+        f.write("\n")
+    print("paths/gallery_walk.json: frames 0-47, focus %s m" %
+          " -> ".join("%.2f" % k["focus_distance"] for k in keys))
+
+
 if __name__ == "__main__":
     cornell_dolly()
     cornell_focus_pull()
+    gallery_walk()

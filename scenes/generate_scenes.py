@@ -15,6 +15,9 @@ Outputs:
   color_spheres.gltf                 self-contained; one KHR_lights_punctual spot light
   glossy_closeup.glb                 binary glTF with embedded PNG textures
   hanging_light_box.gltf             self-contained; a two-sided panel 2 cm below the ceiling, f/0.2
+  gallery.glb                        a 12 m gallery to walk through (scenes/paths/gallery_walk.json):
+                                     columns, pedestals with objects, a tiled floor texture, ceiling
+                                     panels 5 cm below the ceiling, a lit doorway; 50 mm f/0.7
 """
 import base64
 import json
@@ -253,6 +256,13 @@ def merge(*parts):
         uvs += g.uvs
         tris += [(a + base, b + base, c + base) for a, b, c in g.triangles]
     return Geometry(positions, normals, uvs, tris)
+
+
+def tiled_quad(u_repeat, v_repeat):
+    """quad() with its texture coordinates repeated (the sampler wraps)."""
+    q = quad()
+    return Geometry(q.positions, q.normals, [(u * u_repeat, v * v_repeat) for u, v in q.uvs],
+                    q.triangles)
 
 
 def cylinder(segments=40):
@@ -889,6 +899,77 @@ def hanging_light_box():
     return g
 
 
+def gallery():
+    """A gallery 3 m wide, 3 m high and 12 m long that a camera walks through (the sequence
+    benchmark's production-sized path, scenes/paths/gallery_walk.json): a tiled floor, columns
+    along both walls, pedestals carrying a glossy sphere, a vase, a gold ring and a stack of
+    blocks, four ceiling panels 5 cm below the ceiling (lights near a surface) and a lit doorway in
+    the far wall. 50 mm f/0.7: the foreground and the far end are blurred by several pixels."""
+    g = Gltf("gallery")
+
+    def tiles(x, y):  # 0.25 m tiles at 6 x 24 repeats: light stone with dark joints
+        if x % 32 in (0, 31) or y % 32 in (0, 31):
+            return (70, 64, 58)
+        return (214, 204, 186) if ((x // 32) + (y // 32)) % 2 == 0 else (168, 150, 128)
+
+    options = {"index_type": GL_UNSIGNED_INT}
+    floor_tex = g.texture(png_bytes(64, 64, tiles), "floor_tiles")
+    floor = g.material("floor", (1.0, 1.0, 1.0), roughness=0.6, base_texture=floor_tex)
+    plaster = g.material("plaster", (0.78, 0.74, 0.66), double_sided=True)
+    slate = g.material("slate_wall", (0.32, 0.40, 0.48), double_sided=True)
+    ceiling = g.material("ceiling", (0.85, 0.85, 0.84), double_sided=True)
+    stone = g.material("column_stone", (0.70, 0.68, 0.62), roughness=0.8)
+    plinth = g.material("pedestal", (0.22, 0.22, 0.24), roughness=0.5)
+    panel = g.material("ceiling_panel", (0.8, 0.8, 0.8), emissive=(1.0, 0.93, 0.82), strength=6.0)
+    doorway = g.material("doorway", (0.8, 0.8, 0.8), emissive=(0.85, 0.92, 1.0), strength=3.0)
+    red = g.material("red_glaze", (0.62, 0.06, 0.05), roughness=0.25)
+    ivory = g.material("ivory", (0.82, 0.78, 0.66), roughness=0.45)
+    gold = g.material("gold", (0.95, 0.74, 0.32), metallic=1.0, roughness=0.3)
+    blocks = [g.material("block_%s" % n, c) for n, c in
+              (("teal", (0.06, 0.45, 0.42)), ("ochre", (0.78, 0.55, 0.12)),
+               ("violet", (0.35, 0.16, 0.55)))]
+    w, h, z0, z1 = 3.0, 3.0, 2.0, -10.0  # x in [-w/2, w/2], y in [0, h], z from z0 to z1
+    length_z = z0 - z1
+    mid = 0.5 * (z0 + z1)
+    flip = rot_x(math.pi)
+    to_plus_x = ((0, 1, 0), (-1, 0, 0), (0, 0, 1))
+    to_minus_x = ((0, -1, 0), (1, 0, 0), (0, 0, 1))
+    q = quad()
+    g.add("floor", tiled_quad(6.0, 24.0), floor, (0.0, 0.0, mid), None, (w, 1.0, length_z),
+          **options)
+    g.add("ceiling", q, ceiling, (0.0, h, mid), flip, (w, 1.0, length_z), **options)
+    g.add("left_wall", q, plaster, (-w / 2, h / 2, mid), to_plus_x, (h, 1.0, length_z), **options)
+    g.add("right_wall", q, slate, (w / 2, h / 2, mid), to_minus_x, (h, 1.0, length_z), **options)
+    g.add("far_wall", q, plaster, (0.0, h / 2, z1), rot_x(math.pi / 2), (w, 1.0, h), **options)
+    g.add("entrance_wall", q, plaster, (0.0, h / 2, z0), rot_x(-math.pi / 2), (w, 1.0, h),
+          **options)
+    g.light_quad("doorway", doorway, (0.0, 1.1, z1 + 0.01), (0.9, 2.2), (0.0, 1.1, 0.0))
+    for k, z in enumerate((0.5, -2.5, -5.5, -8.5)):
+        g.add("ceiling_panel_%d" % k, q, panel, (0.0, h - 0.05, z), flip, (0.6, 1.0, 1.2),
+              **options)
+    column = cylinder()
+    for k, z in enumerate((0.0, -2.0, -4.0, -6.0, -8.0)):
+        for side, x in (("left", -1.25), ("right", 1.25)):
+            g.add("column_%s_%d" % (side, k), column, stone, (x, 0.0, z), None, (0.14, h, 0.14),
+                  **options)
+    b = box()
+    sphere = uv_sphere()
+    pedestals = [(-0.75, -1.0), (0.75, -3.0), (-0.75, -5.0), (0.75, -7.0)]
+    for k, (x, z) in enumerate(pedestals):
+        g.add("pedestal_%d" % k, b, plinth, (x, 0.45, z), None, (0.4, 0.9, 0.4), **options)
+    g.add("red_sphere", sphere, red, (-0.75, 1.05, -1.0), None, (0.15,) * 3, **options)
+    g.add("vase", vase(), ivory, (0.75, 0.9, -3.0), rot_y(math.radians(20)), (2.0,) * 3,
+          **options)
+    g.add("gold_ring", torus(0.12, 0.035), gold, (-0.75, 1.0, -5.0), rot_x(math.radians(70)),
+          **options)
+    for k, m in enumerate(blocks):
+        g.add("block_%d" % k, b, m, (0.75 + 0.03 * (k - 1), 0.98 + 0.16 * k, -7.0),
+              rot_y(math.radians(25 * k)), (0.16, 0.16, 0.16), **options)
+    g.add_camera(eye=(0.0, 1.6, 1.5), target=(0.0, 1.3, -10.0), yfov=0.75, focal_length=0.05,
+                 fstop=0.7, focus_object="red_sphere")
+    return g
+
+
 def main():
     g = hanging_light_box()
     g.write_gltf_embedded(os.path.join(HERE, "hanging_light_box.gltf"))
@@ -912,6 +993,10 @@ def main():
 
     g = glossy_closeup()
     g.write_glb(os.path.join(HERE, "glossy_closeup.glb"))
+    report(g, g.finish())
+
+    g = gallery()
+    g.write_glb(os.path.join(HERE, "gallery.glb"))
     report(g, g.finish())
 
 

@@ -371,6 +371,40 @@ TEST(KeyframePath, ShippedPathsLoad) {
   EXPECT_EQ(dolly_scene.content_hash, sc.content_hash);  // the same scene, plus an animation
 }
 
+// The walk-through the sequence benchmark renders: 48 frames, the camera moving 4.8 m, and at each
+// key the focus on the object the key holds (its centre, from its triangles, at the focus depth).
+TEST(KeyframePath, GalleryWalkRacksFocusFromTheSphereToTheRing) {
+  std::string dir = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/";
+  scene::Scene sc = render::load_scene(dir + "gallery.glb");
+  ASSERT_EQ(sc.cameras.size(), 1u);
+  CameraPath walk = load_keyframe_path(dir + "paths/gallery_walk.json", sc.cameras[0]);
+  auto [first, last] = path_frame_range(walk, 24.0);
+  EXPECT_EQ(first, 0);
+  EXPECT_EQ(last, 47);
+  auto centre = [&](const std::string& material) {
+    glm::dvec3 sum(0.0);
+    int count = 0;
+    for (std::size_t t = 0; t < sc.mesh.triangles.size(); ++t) {
+      if (sc.materials[sc.mesh.triangle_material[t]].name != material) continue;
+      for (int k = 0; k < 3; ++k) sum += glm::dvec3(sc.mesh.positions[sc.mesh.triangles[t][k]]);
+      count += 3;
+    }
+    EXPECT_GT(count, 0) << material;
+    return sum / double(std::max(count, 1));
+  };
+  const glm::dvec3 sphere = centre("red_glaze"), ring = centre("gold");
+  auto depth = [](const PathSample& s, glm::dvec3 p) {
+    return glm::dot(p - glm::dvec3(s.camera_to_world[3]), -glm::dvec3(s.camera_to_world[2]));
+  };
+  for (auto [frame, subject] : {std::pair{0, sphere}, {14, sphere}, {30, ring}, {47, ring}}) {
+    PathSample s = walk.at(frame / 24.0);
+    ASSERT_TRUE(s.focus_distance.has_value());
+    EXPECT_NEAR(*s.focus_distance, depth(s, subject), 0.02) << "frame " << frame;
+  }
+  const glm::dvec3 start(walk.at(0.0).camera_to_world[3]), end(walk.at(47 / 24.0).camera_to_world[3]);
+  EXPECT_NEAR(glm::length(end - start), 4.8, 0.05);
+}
+
 TEST(KeepEvery, KeyframesFromTheFirstPlusTheLast) {
   auto numbers = [](int count, int step) {
     std::vector<FrameSpec> frames(count);
