@@ -1,6 +1,6 @@
-// Camera-path sequences with a persistent radiance cache (issue 4) on the two shipped paths: the
-// slow dolly (a glTF animation, sampled at 12 fps: 25 frames of small camera motion) and the
-// focus pull (a keyframe file, 36 frames). For each path, three ways of rendering every frame run
+// Camera-path sequences with a persistent radiance cache on the shipped paths: the slow dolly (a
+// glTF animation, sampled at 12 fps: 25 frames of small camera motion), the focus pull (a keyframe
+// file, 36 frames) and the gallery walk (48 frames, 4.8 m of camera motion with a rack focus). For each path, three ways of rendering every frame run
 // side by side, interleaved frame by frame so that a change in machine load hits all alike:
 //   none        DRT without a cache;
 //   fresh       the vdb cache, emptied before every frame;
@@ -11,7 +11,7 @@
 // difference to the previous frame; the reference's own figure is what the scene's change
 // explains, the rest is error). Writes bench/results/sequence_persistent.{json,csv}.
 //   sequence_persistent_bench [--width W] [--spp N] [--ref-spp N] [--threads T] [--frames N]
-//                             [--path dolly|focus_pull]... [--results NAME]   (--help for more)
+//                             [--path dolly|focus_pull|walk]... [--results NAME]   (--help for more)
 #include <time.h>
 
 #include <algorithm>
@@ -54,6 +54,7 @@ struct PathCase {
 const PathCase kCases[] = {
     {"dolly", "cornell_box_dolly.gltf", "", 12.0},
     {"focus_pull", "cornell_box.gltf", "paths/cornell_focus_pull.json", 24.0},
+    {"walk", "gallery.glb", "paths/gallery_walk.json", 24.0},
 };
 
 enum Method { kNone, kFresh, kPersistent, kMethods };
