@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dofcache/preview/options.h"
+#include "dofcache/render/environment.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/scene/gltf_loader.h"
 
@@ -35,6 +36,19 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading);
 // --cache-min-samples, --cache-sample-quality (the backend option --cache is each command's own).
 void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
                               std::string& radius_rule);
+
+// The environment light (render, sequence): --env FILE, --env-color R,G,B, --env-strength,
+// --env-rotation, --env-visible on|off, --no-default-sky.
+void add_environment_options(CLI::App* cmd, render::EnvironmentSettings& environment);
+// The environment a command renders with (render::resolve_environment), its warnings and, when
+// the scene has no light and gets the default sky, a one-line notice on stderr.
+render::ResolvedEnvironment apply_environment(const render::EnvironmentSettings& settings,
+                                              const scene::Scene& scene,
+                                              const scene::LoadLimits& limits);
+// The environment as statistics files record it: {"kind", "description", "strength",
+// "rotation_deg", "visible", "path"}.
+nlohmann::json environment_json(const render::EnvironmentSettings& settings,
+                                const render::ResolvedEnvironment& environment);
 
 // The cache settings as every statistics file records them (render and sequence --stats-json,
 // one writer so both use the same keys): backend, radius_rule, min_factor, accuracy,

@@ -28,6 +28,7 @@ struct SequenceOptions {
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
+  render::EnvironmentSettings environment;
   std::string cache = "none", radius_rule = "paper";
   bool persistent = false, cache_given = false, restart = false, quiet = false;
   render::CacheSettings cache_settings;
