@@ -142,17 +142,13 @@ void add_environment_options(CLI::App* cmd, render::EnvironmentSettings& environ
       "--env) is lit by a default sky, as glTF viewers do; this keeps it black instead");
 }
 
-render::ResolvedEnvironment apply_environment(const render::EnvironmentSettings& settings,
-                                              const scene::Scene& scene,
-                                              const scene::LoadLimits& limits) {
-  render::ResolvedEnvironment r = render::resolve_environment(settings, scene, limits);
+void print_environment_notices(const render::ResolvedEnvironment& r) {
   for (const std::string& w : r.warnings)
     std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
   if (r.default_sky)
     std::fprintf(stderr,
                  "dofcache: notice: the scene has no light; it is lit by a default sky (choose "
                  "one with --env FILE or --env-color R,G,B, or none with --no-default-sky)\n");
-  return r;
 }
 
 nlohmann::json environment_json(const render::EnvironmentSettings& settings,

@@ -40,11 +40,10 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache,
 // The environment light (render, sequence): --env FILE, --env-color R,G,B, --env-strength,
 // --env-rotation, --env-visible on|off, --no-default-sky.
 void add_environment_options(CLI::App* cmd, render::EnvironmentSettings& environment);
-// The environment a command renders with (render::resolve_environment), its warnings and, when
-// the scene has no light and gets the default sky, a one-line notice on stderr.
-render::ResolvedEnvironment apply_environment(const render::EnvironmentSettings& settings,
-                                              const scene::Scene& scene,
-                                              const scene::LoadLimits& limits);
+// On stderr, once the render is about to start (so that a failing run prints its one error line
+// alone): the environment's warnings and, when the scene has no light and gets the default sky,
+// a one-line notice naming the options.
+void print_environment_notices(const render::ResolvedEnvironment& environment);
 // The environment as statistics files record it: {"kind", "description", "strength",
 // "rotation_deg", "visible", "path"}.
 nlohmann::json environment_json(const render::EnvironmentSettings& settings,

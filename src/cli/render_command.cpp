@@ -123,7 +123,8 @@ int run_render(const RenderOptions& o) {
   s.seed = o.seed;
   s.threads = o.threads;
   s.shading = o.shading;
-  const render::ResolvedEnvironment environment = apply_environment(o.environment, scene, o.limits);
+  const render::ResolvedEnvironment environment =
+      render::resolve_environment(o.environment, scene, o.limits);
   s.shading.environment = environment.environment;
   render::ResolvedLens lens = render::resolve_lens(scene, accel, camera,
                                                    {o.focal_length, o.fstop, o.focus_distance});
@@ -172,6 +173,7 @@ int run_render(const RenderOptions& o) {
                             "'");
     image::check_output_path(o.save_preview_inputs);
   }
+  print_environment_notices(environment);
   if (method) return run_preview(o, scene, accel, camera, s, environment, *method);
   if (!o.cache_debug.empty()) image::check_output_path(o.cache_debug + "-hits.png");
   if (!o.cache_trace.empty()) {

@@ -94,7 +94,8 @@ PreparedSequence prepare_sequence(const SequenceOptions& o) {
   r.seed = o.seed;
   r.threads = o.threads;
   r.shading = o.shading;
-  r.shading.environment = apply_environment(o.environment, scene, o.limits).environment;
+  p.environment = render::resolve_environment(o.environment, scene, o.limits);
+  r.shading.environment = p.environment.environment;
   r.cache = o.cache_settings;
   if (r.cache.sample_quality == 0)
     r.cache.sample_quality = render::recommended_sample_quality(r.spp);

@@ -49,6 +49,7 @@ struct PreparedSequence {
   double fps = 24.0;
   int first = 0, last = 0;  // the range asked for (frames may skip some with --frame-step)
   sequence::SequenceSettings settings;
+  render::ResolvedEnvironment environment;  // also in settings.render.shading
   std::vector<sequence::FrameSpec> frames;
 };
 
