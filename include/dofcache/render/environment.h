@@ -39,7 +39,8 @@ class Environment {
   static Environment lat_long(const image::Image& map, float strength, float rotation,
                               bool visible = true);
   // The sky of scenes without lights: white at the horizon, a pale blue at the zenith (luminance
-  // about 0.8), a grey ground (0.3), smooth, about as bright as a glTF viewer's neutral lighting.
+  // 0.74), a grey ground (0.3), smooth; mean luminance 0.59, about as bright as a glTF viewer's
+  // neutral lighting.
   static Environment default_sky(float strength = 1.0f, bool visible = true);
 
   // Radiance arriving from direction `wi` (unit, pointing away from the receiver).
