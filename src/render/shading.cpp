@@ -219,9 +219,7 @@ float Shader::environment_pdf(glm::vec3 wi) const {
   return environment_ ? environment_pick_ * environment_->pdf(wi) : 0.0f;
 }
 
-glm::vec3 Shader::escaped(const ShadingPoint& p, glm::vec3 direction, float bsdf_density,
-                          float light_samples) const {
-  (void)p;  // the environment's density does not depend on the point
+glm::vec3 Shader::escaped(glm::vec3 direction, float bsdf_density, float light_samples) const {
   if (!environment_) return glm::vec3(0.0f);
   glm::vec3 l = environment_->radiance(direction);
   if (light_samples > 0.0f && luminance(l) > 0.0f)
@@ -367,7 +365,7 @@ glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDep
     const scene::Hit hit = accel_.intersect(ray);
     if (!hit.valid()) {  // escaped: the environment's light, if any
       if (environment_) {
-        const glm::vec3 c = escaped(p, dir, n_gather * local.z * kInvPi, n_light);
+        const glm::vec3 c = escaped(dir, n_gather * local.z * kInvPi, n_light);
         acc += c;
         if (moments) {
           const double y = luminance(c);
@@ -580,7 +578,7 @@ glm::vec3 Shader::specular_ray(const ShadingPoint& p, const GgxLobe& lobe, PathD
   const scene::Hit hit = accel_.intersect(ray);
   // One light sample is taken beside the lobe's ray (reflected(), specular_at_camera_hit()).
   if (!hit.valid())
-    return environment_ ? weight * escaped(p, wi, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f)
+    return environment_ ? weight * escaped(wi, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f)
                         : glm::vec3(0.0f);
   const PathDepth next{depth.taken + 1, depth.left - 1, depth.glossy + 1};
   return weight * continuation(p, ray, hit, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f, next,

@@ -165,10 +165,9 @@ class Shader {
   glm::vec3 continuation(const ShadingPoint& p, const scene::Ray& ray, const scene::Hit& hit,
                          float bsdf_density, float light_samples, PathDepth next, float survival,
                          Rng& rng, RayCounters& counters) const;
-  // Radiance of the environment along a ray leaving p that escaped the scene, weighted against
-  // `light_samples` light samples at p (bsdf_density as in continuation()).
-  glm::vec3 escaped(const ShadingPoint& p, glm::vec3 direction, float bsdf_density,
-                    float light_samples) const;
+  // Radiance of the environment along a ray that left the scene, weighted against
+  // `light_samples` light samples at its origin (bsdf_density as in continuation()).
+  glm::vec3 escaped(glm::vec3 direction, float bsdf_density, float light_samples) const;
   // Whether light samples can be drawn (emissive triangles or an environment).
   bool has_sampled_lights() const { return !scene_.emitters.empty() || environment_ != nullptr; }
   // Punctual lights' E/pi at p (one shadow ray each; they cannot be hit, so no MIS).
