@@ -241,6 +241,26 @@ TEST(EnvironmentLight, EnvironmentAndEmittersTogether) {
   EXPECT_NEAR(m, expected, 4.0 * e + 1e-3) << "standard error " << e;
 }
 
+// Determinism holds with an environment: a cached drt render under the sun map is the same for
+// one and two threads.
+TEST(EnvironmentLight, SameImageForAnyThreadCount) {
+  const scene::Scene s = furnace_scene();
+  const scene::Accel accel(s);
+  RenderSettings settings = furnace_settings(4);
+  settings.mode = Mode::Drt;
+  settings.shading.environment =
+      std::make_shared<Environment>(Environment::lat_long(sun_map(), 0.01f, 1.0f));
+  auto c1 = cache::make_radiance_cache("vdb");
+  auto c2 = cache::make_radiance_cache("vdb");
+  settings.cache.cache = c1.get();
+  settings.threads = 1;
+  const RenderOutput a = render(s, accel, s.cameras[0], settings);
+  settings.cache.cache = c2.get();
+  settings.threads = 2;
+  const RenderOutput b = render(s, accel, s.cameras[0], settings);
+  EXPECT_EQ(a.color.data(), b.color.data());
+}
+
 TEST(EnvironmentLight, HiddenEnvironmentStillLights) {
   const scene::Scene s = furnace_scene();
   const scene::Accel accel(s);
