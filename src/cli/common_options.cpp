@@ -1,5 +1,7 @@
 #include "common_options.h"
 
+#include <cstdio>
+
 namespace dofcache::cli {
 
 void add_scene_options(CLI::App* cmd, std::string& scene_path, std::string& camera,
@@ -105,6 +107,68 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache) {
   cmd->add_option("--cache-sample-error", cache.sample_error,
                   "Relative standard error a cache sample's gather rays must reach")
       ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
+}
+
+void add_environment_options(CLI::App* cmd, render::EnvironmentSettings& environment) {
+  cmd->add_option("--env", environment.path,
+                  "Environment light: a lat-long (equirectangular, 2:1) .exr or .hdr map, top "
+                  "row the zenith (+Y), centre towards -Z; importance-sampled and combined with "
+                  "BSDF sampling by MIS (docs/design.md)");
+  cmd->add_option_function<std::vector<float>>(
+         "--env-color",
+         [&environment](const std::vector<float>& c) {
+           environment.color = glm::vec3(c[0], c[1], c[2]);
+         },
+         "A constant environment of this linear RGB radiance, e.g. 1,1,1 (0,0,0: none, which "
+         "also keeps a scene without lights dark)")
+      ->expected(3)
+      ->delimiter(',');
+  cmd->add_option("--env-strength", environment.strength,
+                  "Multiplies the environment's radiance (--env, --env-color, the default sky)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1e6));
+  cmd->add_option("--env-rotation", environment.rotation_degrees,
+                  "Turns the environment map about the vertical axis (+Y), degrees; positive "
+                  "turns +X towards -Z")
+      ->capture_default_str()->check(CLI::Range(-1e6, 1e6));
+  cmd->add_option_function<std::string>(
+         "--env-visible",
+         [&environment](const std::string& v) { environment.visible = v == "on"; },
+         "on: camera rays that miss the scene see the environment (the background); off: "
+         "they see black, the environment still lights the scene")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->default_str("on");
+  cmd->add_flag_callback(
+      "--no-default-sky", [&environment] { environment.default_sky = false; },
+      "A scene with no light of any kind (no emissive surface, no KHR_lights_punctual light, no "
+      "--env) is lit by a default sky, as glTF viewers do; this keeps it black instead");
+}
+
+void print_environment_notices(const render::ResolvedEnvironment& r) {
+  for (const std::string& w : r.warnings)
+    std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
+  if (r.default_sky)
+    std::fprintf(stderr,
+                 "dofcache: notice: the scene has no light; it is lit by a default sky (choose "
+                 "one with --env FILE or --env-color R,G,B, or none with --no-default-sky)\n");
+}
+
+nlohmann::json environment_json(const render::EnvironmentSettings& settings,
+                                const render::ResolvedEnvironment& environment) {
+  const render::Environment* e = environment.environment.get();
+  const char* kind = !e                       ? "none"
+                     : environment.default_sky ? "default_sky"
+                     : e->is_constant()        ? "constant"
+                                               : "map";
+  nlohmann::json j = {{"kind", kind}, {"description", environment.description}};
+  if (e) {
+    const glm::vec3 m = e->mean_radiance();
+    j.update({{"strength", settings.strength},
+              {"rotation_deg", e->rotation() * 57.29577951f},
+              {"visible", e->visible()},
+              {"mean_radiance", {m.x, m.y, m.z}}});
+    if (!settings.path.empty()) j["path"] = settings.path;
+  }
+  return j;
 }
 
 nlohmann::json cache_settings_json(const std::string& backend,

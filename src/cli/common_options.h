@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dofcache/preview/options.h"
+#include "dofcache/render/environment.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/scene/gltf_loader.h"
 
@@ -34,6 +35,18 @@ void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading);
 // --min-factor, --cache-radius, --cache-accuracy, --cache-max-radius, --cache-normal-angle,
 // --cache-min-samples, --cache-sample-quality (the backend option --cache is each command's own).
 void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache);
+
+// The environment light (render, sequence): --env FILE, --env-color R,G,B, --env-strength,
+// --env-rotation, --env-visible on|off, --no-default-sky.
+void add_environment_options(CLI::App* cmd, render::EnvironmentSettings& environment);
+// On stderr, once the render is about to start (so that a failing run prints its one error line
+// alone): the environment's warnings and, when the scene has no light and gets the default sky,
+// a one-line notice naming the options.
+void print_environment_notices(const render::ResolvedEnvironment& environment);
+// The environment as statistics files record it: {"kind", "description", "strength",
+// "rotation_deg", "visible", "path"}.
+nlohmann::json environment_json(const render::EnvironmentSettings& settings,
+                                const render::ResolvedEnvironment& environment);
 
 // The cache settings as every statistics file records them (render and sequence --stats-json,
 // one writer so both use the same keys): backend, radius_rule, min_factor, accuracy,

@@ -27,6 +27,7 @@ struct RenderOptions {
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
+  render::EnvironmentSettings environment;
   std::string cache = "auto", cache_debug, cache_trace;
   std::string adaptive = "auto";
   render::AdaptiveSampling adaptive_settings;
@@ -60,7 +61,7 @@ std::optional<preview::PreviewMethod> preview_method(const std::string& mode) {
 // post-processed into a depth-of-field image.
 int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::Accel& accel,
                 const scene::Camera& camera, const render::RenderSettings& s,
-                preview::PreviewMethod method) {
+                const render::ResolvedEnvironment& environment, preview::PreviewMethod method) {
   preview::PreviewOptions options;
   options.threads = o.threads;
   apply_composite_options(o.composite, options);
@@ -78,6 +79,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
         {"threads", t.pinhole_stats.threads}, {"seconds", t.total_ms * 1e-3},
         {"lens", {{"focal_length", s.lens.focal_length}, {"fstop", s.lens.fstop},
                   {"focus_distance", s.lens.focus_distance}}},
+        {"environment", environment_json(o.environment, environment)},
         {"preview", {{"layers", t.layers}, {"revealed_layers", t.revealed_layers},
                      {"revealed_pixels", t.revealed_pixels},
                      {"pinhole_render_ms", t.pinhole_render_ms},
@@ -121,6 +123,9 @@ int run_render(const RenderOptions& o) {
   s.seed = o.seed;
   s.threads = o.threads;
   s.shading = o.shading;
+  const render::ResolvedEnvironment environment =
+      render::resolve_environment(o.environment, scene, o.limits);
+  s.shading.environment = environment.environment;
   render::ResolvedLens lens = render::resolve_lens(scene, accel, camera,
                                                    {o.focal_length, o.fstop, o.focus_distance});
   s.lens = lens.lens;
@@ -142,6 +147,8 @@ int run_render(const RenderOptions& o) {
     std::printf("scene   %s: %zu triangles, %zu emissive, %zu punctual lights\n",
                 scene.source.c_str(), scene.mesh.triangles.size(), scene.emitters.size(),
                 scene.lights.size());
+    if (environment.environment)
+      std::printf("env     %s\n", environment.description.c_str());
     if (camera.synthesized)
       std::printf("notice  the scene has no camera; using one that frames its bounds\n");
     std::printf("camera  '%s', lens %s%s\n", camera.name.c_str(), describe_lens(s.lens).c_str(),
@@ -163,7 +170,8 @@ int run_render(const RenderOptions& o) {
                             "'");
     image::check_output_path(o.save_preview_inputs);
   }
-  if (method) return run_preview(o, scene, accel, camera, s, *method);
+  print_environment_notices(environment);
+  if (method) return run_preview(o, scene, accel, camera, s, environment, *method);
   if (!o.cache_debug.empty()) image::check_output_path(o.cache_debug + "-hits.png");
   if (!o.cache_trace.empty()) {
     if (!radiance_cache) throw dofcache::Error("--cache-trace needs a cache (--cache octree or vdb)");
@@ -198,6 +206,7 @@ int run_render(const RenderOptions& o) {
                      {"gather_rays", s.shading.gather_rays}, {"bounces", s.shading.bounces},
                      {"specular_depth", s.shading.specular_depth},
                      {"rough_lobe_rate", s.shading.rough_lobe_rate}}},
+        {"environment", environment_json(o.environment, environment)},
         {"output", o.out},
         {"cache", cache_settings_json(backend, s)}};
     j["cache"].update({{"lookups", st.cache_lookups}, {"hits", st.cache_hits},
@@ -252,6 +261,7 @@ Runner add_render_command(CLI::App& app) {
   add_seed_and_threads(cmd, o->seed, o->threads,
                        "Random seed; a fixed seed gives the same image");
   add_shading_options(cmd, o->shading);
+  add_environment_options(cmd, o->environment);
   cmd->add_option("--adaptive", o->adaptive,
                   "Adaptive lens sampling (drt): a pilot of --adaptive-pilot of the samples "
                   "measures each pixel's noise, the rest go where it is; --spp is then the mean "

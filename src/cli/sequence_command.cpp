@@ -29,6 +29,7 @@ int run_sequence(const SequenceOptions& o) {
   const std::vector<sequence::FrameSpec>& frames = p.frames;
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
   sequence::SequenceRenderer renderer(scene, *p.accel, frames, s);
+  print_environment_notices(p.environment);
 
   if (!o.quiet) {
     std::printf("scene    %s: %zu triangles, camera '%s'\n", scene.source.c_str(),
@@ -91,6 +92,7 @@ int run_sequence(const SequenceOptions& o) {
         {"frames", {first, last}}, {"width", r.width}, {"height", r.height}, {"spp", r.spp},
         {"mode", render::mode_name(r.mode)}, {"seed", r.seed},
         {"cache", cache_settings_json(s.cache_backend, r)},
+        {"environment", environment_json(o.environment, p.environment)},
         {"rendered", sum.rendered}, {"skipped", sum.skipped},
         {"resumed_after", sum.resumed_after}, {"seconds", sum.seconds}, {"per_frame", rows}};
     j["cache"].update({{"mode", sequence::cache_mode_name(s.cache_mode)},

@@ -37,6 +37,7 @@ void add_sequence_options(CLI::App* cmd, SequenceOptions& o) {
                        "Random seed; each frame's seed is derived from it and the frame "
                        "number, so any subset of frames reproduces");
   add_shading_options(cmd, o.shading);
+  add_environment_options(cmd, o.environment);
   cmd->add_option("--cache", o.cache,
                   "Radiance cache: none, octree or vdb (a fresh cache per frame unless "
                   "--persistent)")
@@ -93,6 +94,8 @@ PreparedSequence prepare_sequence(const SequenceOptions& o) {
   r.seed = o.seed;
   r.threads = o.threads;
   r.shading = o.shading;
+  p.environment = render::resolve_environment(o.environment, scene, o.limits);
+  r.shading.environment = p.environment.environment;
   r.cache = o.cache_settings;
   r.progress = o.quiet ? Progress::Display::Never : Progress::Display::Auto;
   // --persistent alone means the OpenVDB cache.

@@ -28,6 +28,7 @@ struct SequenceOptions {
   std::uint64_t seed = 1;
   std::optional<double> fstop, focal_length, focus_distance;
   render::ShadingSettings shading;
+  render::EnvironmentSettings environment;
   std::string cache = "none";
   bool persistent = false, cache_given = false, restart = false, quiet = false;
   render::CacheSettings cache_settings;
@@ -48,6 +49,7 @@ struct PreparedSequence {
   double fps = 24.0;
   int first = 0, last = 0;  // the range asked for (frames may skip some with --frame-step)
   sequence::SequenceSettings settings;
+  render::ResolvedEnvironment environment;  // also in settings.render.shading
   std::vector<sequence::FrameSpec> frames;
 };
 

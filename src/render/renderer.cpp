@@ -127,7 +127,7 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
                            TileWork& work, float* density) {
   ++work.rays.rays;
   scene::Hit hit = c.accel.intersect(ray);
-  if (!hit.valid()) return glm::vec3(0.0f);
+  if (!hit.valid()) return c.shader.background(ray.direction);
   ShadingPoint p = c.shader.prepare(ray, hit);
   glm::vec3 e(0.0f);
   if (Shader::has_diffuse(p)) {

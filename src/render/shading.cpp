@@ -145,6 +145,10 @@ Shader::Shader(const scene::Scene& scene, const scene::Accel& accel,
   triangle_emitter_.assign(scene.mesh.triangles.size(), -1);
   for (std::size_t e = 0; e < scene.emitters.size(); ++e)
     triangle_emitter_[scene.emitters[e].triangle] = static_cast<int>(e);
+  if (settings_.environment && !settings_.environment->is_black()) {
+    environment_ = settings_.environment.get();
+    environment_pick_ = scene.emitters.empty() ? 1.0f : 0.5f;
+  }
 }
 
 bool Shader::direction_to(const scene::PunctualLight& light, glm::vec3 x, glm::vec3* wi,
@@ -169,9 +173,21 @@ Triangle Shader::triangle(std::uint32_t index) const {
 
 bool Shader::sample_light(const ShadingPoint& p, float u_pick, glm::vec2 u,
                           LightSample* s) const {
+  if (environment_) {
+    if (u_pick < environment_pick_) {
+      float pdf;
+      if (!environment_->sample(u, &s->wi, &pdf, &s->radiance)) return false;
+      s->distance = 2.0f * scene_.bounds.diagonal() + 1.0f;  // beyond everything
+      s->pdf = environment_pick_ * pdf;
+      return s->pdf > 0.0f && std::isfinite(s->pdf);
+    }
+    // The rest of u_pick chooses among the emitters.
+    u_pick = std::min((u_pick - environment_pick_) / (1.0f - environment_pick_), 0x1.fffffep-1f);
+  }
   std::size_t e;
   float pick;
   if (!light_sampler_.sample(p.surface.position, p.n, u_pick, &e, &pick)) return false;
+  if (environment_) pick *= 1.0f - environment_pick_;
   const scene::Emitter& em = scene_.emitters[e];
   const Triangle t = triangle(em.triangle);
   TriangleSample ts;
@@ -194,7 +210,26 @@ float Shader::light_pdf(const ShadingPoint& p, std::uint32_t triangle_index, glm
   const float pick =
       light_sampler_.probability(p.surface.position, p.n, static_cast<std::size_t>(e));
   if (!(pick > 0.0f)) return 0.0f;
-  return pick * triangle_pdf(p.surface.position, triangle(triangle_index), wi, distance);
+  const float env_share = environment_ ? 1.0f - environment_pick_ : 1.0f;
+  return env_share * pick *
+         triangle_pdf(p.surface.position, triangle(triangle_index), wi, distance);
+}
+
+float Shader::environment_pdf(glm::vec3 wi) const {
+  return environment_ ? environment_pick_ * environment_->pdf(wi) : 0.0f;
+}
+
+glm::vec3 Shader::escaped(glm::vec3 direction, float bsdf_density, float light_samples) const {
+  if (!environment_) return glm::vec3(0.0f);
+  glm::vec3 l = environment_->radiance(direction);
+  if (light_samples > 0.0f && luminance(l) > 0.0f)
+    l *= power_heuristic(bsdf_density, light_samples * environment_pdf(direction));
+  return l;
+}
+
+glm::vec3 Shader::background(glm::vec3 direction) const {
+  if (!environment_ || !environment_->visible()) return glm::vec3(0.0f);
+  return environment_->radiance(glm::normalize(direction));
 }
 
 ShadingPoint Shader::prepare(const scene::Ray& ray, const scene::Hit& hit) const {
@@ -277,7 +312,7 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
   const glm::vec3 x = p.surface.position;
   glm::vec3 sum = punctual_diffuse(p, counters);
   // Each strategy's density is weighed with its sample count (Veach's n_i p_i).
-  const float n_light = scene_.emitters.empty() ? 0.0f : static_cast<float>(light_samples);
+  const float n_light = has_sampled_lights() ? static_cast<float>(light_samples) : 0.0f;
   const float n_gather = static_cast<float>(gather_rays);
   if (n_light > 0.0f) {
     const std::uint64_t light_key = hash_combine(key, 11);
@@ -328,7 +363,18 @@ glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDep
     const scene::Ray ray = spawn(p, dir);
     ++counters.rays;
     const scene::Hit hit = accel_.intersect(ray);
-    if (!hit.valid()) continue;
+    if (!hit.valid()) {  // escaped: the environment's light, if any
+      if (environment_) {
+        const glm::vec3 c = escaped(dir, n_gather * local.z * kInvPi, n_light);
+        acc += c;
+        if (moments) {
+          const double y = luminance(c);
+          moments->sum += y;
+          moments->sum2 += y * y;
+        }
+      }
+      continue;
+    }
     inverse_sum += 1.0f / std::max(hit.t, epsilon_);
     const glm::vec3 c = continuation(p, ray, hit, n_gather * local.z * kInvPi, n_light, next,
                                      survival, rng, counters);
@@ -376,7 +422,7 @@ glm::vec3 Shader::reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
   if (diffuse) l += rho * punctual_diffuse(q, counters);
   if (lobe.keep > 0.0f) l += specular_punctual(q, lobe, counters);
   LightSample ls;
-  if (!scene_.emitters.empty() &&
+  if (has_sampled_lights() &&
       sample_light(q, rng.uniform(), glm::vec2(rng.uniform(), rng.uniform()), &ls) &&
       glm::dot(q.n, ls.wi) > 0.0f && glm::dot(q.ng, ls.wi) > 0.0f &&
       visible(q.surface.position, q.ng, ls.wi, ls.distance, counters)) {
@@ -456,7 +502,7 @@ glm::vec3 Shader::specular_at_camera_hit(const ShadingPoint& p, const GgxLobe& l
                                          RayCounters& counters) const {
   glm::vec3 l = specular_punctual(p, lobe, counters);
   LightSample ls;
-  if (!scene_.emitters.empty() &&
+  if (has_sampled_lights() &&
       sample_light(p, rng.uniform(), glm::vec2(rng.uniform(), rng.uniform()), &ls) &&
       glm::dot(p.ng, ls.wi) > 0.0f) {
     const glm::vec3 f = specular_light(p, lobe, ls);
@@ -530,7 +576,10 @@ glm::vec3 Shader::specular_ray(const ShadingPoint& p, const GgxLobe& lobe, PathD
   const scene::Ray ray = spawn(p, wi);
   ++counters.rays;
   const scene::Hit hit = accel_.intersect(ray);
-  if (!hit.valid()) return glm::vec3(0.0f);
+  // One light sample is taken beside the lobe's ray (reflected(), specular_at_camera_hit()).
+  if (!hit.valid())
+    return environment_ ? weight * escaped(wi, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f)
+                        : glm::vec3(0.0f);
   const PathDepth next{depth.taken + 1, depth.left - 1, depth.glossy + 1};
   return weight * continuation(p, ray, hit, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f, next,
                                max_component(weight), rng, counters);

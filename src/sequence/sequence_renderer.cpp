@@ -128,6 +128,8 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
   h.add(r.seed);
   h.add(r.shading.light_samples), h.add(r.shading.gather_rays), h.add(r.shading.bounces);
   h.add(r.shading.specular_depth), h.add(r.shading.rough_lobe_rate);
+  // Only with an environment, so that the keys of sequences without one stay as they were.
+  if (r.shading.environment) h.add(r.shading.environment->content_hash());
   h.add(r.near_depth);
   h.add(static_cast<int>(settings.cache_mode));
   h.add(settings.cache_backend);

@@ -157,6 +157,65 @@ TEST_F(Cli, LensOptionsReadTheSameInEveryCommand) {
   EXPECT_NE(r.out.find("(default: the saved lens's)"), std::string::npos) << r.out;
 }
 
+// A scene with no light of any kind is lit by the default sky, with one notice naming the options;
+// a scene with lights, or an explicit environment, gets no notice; --no-default-sky keeps it dark.
+TEST_F(Cli, DefaultSkyNoticeExactlyWhenTheSceneHasNoLight) {
+  const std::string dark = write("dark.gltf", triangle_gltf(kGood)).string();
+  const std::string out = " --out " + (dir_ / "o.exr").string() + kTiny;
+  const std::string notice = "dofcache: notice: the scene has no light";
+  testing::CliResult r = run("render " + dark + out + " --stats-json " +
+                             (dir_ / "s.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.rfind(notice, 0), 0u) << r.err;
+  EXPECT_EQ(testing::count_lines(r.err), 1) << r.err;
+  for (const char* option : {"--env FILE", "--env-color", "--no-default-sky"})
+    EXPECT_NE(r.err.find(option), std::string::npos) << option;
+  EXPECT_NE(slurp(dir_ / "s.json").find("\"kind\": \"default_sky\""), std::string::npos);
+
+  for (const std::string& quiet : {dark + " --no-default-sky", dark + " --env-color 0.5,0.5,0.5",
+                                   dark + " --env-color 0,0,0", std::string()}) {
+    r = run("render " + quiet + out);
+    EXPECT_EQ(r.exit_code, 0) << quiet << ": " << r.err;
+    EXPECT_EQ(r.err, "") << quiet;
+  }
+  // The same for sequences, through the shared options.
+  r = run("sequence " + dark + " --path " + DOFCACHE_SOURCE_DIR +
+          "/scenes/paths/cornell_focus_pull.json --frames 0-0 --width 16 --height 12 --spp 1 -q "
+          "--out " + (dir_ / "f####.exr").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find(notice), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, EnvironmentOptions) {
+  testing::CliResult r = run("render --help");
+  for (const char* opt : {"--env ", "--env-color", "--env-strength", "--env-rotation",
+                          "--env-visible", "--no-default-sky"})
+    EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
+  const std::string out = " --out " + (dir_ / "o.exr").string() + kTiny;
+  expect_clean_failure("render --env " + (dir_ / "nope.hdr").string() + out, "nope.hdr");
+  expect_clean_failure("render --env " + std::string(DOFCACHE_SOURCE_DIR) +
+                           "/scenes/env/afternoon_sky.hdr --env-color 1,1,1" + out,
+                       "exclusive");
+  std::ofstream(dir_ / "square.hdr") << "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 2\n"
+                                     << std::string(16, '\x80');
+  expect_one_line_error(run("render --env " + (dir_ / "square.hdr").string() + out), "2:1");
+  r = run("render --env " + std::string(DOFCACHE_SOURCE_DIR) +
+          "/scenes/env/afternoon_sky.hdr --env-rotation 90 --env-strength 0.5" + out);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+}
+
+// A file that requires an extension the loader does not implement is refused, in one line naming
+// the extension (rendering it without the extension would be wrong: glTF 2.0, section 3.12).
+TEST_F(Cli, UnsupportedRequiredExtensionIsNamed) {
+  std::string gltf = triangle_gltf(kGood);
+  gltf.insert(1, R"("extensionsUsed":["EXT_meshopt_compression"],)"
+                 R"("extensionsRequired":["EXT_meshopt_compression"],)");
+  const fs::path file = write("meshopt.gltf", gltf);
+  expect_clean_failure("render " + file.string() + " --out " + (dir_ / "o.png").string() + kTiny,
+                       "unsupported extension EXT_meshopt_compression");
+}
+
 TEST_F(Cli, MissingFile) {
   expect_clean_failure("render " + (dir_ / "nope.gltf").string() + " --out " +
                            (dir_ / "o.png").string(), "nope.gltf");

@@ -86,6 +86,35 @@ inline void build_emitters(scene::Scene& s) {
   for (float& c : s.emitter_cdf) c /= total;
 }
 
+// Adds a UV sphere (`rings` x 2 `rings` quads, smooth vertex normals, facing outwards).
+inline void add_sphere(scene::Scene& s, glm::vec3 center, float radius, int rings,
+                       std::uint32_t material, std::uint32_t object) {
+  const auto base = static_cast<std::uint32_t>(s.mesh.positions.size());
+  const int segments = 2 * rings;
+  for (int i = 0; i <= rings; ++i)
+    for (int j = 0; j <= segments; ++j) {
+      const float theta = 3.14159265f * static_cast<float>(i) / rings;
+      const float phi = 2.0f * 3.14159265f * static_cast<float>(j) / segments;
+      const glm::vec3 n(std::sin(theta) * std::cos(phi), std::cos(theta),
+                        std::sin(theta) * std::sin(phi));
+      s.mesh.positions.push_back(center + radius * n);
+      s.mesh.normals.push_back(n);
+      s.bounds.extend(center + radius * n);
+    }
+  auto at = [&](int i, int j) { return base + static_cast<std::uint32_t>(i * (segments + 1) + j); };
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      // Counter-clockwise seen from outside; the quads at the poles degenerate to one triangle.
+      if (i > 0) s.mesh.triangles.push_back({at(i, j), at(i, j + 1), at(i + 1, j)});
+      if (i + 1 < rings) s.mesh.triangles.push_back({at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)});
+      const int added = (i > 0) + (i + 1 < rings);
+      for (int k = 0; k < added; ++k) {
+        s.mesh.triangle_material.push_back(material);
+        s.mesh.triangle_object.push_back(object);
+      }
+    }
+}
+
 // Irradiance / (pi L) at the origin (normal +Z) from a parallel rectangle [x0, x1] x [y0, y1] at
 // height h: the corner form factor F(a, b) = (1 / 2pi) [A / sqrt(1 + A^2) atan(B / sqrt(1 + A^2)) +
 // B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = a / h, B = b / h, is odd in a and b, so any

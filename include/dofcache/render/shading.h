@@ -14,12 +14,19 @@
 //   0 is direct light only; Russian roulette from the third vertex on.
 // E/pi at a camera hit uses `light_samples` light samples and `gather_rays` cosine-weighted rays
 // (a final gather); deeper vertices take one light sample and one continuation.
+//
+// An environment (render/environment.h) is one more light: a light sample goes to it with
+// probability 1/2 when the scene also has emissive triangles (pbrt-v4's BVHLightSampler gives its
+// infinite lights the same share), else always; rays that leave the scene meet it and are
+// weighted against its light samples like rays that meet an emitter.
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <glm/vec3.hpp>
 
 #include "dofcache/core/rng.h"
+#include "dofcache/render/environment.h"
 #include "dofcache/render/light_sampler.h"
 #include "dofcache/render/triangle_sampling.h"
 #include "dofcache/scene/accel.h"
@@ -37,6 +44,8 @@ struct ShadingSettings {
   // At a camera hit, a rough dielectric lobe is evaluated with probability rate x its share of
   // the outgoing radiance (clamped to [1/16, 1]); 0 evaluates it on every ray.
   float rough_lobe_rate = 0.5f;
+  // Light from infinitely far away (null: none); shared, immutable.
+  std::shared_ptr<const Environment> environment;
 
   void validate() const;   // throws dofcache::Error on absurd values
 };
@@ -88,6 +97,9 @@ class Shader {
   static glm::vec3 diffuse_reflectance(const ShadingPoint& p);
   static bool has_diffuse(const ShadingPoint& p);
   glm::vec3 emitted(const ShadingPoint& p) const;
+  // What a camera ray that leaves the scene along `direction` sees: the environment if it is
+  // visible, else black.
+  glm::vec3 background(glm::vec3 direction) const;
 
   const ShadingSettings& settings() const { return settings_; }
   const LightSampler& light_sampler() const { return light_sampler_; }
@@ -95,7 +107,7 @@ class Shader {
   const scene::Accel& accel() const { return accel_; }
 
  private:
-  struct LightSample {  // a direction towards an emissive triangle
+  struct LightSample {  // a direction towards an emissive triangle or the environment
     glm::vec3 wi{0.0f};
     float distance = 0.0f;
     float pdf = 0.0f;  // solid angle, the choice of emitter included
@@ -153,6 +165,11 @@ class Shader {
   glm::vec3 continuation(const ShadingPoint& p, const scene::Ray& ray, const scene::Hit& hit,
                          float bsdf_density, float light_samples, PathDepth next, float survival,
                          Rng& rng, RayCounters& counters) const;
+  // Radiance of the environment along a ray that left the scene, weighted against
+  // `light_samples` light samples at its origin (bsdf_density as in continuation()).
+  glm::vec3 escaped(glm::vec3 direction, float bsdf_density, float light_samples) const;
+  // Whether light samples can be drawn (emissive triangles or an environment).
+  bool has_sampled_lights() const { return !scene_.emitters.empty() || environment_ != nullptr; }
   // Punctual lights' E/pi at p (one shadow ray each; they cannot be hit, so no MIS).
   glm::vec3 punctual_diffuse(const ShadingPoint& p, RayCounters& counters) const;
   bool sample_light(const ShadingPoint& p, float u_pick, glm::vec2 u, LightSample* s) const;
@@ -161,6 +178,8 @@ class Shader {
   // triangle `triangle` at distance `distance`.
   float light_pdf(const ShadingPoint& p, std::uint32_t triangle, glm::vec3 wi,
                   float distance) const;
+  // Solid-angle density with which sample_light picks the environment in direction `wi`.
+  float environment_pdf(glm::vec3 wi) const;
   // A ray leaving p along `direction` (p's own surface excluded).
   scene::Ray spawn(const ShadingPoint& p, glm::vec3 direction) const;
   bool visible(glm::vec3 from, glm::vec3 normal, glm::vec3 to_dir, float distance,
@@ -176,6 +195,8 @@ class Shader {
   ShadingSettings settings_;
   LightSampler light_sampler_;
   float epsilon_;  // ray offset, relative to the scene size
+  const Environment* environment_ = nullptr;  // settings_.environment
+  float environment_pick_ = 0.0f;  // probability that a light sample goes to the environment
 };
 
 }  // namespace dofcache::render
