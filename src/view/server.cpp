@@ -64,6 +64,7 @@ json status_json(const ViewStatus& s) {
           {"inputs_version", s.inputs_version},
           {"first_preview_ms", number_or_null(s.first_preview_ms)},
           {"last_refocus_ms", number_or_null(s.last_refocus_ms)},
+          {"refocus_warning", s.refocus_warning},
           {"reference",
            {{"spp", s.reference_spp},
             {"version", s.reference_version},

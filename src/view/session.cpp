@@ -1,5 +1,11 @@
 #include "dofcache/view/session.h"
 
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -41,6 +47,15 @@ int background_threads(int requested) {
   if (requested > 0) return requested;
   const int cores = static_cast<int>(std::thread::hardware_concurrency());
   return std::max(1, cores - 1);
+}
+
+// Lowers the calling thread's scheduling priority (Linux: nice is per thread). The background
+// renders run on the worker thread itself when they have one thread (two cores), so a click's
+// post-process on a server thread preempts them.
+void lower_thread_priority() {
+#ifdef __linux__
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
+#endif
 }
 
 }  // namespace
@@ -95,6 +110,7 @@ struct ViewSession::State {
   clock::time_point started;
   double first_preview_ms = -1;
   double last_refocus_ms = -1;
+  std::string refocus_warning;
   std::optional<ViewImage> last_preview;
   preview::PreviewWorkspace workspace;
 
@@ -164,6 +180,7 @@ void ViewSession::run_worker() {
         if (state_->stop) return;
       }
       render_inputs(stage);
+      if (stage == InputStage::Occlusion) lower_thread_priority();  // the rest is background
     }
     if (settings_.reference) refine_reference();
   } catch (const std::exception& e) {
@@ -281,6 +298,7 @@ ViewStatus ViewSession::status() const {
   s.inputs_version = st.inputs_version;
   s.first_preview_ms = st.first_preview_ms;
   s.last_refocus_ms = st.last_refocus_ms;
+  s.refocus_warning = st.refocus_warning;
   const bool current = st.reference && st.reference_lens_version == st.lens_version;
   s.reference_spp = current ? st.reference->reference_spp : 0;
   s.reference_version = st.reference_version;
@@ -370,6 +388,8 @@ std::optional<ViewImage> ViewSession::preview() {
 
   std::lock_guard<std::mutex> lock(mutex_);
   state_->last_refocus_ms = result.refocus_ms;
+  state_->refocus_warning =
+      method == preview::PreviewMethod::LayeredOcclusion ? in.warning : std::string();
   state_->last_preview = result;
   state_->last_preview_method_version = method_version;
   return result;

@@ -42,7 +42,7 @@ struct ViewSettings {
   int threads = 0;     // 0: all cores
   std::uint64_t seed = 1;
   render::ShadingSettings shading;  // the refined inputs' and the reference's shading
-  int input_spp = 16;               // pinhole samples per pixel of the refined inputs
+  int input_spp = 4;                // pinhole samples per pixel of the refined inputs
   bool reference = true;            // run the background reference at all
   int reference_pass_spp = 4;       // lens samples per pixel added by each reference pass
   int reference_max_spp = 1024;     // the reference stops refining here
@@ -64,6 +64,10 @@ struct ViewStatus {
   std::uint64_t inputs_version = 0;   // raised whenever new inputs replace the old
   double first_preview_ms = -1;       // session start to the first inputs (-1: not yet)
   double last_refocus_ms = -1;        // the last post-process (refocus and render_preview)
+  // Non-empty when the last occlusion-fixed preview's lens needs hidden surfaces the saved
+  // revealed layers do not cover (preview::RefocusedInputs::warning): the fix is then partial
+  // until the next inputs, rendered for the current lens, arrive.
+  std::string refocus_warning;
   int reference_spp = 0;              // lens samples per pixel accumulated for the current lens
   std::uint64_t reference_version = 0;  // raised by every accumulated pass and every restart
   double reference_seconds = 0;       // rendering time spent on the current reference

@@ -125,7 +125,8 @@ async function main() {
 
     // A near and a far object: flat regions at the smallest and largest depth.
     const w = status.width, h = status.height;
-    const points = await flatPoints(page, w, h, 12);
+    const grid = Math.max(12, Math.round(w / 27));  // about 500 probes at any size
+    const points = await flatPoints(page, w, h, grid);
     check(points.length >= 2, `found ${points.length} flat regions to click`);
     points.sort((a, b) => a.z - b.z);
     const near = points[0], far = points[points.length - 1];
@@ -138,7 +139,7 @@ async function main() {
       await waitForChange(page, before);
       return page.evaluate(() => window.dofcacheView.lens);
     };
-    const r = 6;
+    const r = Math.round(grid / 2);
     // Wait for the refined inputs, so the noise level does not change between the two clicks.
     await page.waitForFunction(() => window.dofcacheView.status &&
                                window.dofcacheView.status.stage === "refined" &&
