@@ -182,6 +182,13 @@ httplib::Server::HandlerResponse ViewServer::Impl::check_token(const httplib::Re
 }
 
 void ViewServer::Impl::configure() {
+  // The library's default also sets SO_REUSEPORT, which lets a second process bind the same port
+  // and take some of the connections (and with them the token): SO_REUSEADDR only, so a port in
+  // use is an error.
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   server.set_payload_max_length(kMaxRequestBody);
   server.set_read_timeout(5, 0);
   server.set_write_timeout(5, 0);

@@ -17,6 +17,7 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
+#include "dofcache/core/error.h"
 #include "dofcache/view/server.h"
 #include "dofcache/view/session.h"
 #include "render/test_scenes.h"
@@ -149,6 +150,15 @@ TEST_F(ViewServerTest, TokensAreRandomAndTheServerListensOnLoopbackOnly) {
   EXPECT_EQ(server->url().rfind("http://127.0.0.1:", 0), 0u);
   // The port answers on 127.0.0.1; the server has no way to bind another address.
   EXPECT_GT(server->port(), 0);
+  // A port in use is refused, not shared (no SO_REUSEPORT).
+  ViewSession other(two_planes(), wide_open(), small_settings(false));
+  try {
+    ViewServer second(other, ServerSettings{server->port(), ""});
+    ADD_FAILURE() << "a second server bound port " << server->port();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot bind"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(alive());
 }
 
 TEST_F(ViewServerTest, MalformedRequestsAreRefusedAndTheServerKeepsServing) {
@@ -186,6 +196,21 @@ TEST_F(ViewServerTest, MalformedRequestsAreRefusedAndTheServerKeepsServing) {
   send_raw(server->port(), "");
   send_raw(server->port(), "POST /api/lens HTTP/1.1\r\nContent-Length: 1000000000\r\n\r\n{");
   EXPECT_TRUE(alive());
+}
+
+// Clients that ask for an image and hang up before (or while) it is sent: the server's writes
+// fail (no SIGPIPE kills the process) and it keeps serving.
+TEST_F(ViewServerTest, ClientsThatDisconnectMidStreamLeaveTheServerRunning) {
+  const std::string request = "GET /api/image?kind=preview&format=png HTTP/1.1\r\n"
+                              "Host: 127.0.0.1\r\nX-Dofcache-Token: " + server->token() +
+                              "\r\n\r\n";
+  for (int i = 0; i < 20; ++i) send_raw(server->port(), request);
+  // Keep-alive connections with several requests queued, closed at once.
+  for (int i = 0; i < 5; ++i) send_raw(server->port(), request + request + request);
+  EXPECT_TRUE(alive());
+  auto png = client->Get("/api/image?kind=preview&format=png", auth());
+  ASSERT_TRUE(png);
+  EXPECT_EQ(png->status, 200);
 }
 
 TEST_F(ViewServerTest, AFloodOfRequestsLeavesTheServerRunning) {
