@@ -16,6 +16,7 @@ Runner add_compare_command(CLI::App& app);
 Runner add_sequence_command(CLI::App& app);
 Runner add_refocus_command(CLI::App& app);
 Runner add_farm_command(CLI::App& app);
+Runner add_view_command(CLI::App& app);
 
 // Writes `json` (pretty) to `path` atomically.
 void write_json_file(const std::string& path, const nlohmann::json& json);

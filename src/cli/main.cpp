@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
   add(cli::add_sequence_command);
   add(cli::add_refocus_command);
   add(cli::add_farm_command);
+  add(cli::add_view_command);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -2,6 +2,7 @@
 // every write atomic (temporary file in the target's directory, then rename).
 #include "dofcache/image/image_io.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -162,16 +163,22 @@ void write_exr(const std::string& path, const Image& color,
   });
 }
 
-void write_png(const std::string& path, const Image& color) {
+// 8-bit sRGB values of linear RGB `color`, and their spec.
+std::vector<unsigned char> srgb_bytes(const Image& color, ImageSpec& spec) {
   std::vector<unsigned char> pixels(color.pixel_count() * 3);
   const std::vector<float>& src = color.data();
   for (size_t i = 0; i < pixels.size(); ++i) {
     float v = linear_to_srgb(src[i]);  // clamps to [0,1]; NaN -> 0
     pixels[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
   }
-  ImageSpec spec(color.width(), color.height(), 3, TypeDesc::UINT8);
+  spec = ImageSpec(color.width(), color.height(), 3, TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
+  return pixels;
+}
 
+void write_png(const std::string& path, const Image& color) {
+  ImageSpec spec;
+  const std::vector<unsigned char> pixels = srgb_bytes(color, spec);
   write_atomically(path, [&](const std::string& tmp) {
     auto out = create_output(tmp, path);
     if (!out->open(tmp, spec) || !out->write_image(TypeDesc::UINT8, pixels.data()))
@@ -493,6 +500,19 @@ std::vector<ExrPart> read_multipart_exr(const std::string& path, std::uint64_t m
   }
   if (parts.empty()) fail_read(path, "no image parts");
   return parts;
+}
+
+std::vector<unsigned char> encode_png(const Image& color) {
+  ImageSpec spec;
+  const std::vector<unsigned char> pixels = srgb_bytes(color, spec);
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput memory(bytes);
+  auto out = ImageOutput::create("png");
+  if (!out || !out->set_ioproxy(&memory) || !out->open("memory.png", spec) ||
+      !out->write_image(TypeDesc::UINT8, pixels.data()) || !out->close())
+    throw Error(std::string("cannot encode a PNG image: ") +
+                (out ? out->geterror() : OIIO::geterror()));
+  return bytes;
 }
 
 }  // namespace dofcache::image

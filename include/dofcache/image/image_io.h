@@ -25,6 +25,10 @@ struct NamedChannels {
 void write_image(const std::string& path, const Image& color,
                  const std::vector<NamedChannels>& extra = {});
 
+// `color` (RGB linear) as the bytes of an 8-bit sRGB PNG file, in memory (what write_image
+// writes for .png), e.g. for an HTTP response. Throws dofcache::Error if encoding fails.
+std::vector<unsigned char> encode_png(const Image& color);
+
 // Throws the error write_image would give for an unsupported extension or a missing directory,
 // so callers can refuse a bad output path before spending time on a render.
 void check_output_path(const std::string& path);

@@ -1,0 +1,151 @@
+#pragma once
+// The state behind `dofcache view`: one scene and camera, the current lens, the saved preview
+// inputs and the reference refined in the background (docs/view.md).
+//
+// A background worker renders, in order:
+//   1. draft     the pinhole inputs at 1 sample per pixel, direct light only, no revealed layers:
+//                the first preview (Kraus & Strengert) as soon as possible;
+//   2. occlusion the pinhole render at 1 sample per pixel with a little indirect light, and the
+//                near-plane renders and revealed layers, so the occlusion fix applies;
+//   3. refined   the inputs at ViewSettings::input_spp with full shading;
+//   4. reference distributed ray tracing with the radiance cache, in passes of
+//                ViewSettings::reference_pass_spp lens samples, accumulated, up to
+//                reference_max_spp. A lens change restarts it with an empty cache (the pass in
+//                flight finishes and is discarded).
+// Every preview is the post-process rerun on the latest inputs for the current lens
+// (preview::refocus_inputs, preview::render_preview): the inputs do not depend on the lens.
+//
+// Thread safety: every public method may be called from any thread at any time.
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "dofcache/image/image.h"
+#include "dofcache/image/metrics.h"
+#include "dofcache/lens/thin_lens.h"
+#include "dofcache/preview/options.h"
+#include "dofcache/preview/preview.h"
+#include "dofcache/render/setup.h"
+#include "dofcache/render/shading.h"
+#include "dofcache/scene/scene.h"
+
+namespace dofcache::view {
+
+struct ViewSettings {
+  int width = 640;
+  int height = 0;  // 0: from the camera's aspect ratio
+  std::string camera;  // empty: the scene's first camera
+  int threads = 0;     // 0: all cores
+  std::uint64_t seed = 1;
+  render::ShadingSettings shading;  // the refined inputs' and the reference's shading
+  int input_spp = 4;                // pinhole samples per pixel of the refined inputs
+  bool reference = true;            // run the background reference at all
+  int reference_pass_spp = 4;       // lens samples per pixel added by each reference pass
+  int reference_max_spp = 1024;     // the reference stops refining here
+  std::string cache = "vdb";        // the reference's radiance cache backend
+
+  void validate() const;  // throws dofcache::Error on absurd values
+};
+
+// The inputs' quality so far.
+enum class InputStage { None, Draft, Occlusion, Refined };
+const char* input_stage_name(InputStage stage);
+
+struct ViewStatus {
+  int width = 0, height = 0;
+  lens::ThinLens lens;
+  preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
+  std::uint64_t lens_version = 0;     // raised by every lens change (the reference restarts)
+  InputStage stage = InputStage::None;
+  std::uint64_t inputs_version = 0;   // raised whenever new inputs replace the old
+  double first_preview_ms = -1;       // session start to the first inputs (-1: not yet)
+  double last_refocus_ms = -1;        // the last post-process (refocus and render_preview)
+  // Non-empty when the last occlusion-fixed preview's lens needs hidden surfaces the saved
+  // revealed layers do not cover (preview::RefocusedInputs::warning): the fix is then partial
+  // until the next inputs, rendered for the current lens, arrive.
+  std::string refocus_warning;
+  int reference_spp = 0;              // lens samples per pixel accumulated for the current lens
+  std::uint64_t reference_version = 0;  // raised by every accumulated pass and every restart
+  double reference_seconds = 0;       // rendering time spent on the current reference
+  bool reference_done = false;
+  std::string error;                  // a background render's failure, if any
+};
+
+// A rendered image with the state it was made for.
+struct ViewImage {
+  image::Image color;  // RGB linear
+  std::uint64_t lens_version = 0;
+  std::uint64_t inputs_version = 0;
+  double refocus_ms = 0;  // preview: the post-process time (0 when served from the last result)
+  int reference_spp = 0;  // reference: its lens samples per pixel
+};
+
+class ViewSession {
+ public:
+  // Takes the scene; the initial lens is resolved from `lens` and the camera as for `render`
+  // (render::resolve_lens). Throws dofcache::Error on invalid settings, an unknown camera or an
+  // absurd lens. Nothing is rendered until start().
+  ViewSession(scene::Scene scene, const render::LensOverrides& lens, const ViewSettings& settings);
+  ~ViewSession();  // stops the worker (waiting for the render in flight)
+  ViewSession(const ViewSession&) = delete;
+  ViewSession& operator=(const ViewSession&) = delete;
+
+  void start();  // launches the background worker
+  void stop();   // asks it to stop and joins it
+
+  // Waits until the first inputs exist (true) or `seconds` pass (false).
+  bool wait_for_inputs(double seconds);
+  // Waits until the inputs reach `stage` (true) or `seconds` pass (false).
+  bool wait_for_stage(InputStage stage, double seconds);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  ViewStatus status() const;
+  lens::ThinLens lens() const;
+
+  // Validates and applies a lens; restarts the reference if it changed.
+  void set_lens(const lens::ThinLens& lens);
+  void set_method(preview::PreviewMethod method);
+  // Focuses at pixel (x, y): the focus distance becomes the camera-space depth the pinhole inputs
+  // see there. Returns the new lens. Throws dofcache::Error if there are no inputs yet, the pixel
+  // is outside the image, nothing is seen there, or it is nearer than the focal length allows.
+  lens::ThinLens focus_at(int x, int y);
+  // The camera-space depth the pinhole inputs see at pixel (x, y) (+inf: nothing). Throws like
+  // focus_at if there are no inputs or the pixel is outside the image.
+  double depth_at(int x, int y) const;
+
+  // The preview for the current lens and method (computed on demand, the last one reused while
+  // nothing changed); nullopt before the first inputs.
+  std::optional<ViewImage> preview();
+  // The pinhole colour of the latest inputs; nullopt before the first inputs.
+  std::optional<ViewImage> pinhole() const;
+  // The reference accumulated so far for the current lens; nullopt before its first pass.
+  std::optional<ViewImage> reference() const;
+  // Preview against reference (image::compare); nullopt until both exist for the current lens.
+  std::optional<image::ErrorMetrics> compare();
+
+ private:
+  struct State;
+  void run_worker();
+  void render_inputs(InputStage stage);
+  void refine_reference();
+
+  std::unique_ptr<scene::Scene> scene_;
+  struct Render;
+  std::unique_ptr<Render> render_;  // accel and camera
+  ViewSettings settings_;
+  int width_ = 0, height_ = 0;
+  preview::PreviewOptions options_;
+
+  mutable std::mutex mutex_;  // guards state_
+  std::condition_variable changed_;
+  std::unique_ptr<State> state_;
+  std::mutex refocus_mutex_;  // one post-process at a time (it uses the whole machine)
+  std::thread worker_;
+};
+
+}  // namespace dofcache::view

@@ -1,0 +1,149 @@
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "common_options.h"
+#include "dofcache/core/error.h"
+#include "dofcache/render/setup.h"
+#include "dofcache/view/server.h"
+#include "dofcache/view/session.h"
+
+extern char** environ;
+
+namespace dofcache::cli {
+namespace {
+
+struct ViewOptions {
+  std::string scene_path, camera;
+  int scene_index = -1, width = 640, height = 0, port = 0;
+  scene::LoadLimits limits;
+  std::optional<double> fstop, focal_length, focus_distance;
+  view::ViewSettings settings;
+  bool open = false, no_reference = false;
+};
+
+// A program that opens URLs in the user's browser: $BROWSER, else xdg-open (Linux) or open
+// (macOS) if on the PATH. Empty if none is known.
+std::string browser_command() {
+  if (const char* b = std::getenv("BROWSER"); b && *b) return b;
+  const char* path = std::getenv("PATH");
+  if (!path) return "";
+  for (const char* name : {"xdg-open", "open"}) {
+    std::string dirs = path;
+    std::size_t start = 0;
+    while (start <= dirs.size()) {
+      std::size_t end = dirs.find(':', start);
+      if (end == std::string::npos) end = dirs.size();
+      std::filesystem::path candidate = std::filesystem::path(dirs.substr(start, end - start)) / name;
+      if (access(candidate.c_str(), X_OK) == 0) return candidate.string();
+      start = end + 1;
+    }
+  }
+  return "";
+}
+
+// Starts `program url` without a shell (so nothing in either is interpreted); false if it could
+// not be started.
+bool open_in_browser(const std::string& program, const std::string& url) {
+  std::vector<char*> argv = {const_cast<char*>(program.c_str()), const_cast<char*>(url.c_str()),
+                             nullptr};
+  pid_t pid = 0;
+  return posix_spawnp(&pid, program.c_str(), nullptr, nullptr, argv.data(), environ) == 0;
+}
+
+int run_view(ViewOptions& o) {
+  // SIGINT and SIGTERM are taken by sigwait below; block them before any thread starts so that
+  // every thread inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  scene::Scene scene = render::load_scene(o.scene_path, o.scene_index, o.limits);
+  for (const std::string& w : scene.warnings)
+    std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
+  o.settings.width = o.width;
+  o.settings.height = o.height;
+  o.settings.camera = o.camera;
+  o.settings.reference = !o.no_reference;
+  const std::string source = scene.source;
+  view::ViewSession session(std::move(scene), {o.focal_length, o.fstop, o.focus_distance},
+                            o.settings);
+  view::ViewServer server(session, view::ServerSettings{o.port, ""});
+  session.start();
+  server.start();
+  std::printf("scene   %s, %dx%d\n", source.c_str(), session.width(), session.height());
+  std::printf("view    %s\n", server.url().c_str());
+  std::printf("        (the address holds the access token; Ctrl-C stops the server)\n");
+  std::fflush(stdout);
+  if (o.open) {
+    const std::string browser = browser_command();
+    if (browser.empty() || !open_in_browser(browser, server.url()))
+      std::fprintf(stderr, "dofcache: warning: no browser is known here (set BROWSER); open the "
+                           "address above\n");
+  }
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  server.stop();
+  std::printf("stopped\n");
+  std::fflush(stdout);
+  // The session holds nothing but memory: rather than wait for the background render in flight
+  // (a reference pass can take many seconds), end the process now.
+  std::_Exit(0);
+}
+
+}  // namespace
+
+Runner add_view_command(CLI::App& app) {
+  auto o = std::make_shared<ViewOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "view",
+      "Look at a scene in the browser: a local web server shows the depth-of-field preview, "
+      "refocused where you click, and refines the reference (distributed ray tracing with the "
+      "radiance cache) in the background. Listens on 127.0.0.1 only; the printed address holds a "
+      "random access token. See docs/view.md.");
+  add_scene_options(cmd, o->scene_path, o->camera, o->scene_index, o->limits);
+  add_size_options(cmd, o->width, o->height);
+  cmd->add_option("--port", o->port, "TCP port on 127.0.0.1 (0: any free port)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 65535));
+  cmd->add_flag("--open", o->open, "Also open the address in the browser ($BROWSER or xdg-open)");
+  add_lens_options(cmd, o->fstop, o->focal_length, o->focus_distance,
+                   "the camera's extras.lens");
+  add_seed_and_threads(cmd, o->settings.seed, o->settings.threads,
+                       "Random seed of the inputs and the reference");
+  add_shading_options(cmd, o->settings.shading);
+  cmd->add_option("--input-spp", o->settings.input_spp,
+                  "Pinhole samples per pixel of the refined preview inputs (the first inputs "
+                  "take 1, with cheaper shading)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  cmd->add_option("--reference-pass-spp", o->settings.reference_pass_spp,
+                  "Lens samples per pixel added by each pass of the background reference")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  cmd->add_option("--reference-max-spp", o->settings.reference_max_spp,
+                  "The reference stops refining at this many lens samples per pixel")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 20));
+  cmd->add_option("--cache", o->settings.cache,
+                  "The reference's radiance cache: none, octree or vdb")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"none", "octree", "vdb"}));
+  cmd->add_flag("--no-reference", o->no_reference,
+                "Do not render the reference in the background (preview only)");
+  return [o] { return run_view(*o); };
+}
+
+}  // namespace dofcache::cli

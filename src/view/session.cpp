@@ -1,0 +1,420 @@
+#include "dofcache/view/session.h"
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <utility>
+
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/core/error.h"
+#include "dofcache/preview/preview_renderer.h"
+#include "dofcache/preview/refocus.h"
+#include "dofcache/render/renderer.h"
+#include "dofcache/render/setup.h"
+#include "dofcache/scene/accel.h"
+
+namespace dofcache::view {
+namespace {
+
+using clock = std::chrono::steady_clock;
+
+double ms_since(clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+}
+
+// The first inputs are rendered for speed: one pinhole sample per pixel and direct light only
+// (one light sample, mirror reflections one level deep). The occlusion stage adds two gather rays
+// of indirect light. Measured in docs/view.md.
+render::ShadingSettings draft_shading(const render::ShadingSettings& full, InputStage stage) {
+  render::ShadingSettings s = full;
+  s.light_samples = std::min(full.light_samples, 1);
+  s.gather_rays = stage == InputStage::Draft ? 0 : std::min(full.gather_rays, 2);
+  s.bounces = stage == InputStage::Draft ? 0 : std::min(full.bounces, 1);
+  s.specular_depth = std::min(full.specular_depth, 1);
+  return s;
+}
+
+// Background work (the refined inputs, the reference) leaves one core to the post-process, so a
+// click is answered while they run.
+int background_threads(int requested) {
+  if (requested > 0) return requested;
+  const int cores = static_cast<int>(std::thread::hardware_concurrency());
+  return std::max(1, cores - 1);
+}
+
+// Lowers the calling thread's scheduling priority (Linux: nice is per thread). The background
+// renders run on the worker thread itself when they have one thread (two cores), so a click's
+// post-process on a server thread preempts them.
+void lower_thread_priority() {
+#ifdef __linux__
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
+#endif
+}
+
+}  // namespace
+
+const char* input_stage_name(InputStage stage) {
+  switch (stage) {
+    case InputStage::None: return "none";
+    case InputStage::Draft: return "draft";
+    case InputStage::Occlusion: return "occlusion";
+    case InputStage::Refined: return "refined";
+  }
+  return "none";
+}
+
+void ViewSettings::validate() const {
+  if (width < 16 || width > 8192) throw Error("view: width must be in [16, 8192]");
+  if (height != 0 && (height < 16 || height > 8192))
+    throw Error("view: height must be in [16, 8192] (or 0: from the camera)");
+  if (threads < 0) throw Error("view: threads must be >= 0");
+  if (input_spp < 1 || input_spp > 4096) throw Error("view: input spp must be in [1, 4096]");
+  if (reference_pass_spp < 1 || reference_pass_spp > 4096)
+    throw Error("view: reference pass spp must be in [1, 4096]");
+  if (reference_max_spp < reference_pass_spp)
+    throw Error("view: reference max spp must be at least the pass spp");
+  cache::check_radiance_cache_backend(cache, true);
+  shading.validate();
+}
+
+struct ViewSession::Render {
+  explicit Render(const scene::Scene& scene, const std::string& camera_name)
+      : accel(scene), camera(scene.camera_or_first(camera_name)) {}
+  scene::Accel accel;
+  scene::Camera camera;
+};
+
+// The pinhole inputs: what refocus_inputs needs.
+struct SavedInputs {
+  preview::PreviewInputs inputs;
+  preview::RevealedCoverage coverage;
+};
+
+struct ViewSession::State {
+  lens::ThinLens lens;
+  preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
+  std::uint64_t lens_version = 1;    // the reference restarts when it changes
+  std::uint64_t method_version = 0;  // the preview only is recomputed when it changes
+  std::uint64_t last_preview_method_version = 0;
+
+  std::shared_ptr<const SavedInputs> inputs;
+  InputStage stage = InputStage::None;
+  std::uint64_t inputs_version = 0;
+  clock::time_point started;
+  double first_preview_ms = -1;
+  double last_refocus_ms = -1;
+  std::string refocus_warning;
+  std::optional<ViewImage> last_preview;
+  preview::PreviewWorkspace workspace;
+
+  std::optional<ViewImage> reference;  // for reference_lens_version
+  std::uint64_t reference_lens_version = 0;
+  std::uint64_t reference_version = 0;
+  double reference_seconds = 0;
+  bool reference_done = false;
+
+  std::string error;
+  bool stop = false;
+};
+
+ViewSession::ViewSession(scene::Scene scene, const render::LensOverrides& lens,
+                         const ViewSettings& settings)
+    : scene_(std::make_unique<scene::Scene>(std::move(scene))),
+      settings_(settings),
+      state_(std::make_unique<State>()) {
+  settings_.validate();
+  render_ = std::make_unique<Render>(*scene_, settings_.camera);
+  state_->lens = render::resolve_lens(*scene_, render_->accel, render_->camera, lens).lens;
+  state_->lens.validate();
+  width_ = settings_.width;
+  height_ = settings_.height > 0 ? settings_.height
+                                 : render::height_for_width(render_->camera, settings_.width);
+  options_.threads = settings_.threads;
+  state_->started = clock::now();
+}
+
+ViewSession::~ViewSession() { stop(); }
+
+void ViewSession::start() {
+  if (worker_.joinable()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_->started = clock::now();
+    state_->stop = false;
+  }
+  worker_ = std::thread([this] { run_worker(); });
+}
+
+void ViewSession::stop() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_->stop = true;
+  }
+  changed_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+bool ViewSession::wait_for_inputs(double seconds) {
+  return wait_for_stage(InputStage::Draft, seconds);
+}
+
+bool ViewSession::wait_for_stage(InputStage stage, double seconds) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return changed_.wait_for(lock, std::chrono::duration<double>(seconds), [&] {
+    return static_cast<int>(state_->stage) >= static_cast<int>(stage) || !state_->error.empty();
+  }) && static_cast<int>(state_->stage) >= static_cast<int>(stage);
+}
+
+void ViewSession::run_worker() {
+  try {
+    for (InputStage stage : {InputStage::Draft, InputStage::Occlusion, InputStage::Refined}) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (state_->stop) return;
+      }
+      render_inputs(stage);
+      if (stage == InputStage::Occlusion) lower_thread_priority();  // the rest is background
+    }
+    if (settings_.reference) refine_reference();
+  } catch (const std::exception& e) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_->error = e.what();
+    changed_.notify_all();
+  }
+}
+
+void ViewSession::render_inputs(InputStage stage) {
+  render::RenderSettings s;
+  s.width = width_;
+  s.height = height_;
+  s.mode = render::Mode::Pinhole;
+  s.seed = settings_.seed;
+  s.progress = Progress::Display::Never;
+  const bool draft = stage != InputStage::Refined;
+  s.spp = draft ? 1 : settings_.input_spp;
+  s.shading = draft ? draft_shading(settings_.shading, stage) : settings_.shading;
+  // The user waits for the draft stages: they take every core.
+  s.threads = draft ? settings_.threads : background_threads(settings_.threads);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    s.lens = state_->lens;  // the occlusion fix's layers are planned for the lens of the moment
+  }
+  const preview::PreviewMethod method = stage == InputStage::Draft
+                                            ? preview::PreviewMethod::Layered
+                                            : preview::PreviewMethod::LayeredOcclusion;
+  preview::ScenePreview p =
+      preview::render_scene_preview(*scene_, render_->accel, render_->camera, s, method, options_);
+  auto saved = std::make_shared<SavedInputs>(SavedInputs{std::move(p.inputs), p.coverage});
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  state_->inputs = std::move(saved);
+  state_->stage = stage;
+  ++state_->inputs_version;
+  if (state_->first_preview_ms < 0) state_->first_preview_ms = ms_since(state_->started);
+  changed_.notify_all();
+}
+
+void ViewSession::refine_reference() {
+  std::unique_ptr<cache::RadianceCache> radiance_cache;
+  image::Image sum;
+  int spp = 0;
+  std::uint64_t pass = 0, lens_version = 0;
+  lens::ThinLens lens;
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      // Converged: sleep until the lens changes.
+      changed_.wait(lock, [&] {
+        return state_->stop || state_->lens_version != lens_version ||
+               spp < settings_.reference_max_spp;
+      });
+      if (state_->stop) return;
+      if (state_->lens_version != lens_version) {  // (re)start for the current lens
+        lens_version = state_->lens_version;
+        lens = state_->lens;
+        spp = 0;
+        sum = image::Image();
+        radiance_cache = cache::make_radiance_cache(settings_.cache);
+        state_->reference.reset();
+        state_->reference_lens_version = lens_version;
+        state_->reference_seconds = 0;
+        state_->reference_done = false;
+        ++state_->reference_version;
+      }
+    }
+    render::RenderSettings s;
+    s.width = width_;
+    s.height = height_;
+    s.mode = render::Mode::Drt;
+    s.spp = settings_.reference_pass_spp;
+    s.seed = settings_.seed + 7919 * ++pass;  // each pass its own samples
+    s.threads = background_threads(settings_.threads);
+    s.shading = settings_.shading;
+    s.lens = lens;
+    s.progress = Progress::Display::Never;
+    s.cache.cache = radiance_cache.get();
+    s.cache.min_factor = 1.0;  // as `render` uses for single images
+    // The cache outlives the passes, so its samples are shaded for the total, not one pass.
+    s.cache.sample_quality = render::recommended_sample_quality(64);
+    const auto t0 = clock::now();
+    render::RenderOutput out = render::render(*scene_, render_->accel, render_->camera, s);
+    const double seconds = ms_since(t0) * 1e-3;
+
+    if (sum.empty()) sum = image::Image(out.color.width(), out.color.height(), 3, 0.0f);
+    std::vector<float>& acc = sum.data();
+    const std::vector<float>& add = out.color.data();
+    for (std::size_t i = 0; i < acc.size(); ++i) acc[i] += add[i] * float(s.spp);
+    spp += s.spp;
+    image::Image mean(sum.width(), sum.height(), 3);
+    for (std::size_t i = 0; i < acc.size(); ++i) mean.data()[i] = acc[i] / float(spp);
+
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (state_->lens_version != lens_version) continue;  // the lens changed meanwhile: discard
+    state_->reference = ViewImage{std::move(mean), lens_version, 0, 0, spp};
+    state_->reference_seconds += seconds;
+    state_->reference_done = spp >= settings_.reference_max_spp;
+    ++state_->reference_version;
+    changed_.notify_all();
+  }
+}
+
+ViewStatus ViewSession::status() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const State& st = *state_;
+  ViewStatus s;
+  s.width = width_;
+  s.height = height_;
+  s.lens = st.lens;
+  s.method = st.method;
+  s.lens_version = st.lens_version;
+  s.stage = st.stage;
+  s.inputs_version = st.inputs_version;
+  s.first_preview_ms = st.first_preview_ms;
+  s.last_refocus_ms = st.last_refocus_ms;
+  s.refocus_warning = st.refocus_warning;
+  const bool current = st.reference && st.reference_lens_version == st.lens_version;
+  s.reference_spp = current ? st.reference->reference_spp : 0;
+  s.reference_version = st.reference_version;
+  s.reference_seconds = current ? st.reference_seconds : 0;
+  s.reference_done = current && st.reference_done;
+  s.error = st.error;
+  return s;
+}
+
+lens::ThinLens ViewSession::lens() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return state_->lens;
+}
+
+void ViewSession::set_lens(const lens::ThinLens& lens) {
+  lens.validate();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    State& st = *state_;
+    if (st.lens.focal_length == lens.focal_length && st.lens.fstop == lens.fstop &&
+        st.lens.focus_distance == lens.focus_distance)
+      return;
+    st.lens = lens;
+    ++st.lens_version;
+  }
+  changed_.notify_all();
+}
+
+void ViewSession::set_method(preview::PreviewMethod method) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (state_->method == method) return;
+  state_->method = method;
+  ++state_->method_version;
+}
+
+double ViewSession::depth_at(int x, int y) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!state_->inputs) throw Error("no pinhole inputs yet");
+  const image::Image& depth = state_->inputs->inputs.depth;
+  if (x < 0 || y < 0 || x >= depth.width() || y >= depth.height())
+    throw Error("pixel (" + std::to_string(x) + ", " + std::to_string(y) + ") is outside the " +
+                std::to_string(depth.width()) + "x" + std::to_string(depth.height()) + " image");
+  return depth.at(x, y, 0);
+}
+
+lens::ThinLens ViewSession::focus_at(int x, int y) {
+  const double d = depth_at(x, y);
+  if (!std::isfinite(d))
+    throw Error("focus: nothing is seen at pixel (" + std::to_string(x) + ", " +
+                std::to_string(y) + ")");
+  lens::ThinLens lens = this->lens();
+  lens.focus_distance = d;
+  set_lens(lens);  // validate() refuses a surface nearer than the focal length
+  return lens;
+}
+
+std::optional<ViewImage> ViewSession::preview() {
+  std::lock_guard<std::mutex> one_at_a_time(refocus_mutex_);
+  std::shared_ptr<const SavedInputs> inputs;
+  lens::ThinLens lens;
+  preview::PreviewMethod method;
+  std::uint64_t lens_version, method_version, inputs_version;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const State& st = *state_;
+    if (!st.inputs) return std::nullopt;
+    if (st.last_preview && st.last_preview->lens_version == st.lens_version &&
+        st.last_preview_method_version == st.method_version &&
+        st.last_preview->inputs_version == st.inputs_version) {
+      ViewImage reused = *st.last_preview;
+      reused.refocus_ms = 0;
+      return reused;
+    }
+    inputs = st.inputs;
+    lens = st.lens;
+    method = st.method;
+    lens_version = st.lens_version;
+    method_version = st.method_version;
+    inputs_version = st.inputs_version;
+  }
+  const auto t0 = clock::now();
+  preview::RefocusedInputs in =
+      preview::refocus_inputs(inputs->inputs, inputs->coverage, lens, options_);
+  // state_->workspace is used only here, under refocus_mutex_.
+  image::Image color = preview::render_preview(in.inputs, method, options_, state_->workspace);
+  ViewImage result{std::move(color), lens_version, inputs_version, ms_since(t0), 0};
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  state_->last_refocus_ms = result.refocus_ms;
+  state_->refocus_warning =
+      method == preview::PreviewMethod::LayeredOcclusion ? in.warning : std::string();
+  state_->last_preview = result;
+  state_->last_preview_method_version = method_version;
+  return result;
+}
+
+std::optional<ViewImage> ViewSession::pinhole() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!state_->inputs) return std::nullopt;
+  return ViewImage{state_->inputs->inputs.color, state_->lens_version, state_->inputs_version, 0,
+                   0};
+}
+
+std::optional<ViewImage> ViewSession::reference() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const State& st = *state_;
+  if (!st.reference || st.reference_lens_version != st.lens_version) return std::nullopt;
+  return st.reference;
+}
+
+std::optional<image::ErrorMetrics> ViewSession::compare() {
+  std::optional<ViewImage> ref = reference();
+  if (!ref) return std::nullopt;
+  std::optional<ViewImage> pre = preview();
+  if (!pre || pre->lens_version != ref->lens_version) return std::nullopt;
+  return image::compare(pre->color, ref->color);
+}
+
+}  // namespace dofcache::view
