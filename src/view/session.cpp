@@ -260,9 +260,9 @@ void ViewSession::refine_reference() {
     s.lens = lens;
     s.progress = Progress::Display::Never;
     s.cache.cache = radiance_cache.get();
-    s.cache.min_factor = 1.0;  // as `render` uses for single images
+    s.cache.radius.min_factor = cache::kSingleImageMinFactor;  // as `render` uses
     // The cache outlives the passes, so its samples are shaded for the total, not one pass.
-    s.cache.sample_quality = render::recommended_sample_quality(64);
+    s.cache.sample_quality = render::recommended_sample_quality(64, s.shading.gather_rays);
     const auto t0 = clock::now();
     render::RenderOutput out = render::render(*scene_, render_->accel, render_->camera, s);
     const double seconds = ms_since(t0) * 1e-3;
