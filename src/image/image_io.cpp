@@ -187,10 +187,13 @@ struct OpenedInput {
 };
 
 // OpenEXR sizes what it allocates for a header from the header itself: an attribute's declared
-// size (a 2.7 KB file declaring a 1.9 GB string made it allocate and fill 1.9 GB) and the data
-// window (its line offset table). So the headers of an EXR are walked first, every attribute
-// checked against the bytes the file has, every data window against `max_values` and every
-// channel's pixel type.
+// size (a 2.7 KB file declaring a 1.9 GB string made it allocate and fill 1.9 GB), the data
+// window (its line offset table) and, for its decompressor, a block of scanlines (or a tile) of
+// every channel: a 2.7 KB file of one 2-million-pixel scanline of 6 channels, ZIP-compressed (16
+// lines a block), made it allocate 805 MB. So the headers of an EXR are walked first, every
+// attribute checked against the bytes the file has, every channel's pixel type, and each part's
+// values (pixels, or the pixels of a compression block or tile if more, times channels) against
+// `max_values`.
 void check_exr_headers(const std::string& path, std::uint64_t max_values) {
   std::error_code ec;
   const std::uint64_t file_size = fs::file_size(path, ec);
@@ -208,6 +211,9 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
   };
   for (int part = 0;; ++part) {
     if (part > 0 && in.peek() == 0) break;  // the end of a multi-part file's headers
+    std::int64_t w = 0, h = 0, tile_w = 0, tile_h = 0;
+    std::uint64_t channels = 0;
+    int compression = 0;
     for (std::string attribute = name(); !attribute.empty(); attribute = name()) {
       const std::string type = name();
       std::int32_t size;
@@ -219,18 +225,23 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
       if (attribute == "dataWindow" && size == 16) {
         std::int32_t box[4];
         in.read(reinterpret_cast<char*>(box), 16);
-        const std::int64_t w = std::int64_t(box[2]) - box[0] + 1;
-        const std::int64_t h = std::int64_t(box[3]) - box[1] + 1;
+        w = std::int64_t(box[2]) - box[0] + 1;
+        h = std::int64_t(box[3]) - box[1] + 1;
         if (w <= 0 || h <= 0) damaged("empty data window");
-        if (std::uint64_t(w) * std::uint64_t(h) > max_values)
-          fail_read(path, std::to_string(w) + "x" + std::to_string(h) +
-                              " pixels exceed the image size limit (" +
-                              std::to_string(max_values) + " values in all)");
+      } else if (attribute == "compression" && size == 1) {
+        compression = in.get();
+      } else if (attribute == "tiles" && size == 9) {
+        std::uint32_t tile[2];
+        in.read(reinterpret_cast<char*>(tile), 8);
+        in.seekg(1, std::ios::cur);
+        tile_w = tile[0];
+        tile_h = tile[1];
       } else if (type == "chlist" && size <= (1 << 20)) {
         // OpenImageIO aborts (an assertion) on a pixel type other than UINT, HALF and FLOAT.
         std::string list(static_cast<std::size_t>(size), '\0');
         in.read(list.data(), size);
-        for (std::size_t c = 0; c < list.size() && list[c] != '\0';) {
+        channels = 0;
+        for (std::size_t c = 0; c < list.size() && list[c] != '\0'; ++channels) {
           std::size_t end = list.find('\0', c);
           if (end == std::string::npos || end + 17 > list.size()) damaged("channel list");
           std::int32_t pixel_type;
@@ -244,11 +255,37 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
         in.seekg(size, std::ios::cur);
       }
     }
+    const std::uint64_t pixels = std::uint64_t(w) * std::uint64_t(h);
+    if (pixels > max_values)
+      fail_read(path, std::to_string(w) + "x" + std::to_string(h) +
+                          " pixels exceed the image size limit (" + std::to_string(max_values) +
+                          " values in all)");
+    // Scanlines a compressed block holds (OpenEXR's Compression enum, 0-9): NONE, RLE and ZIPS
+    // one, ZIP and PXR24 16, PIZ, B44, B44A and DWAA 32, DWAB 256. The decompressor's buffer
+    // holds a block (or a tile) of every channel however few lines the image has; small blocks
+    // (up to 2^20 values, 4 MB) are allowed whatever the limit.
+    static constexpr std::int64_t kBlockLines[10] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+    const std::int64_t lines = compression >= 0 && compression < 10 ? kBlockLines[compression] : 1;
+    const std::uint64_t block = tile_w > 0 ? std::uint64_t(tile_w) * std::uint64_t(tile_h)
+                                           : std::uint64_t(w) * std::uint64_t(lines);
+    const std::uint64_t most = std::max(pixels, block);
+    const std::uint64_t n = std::max<std::uint64_t>(channels, 1);
+    if (most > max_values / n && (pixels > max_values / n || most > (std::uint64_t{1} << 20) / n))
+      fail_read(path, std::to_string(w) + "x" + std::to_string(h) + " pixels of " +
+                          std::to_string(channels) + " channels" +
+                          (block > pixels ? " (decompressed " + std::to_string(block) +
+                                                " pixels at a time)"
+                                          : std::string()) +
+                          " exceed the image size limit (" + std::to_string(max_values) +
+                          " values in all)");
     if (!multipart) break;
   }
 }
 
-OpenedInput open_input(const std::string& path, std::uint64_t max_values) {
+// Opens `path` with the reader of `format` (an OpenImageIO format name) if one is given, else
+// with the reader OpenImageIO finds for the file.
+OpenedInput open_input(const std::string& path, std::uint64_t max_values,
+                       const char* format = nullptr) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail_read(path, "no such file");
   if (fs::is_directory(path, ec)) fail_read(path, "is a directory");
@@ -256,6 +293,17 @@ OpenedInput open_input(const std::string& path, std::uint64_t max_values) {
   // Keep straight (unassociated) colour: alpha is dropped, so premultiplying would darken it.
   ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
+  if (format) {
+    // Named by its format, OpenImageIO creates that reader and nothing else. Given a path, it
+    // asks the reader its extension names whether the file is valid and, when the answer is no,
+    // tries every other reader it has (WebP, RAW, DICOM, HEIF, ...): for a damaged file that is
+    // most of the time spent, and one of them allocated 78 MB for a 3 KB file.
+    std::unique_ptr<ImageInput> in = ImageInput::create(format);
+    if (!in) fail_read(path, OIIO::geterror());
+    ImageSpec spec;
+    if (!in->open(path, spec, config)) fail_read(path, in->geterror());
+    return {std::move(in), std::move(spec)};
+  }
   auto in = ImageInput::open(path, &config);
   if (!in) fail_read(path, OIIO::geterror());
   ImageSpec spec = in->spec();
@@ -457,7 +505,7 @@ void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& pa
 
 std::vector<ExrPart> read_multipart_exr(const std::string& path, std::uint64_t max_values) {
   ValueBudget budget(max_values);
-  OpenedInput file = open_input(path, max_values);
+  OpenedInput file = open_input(path, max_values, "openexr");
   std::vector<ExrPart> parts;
   const std::string prefix = kAttributePrefix;
   for (int subimage = 0; file.in->seek_subimage(subimage, 0); ++subimage) {

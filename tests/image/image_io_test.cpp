@@ -382,5 +382,33 @@ TEST_F(ImageIo, ExrChannelOfUnknownPixelTypeIsRefused) {
   }
 }
 
+// Found by fuzzing (preview_inputs): a 2.7 KB file of one scanline 2 million pixels wide, of 6
+// channels, ZIP-compressed, made OpenEXR allocate 805 MB: its decompressor holds a block of 16
+// scanlines of every channel, however few lines the image has. The header walk counts channels
+// and compression blocks against the limit.
+TEST_F(ImageIo, ExrCompressionBlockIsCountedAgainstTheLimit) {
+  write_multipart_exr(path("ok.exr"), {{"color", {"R", "G", "B"}, Image(2, 1, 3), {}}});
+  std::ifstream in(path("ok.exr"), std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string window("dataWindow\0box2i\0", 17), compression("compression\0compression\0", 24);
+  std::size_t w = d.find(window), c = d.find(compression);
+  ASSERT_NE(w, std::string::npos);
+  ASSERT_NE(c, std::string::npos);
+  const std::int32_t box[4] = {0, 0, 999999, 0};  // 1000000x1
+  d.replace(w + window.size() + 4, 16, reinterpret_cast<const char*>(box), 16);
+  d[c + compression.size() + 4] = 3;  // ZIP: 16 scanlines a block
+  std::ofstream(path("wide.exr"), std::ios::binary) << d;
+  // 3 million values fit a limit of 4 million; a block of 16 lines (48 million) does not.
+  std::string msg = error_of([&] { read_multipart_exr(path("wide.exr"), 1 << 22); });
+  EXPECT_NE(msg.find("1000000x1 pixels of 3 channels (decompressed 16000000 pixels at a time) "
+                     "exceed the image size limit (4194304 values in all)"),
+            std::string::npos)
+      << msg;
+  // Small images are never refused for their blocks: 2x1 of 3 channels fits a limit of 6.
+  EXPECT_EQ(read_multipart_exr(path("ok.exr"), 6).size(), 1u);
+  EXPECT_NE(error_of([&] { read_multipart_exr(path("ok.exr"), 5); }).find("(5 values in all)"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace dofcache::image
