@@ -331,15 +331,33 @@ std::vector<float> read_pixels(const std::string& path, ImageInput& in, const Im
                         std::to_string(budget.limit) + " values in all)");
   budget.left -= pixels * channels;
   std::vector<float> values(static_cast<size_t>(pixels) * spec.nchannels);
-  // Float scanline images (all that dofcache writes) are read straight into `values`:
-  // read_image stages every call through a 64 MB buffer, whatever the image's size.
-  const bool float_scanlines = spec.tile_width == 0 && spec.format == TypeDesc::FLOAT &&
-                               spec.channelformats.empty();
-  const bool ok =
-      float_scanlines
-          ? in.read_native_scanlines(subimage, 0, spec.y, spec.y + spec.height, spec.z, 0,
-                                     spec.nchannels, values.data())
-          : in.read_image(subimage, 0, 0, spec.nchannels, TypeDesc::FLOAT, values.data());
+  // Scanline images (all that dofcache writes, and most EXR and PNG files) are read in their
+  // own formats and converted here: read_image stages every call through a 64 MB buffer, whatever
+  // the image's size (most of the time spent reading a small half-float file). Float ones are
+  // read straight into `values`.
+  bool ok;
+  if (spec.tile_width != 0) {
+    ok = in.read_image(subimage, 0, 0, spec.nchannels, TypeDesc::FLOAT, values.data());
+  } else if (spec.format == TypeDesc::FLOAT && spec.channelformats.empty()) {
+    ok = in.read_native_scanlines(subimage, 0, spec.y, spec.y + spec.height, spec.z, 0,
+                                  spec.nchannels, values.data());
+  } else {
+    const auto pixel_bytes = static_cast<OIIO::stride_t>(spec.pixel_bytes(/*native=*/true));
+    std::vector<char> native(static_cast<size_t>(pixels) * static_cast<size_t>(pixel_bytes));
+    ok = in.read_native_scanlines(subimage, 0, spec.y, spec.y + spec.height, spec.z, 0,
+                                  spec.nchannels, native.data());
+    // Channel by channel: each may have its own format (channelformats).
+    const auto float_pixel = static_cast<OIIO::stride_t>(sizeof(float) * channels);
+    std::size_t offset = 0;
+    for (int c = 0; ok && c < spec.nchannels; ++c) {
+      const TypeDesc type = spec.channelformat(c);
+      ok = OIIO::convert_image(1, spec.width, spec.height, 1, native.data() + offset, type,
+                               pixel_bytes, pixel_bytes * spec.width, OIIO::AutoStride,
+                               values.data() + c, TypeDesc::FLOAT, float_pixel,
+                               float_pixel * spec.width, OIIO::AutoStride);
+      offset += type.size();
+    }
+  }
   if (!ok) fail_read(path, in.geterror());
   return values;
 }

@@ -133,6 +133,39 @@ TEST_F(ImageIo, PngStoresSrgbCodes) {
   EXPECT_NEAR(read_image(file).at(1, 1, 2), srgb_to_linear(188.0f / 255.0f), 1e-6);
 }
 
+// Files in other formats than dofcache writes: half-float channels beside a float one (read in
+// their own formats and converted), and tiles (read through OpenImageIO's conversion).
+TEST_F(ImageIo, HalfMixedAndTiledExrsReadExactly) {
+  const std::vector<float> px = {0.5f, 1.25f, -3.0f, 2.0f, 0.0f, 65504.0f,
+                                 0.125f, 7.0f, 1e-3f, 4.0f, 0.75f, 3.5f};  // 2x2 RGB
+  auto write = [&](const std::string& file, bool mixed, bool tiled) {
+    auto out = OIIO::ImageOutput::create(file);
+    ASSERT_TRUE(out);
+    OIIO::ImageSpec spec(2, 2, 3, OIIO::TypeDesc::HALF);
+    if (mixed) spec.channelformats = {OIIO::TypeDesc::HALF, OIIO::TypeDesc::HALF, OIIO::TypeDesc::FLOAT};
+    if (tiled) spec.tile_width = spec.tile_height = 16;
+    spec.channelnames = {"R", "G", "B"};
+    ASSERT_TRUE(out->open(file, spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+    ASSERT_TRUE(out->close());
+  };
+  for (int variant = 0; variant < 3; ++variant) {
+    const std::string file = path("v" + std::to_string(variant) + ".exr");
+    write(file, variant == 1, variant == 2);
+    Image im = read_image(file);
+    ASSERT_EQ(im.width(), 2);
+    ASSERT_EQ(im.height(), 2);
+    for (int i = 0; i < 12; ++i) {
+      // Every value above is exact in half precision, except 1e-3 (then within half's step).
+      const float got = im.at((i / 3) % 2, i / 6, i % 3);
+      if (px[i] == 1e-3f && !(variant == 1 && i % 3 == 2))
+        EXPECT_NEAR(got, px[i], 1e-6f) << variant << " " << i;
+      else
+        EXPECT_EQ(got, px[i]) << variant << " " << i;
+    }
+  }
+}
+
 TEST_F(ImageIo, GreyAndAlphaPngsReadAsRgb) {
   auto write_raw = [](const std::string& file, int channels, const std::vector<unsigned char>& px) {
     auto out = OIIO::ImageOutput::create(file);
