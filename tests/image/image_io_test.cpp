@@ -415,6 +415,26 @@ TEST_F(ImageIo, ExrChannelOfUnknownPixelTypeIsRefused) {
   }
 }
 
+// Found by fuzzing (preview_inputs): OpenEXR reads a float attribute as 4 bytes whatever size it
+// claims; one claiming 2 put OpenEXR 2 bytes past the header walk, where it read an attribute of
+// 1.7 GB that the walk never saw. Attributes of fixed-size types must claim their size.
+TEST_F(ImageIo, ExrFixedSizeAttributeOfAnotherSizeIsRefused) {
+  write_multipart_exr(path("ok.exr"), {{"color", {"R", "G", "B"}, Image(2, 2, 3), {}}});
+  std::ifstream in(path("ok.exr"), std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string attribute("pixelAspectRatio\0float\0", 23);
+  std::size_t at = d.find(attribute);
+  ASSERT_NE(at, std::string::npos);
+  const std::int32_t two = 2;
+  d.replace(at + attribute.size(), 4, reinterpret_cast<const char*>(&two), 4);
+  d.erase(at + attribute.size() + 4, 2);  // the value now 2 bytes, as claimed
+  std::ofstream(path("bad.exr"), std::ios::binary) << d;
+  std::string msg = error_of([&] { read_multipart_exr(path("bad.exr")); });
+  EXPECT_NE(msg.find("attribute 'pixelAspectRatio' of type float claims 2 bytes, not 4"),
+            std::string::npos)
+      << msg;
+}
+
 // Found by fuzzing (preview_inputs): a 2.7 KB file of one scanline 2 million pixels wide, of 6
 // channels, ZIP-compressed, made OpenEXR allocate 805 MB: its decompressor holds a block of 16
 // scanlines of every channel, however few lines the image has. The header walk counts channels
