@@ -258,20 +258,43 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
         in.seekg(1, std::ios::cur);
         tile_w = tile[0];
         tile_h = tile[1];
-      } else if (type == "chlist" && size <= (1 << 20)) {
-        // OpenImageIO aborts (an assertion) on a pixel type other than UINT, HALF and FLOAT.
-        std::string list(static_cast<std::size_t>(size), '\0');
-        in.read(list.data(), size);
-        channels = 0;
-        for (std::size_t c = 0; c < list.size() && list[c] != '\0'; ++channels) {
-          std::size_t end = list.find('\0', c);
-          if (end == std::string::npos || end + 17 > list.size()) damaged("channel list");
-          std::int32_t pixel_type;
-          std::memcpy(&pixel_type, list.data() + end + 1, 4);
-          if (pixel_type < 0 || pixel_type > 2)
-            damaged("channel '" + list.substr(c, end - c) + "' has unknown pixel type " +
-                    std::to_string(pixel_type));
-          c = end + 17;
+      } else if (type == "chlist" || type == "stringvector" || type == "preview") {
+        // OpenEXR reads these by their content, not by the size they claim: the content must
+        // end where the size says (a channel list without its terminator there made OpenEXR
+        // read on into a 1.9 GB attribute; found by fuzzing preview inputs).
+        if (size > (1 << 20)) damaged("attribute '" + attribute + "' of " + std::to_string(size) + " bytes");
+        std::string v(static_cast<std::size_t>(size), '\0');
+        in.read(v.data(), size);
+        if (type == "chlist") {
+          // Channels (name, pixel type, linearity, 3 reserved bytes, x and y sampling), then an
+          // empty name. OpenImageIO aborts (an assertion) on a pixel type other than UINT, HALF
+          // and FLOAT.
+          channels = 0;
+          std::size_t c = 0;
+          for (; c < v.size() && v[c] != '\0'; ++channels) {
+            std::size_t end = v.find('\0', c);
+            if (end == std::string::npos || end + 17 > v.size()) damaged("channel list");
+            std::int32_t pixel_type;
+            std::memcpy(&pixel_type, v.data() + end + 1, 4);
+            if (pixel_type < 0 || pixel_type > 2)
+              damaged("channel '" + v.substr(c, end - c) + "' has unknown pixel type " +
+                      std::to_string(pixel_type));
+            c = end + 17;
+          }
+          if (c + 1 != v.size()) damaged("channel list not ending where its size says");
+        } else if (type == "stringvector") {  // strings, each an int32 length and its bytes
+          for (std::size_t c = 0; c < v.size();) {
+            std::int32_t n = -1;
+            if (c + 4 <= v.size()) std::memcpy(&n, v.data() + c, 4);
+            if (n < 0 || static_cast<std::uint64_t>(n) > v.size() - c - 4)
+              damaged("string vector '" + attribute + "'");
+            c += 4 + static_cast<std::size_t>(n);
+          }
+        } else {  // preview: u32 width and height, then RGBA bytes
+          std::uint32_t wh[2] = {0, 0};
+          if (v.size() >= 8) std::memcpy(wh, v.data(), 8);
+          if (v.size() < 8 || std::uint64_t(wh[0]) * wh[1] * 4 != v.size() - 8)
+            damaged("preview image");
         }
       } else {
         in.seekg(size, std::ios::cur);

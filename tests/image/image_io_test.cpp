@@ -435,6 +435,26 @@ TEST_F(ImageIo, ExrFixedSizeAttributeOfAnotherSizeIsRefused) {
       << msg;
 }
 
+// Found by fuzzing (preview_inputs): OpenEXR reads a channel list up to its terminator, whatever
+// size the attribute claims; a list claiming more bytes than that put OpenEXR past the header
+// walk, where it read a 1.9 GB attribute. The list must end where its size says.
+TEST_F(ImageIo, ExrChannelListNotEndingAtItsSizeIsRefused) {
+  write_multipart_exr(path("ok.exr"), {{"color", {"R", "G", "B"}, Image(2, 2, 3), {}}});
+  std::ifstream in(path("ok.exr"), std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string list("channels\0chlist\0", 16);
+  std::size_t at = d.find(list);
+  ASSERT_NE(at, std::string::npos);
+  std::int32_t size;
+  std::memcpy(&size, d.data() + at + list.size(), 4);
+  const std::int32_t longer = size + 4;
+  d.replace(at + list.size(), 4, reinterpret_cast<const char*>(&longer), 4);
+  d.insert(at + list.size() + 4 + size, std::string(4, 'x'));  // after the terminator
+  std::ofstream(path("bad.exr"), std::ios::binary) << d;
+  std::string msg = error_of([&] { read_multipart_exr(path("bad.exr")); });
+  EXPECT_NE(msg.find("channel list not ending where its size says"), std::string::npos) << msg;
+}
+
 // Found by fuzzing (preview_inputs): a 2.7 KB file of one scanline 2 million pixels wide, of 6
 // channels, ZIP-compressed, made OpenEXR allocate 805 MB: its decompressor holds a block of 16
 // scanlines of every channel, however few lines the image has. The header walk counts channels
