@@ -356,14 +356,18 @@ class LayoutWalker {
     std::array<std::uint64_t, kAttributes> blocks{};
     for (int i = 0; i < kAttributes; ++i) {
       const auto bytes = read<std::uint64_t>("attribute array");
-      skip(1, "attribute array flags");
+      // Constant stride (0x8) and nothing else (transient, hidden, streaming): without it OpenVDB
+      // takes the array for one value in all, and indexing it by point reads past its end (found
+      // by fuzzing).
+      const auto flags = read<std::uint8_t>("attribute array");
+      if (flags != 0x8) damaged("attribute array flags " + std::to_string(flags));
       const auto serialisation = read<std::uint8_t>("attribute array");
       const auto n = read<std::uint32_t>("attribute array");
       // Written in pages (0x8), uniform (0x2) or not; never strided (0x1) or compressed in memory
       // (0x4): dofcache's attributes hold one value per point.
       const bool uniform = serialisation & 0x2;
       if ((serialisation & ~0xa) != 0 || !(serialisation & 0x8))
-        damaged("attribute array flags " + std::to_string(serialisation));
+        damaged("attribute array serialisation flags " + std::to_string(serialisation));
       if (i > 0 && n != points) damaged("attribute arrays of one leaf differ in length");
       points = n;
       // The array's block in its pages: its flags and size (6 bytes), then one value per point,

@@ -342,6 +342,38 @@ TEST_F(CacheFileTest, ForgedBloscHeaderIsRefused) {
   }
 }
 
+// Found by fuzzing: an attribute array's flags without "constant stride" make OpenVDB take the
+// array for one value in all, and indexing it by point read past its end.
+TEST_F(CacheFileTest, AttributeArrayFlagsAreChecked) {
+  write_cache_file(path("good.vdb"), sample_file(20));
+  std::string bytes;
+  {
+    std::ifstream in(path("good.vdb"), std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    bytes = ss.str();
+  }
+  bytes.resize(bytes.size() - 24);
+  // The descriptor's last attribute name (sorted), its position, no groups, no metadata; then
+  // the first array's metadata: u64 bytes, u8 flags.
+  const std::string last = std::string("\x0b\0\0\0", 4) + "view_radius";
+  const std::size_t at = bytes.find(last);
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t flags = at + last.size() + 8 + 8 + 4 + 8;
+  ASSERT_EQ(bytes[flags], '\x08');
+  bytes[flags] = '\x12';
+  const std::string file = path("flags.vdb");
+  std::ofstream(file, std::ios::binary) << bytes;
+  append_cache_file_trailer(file);
+  try {
+    read_cache_file(file);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("attribute array flags 18"), std::string::npos)
+        << e.what();
+  }
+}
+
 // The layout walk accepts every file the writer makes: empty, with and without a checkpoint, and
 // many samples in many leaves and pages (P's 1.4 MB span two pages).
 TEST_F(CacheFileTest, LayoutWalkAcceptsWhatTheWriterMakes) {
