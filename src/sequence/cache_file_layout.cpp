@@ -285,8 +285,9 @@ class LayoutWalker {
     const std::uint64_t bytes = 4 * (active_only ? active : values);
     const auto block = read<std::int64_t>("node values");
     if (block <= 0) {
-      if (static_cast<std::uint64_t>(-block) != bytes)
-        damaged("node values of " + std::to_string(-block) + " bytes, expected " +
+      const std::uint64_t raw = 0 - static_cast<std::uint64_t>(block);  // defined for INT64_MIN
+      if (raw != bytes)
+        damaged("node values of " + std::to_string(raw) + " bytes, expected " +
                 std::to_string(bytes));
       skip(bytes, "node values");
     } else {
