@@ -13,6 +13,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <set>
 
@@ -194,10 +195,27 @@ struct OpenedInput {
 };
 
 // OpenEXR sizes what it allocates for a header from the header itself: an attribute's declared
-// size (a 2.7 KB file declaring a 1.9 GB string made it allocate and fill 1.9 GB) and the data
-// window (its line offset table). So the headers of an EXR are walked first, every attribute
-// checked against the bytes the file has, every data window against `max_values` and every
-// channel's pixel type.
+// size (a 2.7 KB file declaring a 1.9 GB string made it allocate and fill 1.9 GB), the data
+// window (its line offset table) and, for its decompressor, a block of scanlines (or a tile) of
+// every channel: a 2.7 KB file of one 2-million-pixel scanline of 6 channels, ZIP-compressed (16
+// lines a block), made it allocate 805 MB. So the headers of an EXR are walked first, every
+// attribute checked against the bytes the file has, every channel's pixel type, and each part's
+// values (pixels, or the pixels of a compression block or tile if more, times channels) against
+// `max_values`.
+// The size of OpenEXR's attribute types of fixed size (Imf*Attribute.cpp), -1 for the others.
+int exr_attribute_size(const std::string& type) {
+  static const std::map<std::string, int> sizes = {
+      {"box2i", 16}, {"box2f", 16},  {"chromaticities", 32}, {"compression", 1},
+      {"deepImageState", 1},         {"double", 8},          {"envmap", 1},
+      {"float", 4},  {"int", 4},     {"keycode", 28},        {"lineOrder", 1},
+      {"m33f", 36},  {"m33d", 72},   {"m44f", 64},           {"m44d", 128},
+      {"rational", 8}, {"tiledesc", 9}, {"timecode", 8},     {"v2i", 8},
+      {"v2f", 8},    {"v2d", 16},    {"v3i", 12},            {"v3f", 12},
+      {"v3d", 24}};
+  auto it = sizes.find(type);
+  return it == sizes.end() ? -1 : it->second;
+}
+
 void check_exr_headers(const std::string& path, std::uint64_t max_values) {
   std::error_code ec;
   const std::uint64_t file_size = fs::file_size(path, ec);
@@ -215,6 +233,9 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
   };
   for (int part = 0;; ++part) {
     if (part > 0 && in.peek() == 0) break;  // the end of a multi-part file's headers
+    std::int64_t w = 0, h = 0, tile_w = 0, tile_h = 0;
+    std::uint64_t channels = 0;
+    int compression = 0;
     for (std::string attribute = name(); !attribute.empty(); attribute = name()) {
       const std::string type = name();
       std::int32_t size;
@@ -223,39 +244,100 @@ void check_exr_headers(const std::string& path, std::uint64_t max_values) {
       if (size < 0 || static_cast<std::uint64_t>(size) > file_size - offset)
         damaged("attribute '" + attribute + "' claims " + std::to_string(size) +
                 " bytes, the file has " + std::to_string(file_size));
+      // OpenEXR reads an attribute of a fixed-size type by its type, whatever size it claims:
+      // a float claiming 2 bytes put OpenEXR 2 bytes past this walk, where it read a 1.7 GB
+      // attribute (found by fuzzing preview inputs).
+      const int fixed = exr_attribute_size(type);
+      if (fixed >= 0 && size != fixed)
+        damaged("attribute '" + attribute + "' of type " + type + " claims " +
+                std::to_string(size) + " bytes, not " + std::to_string(fixed));
       if (attribute == "dataWindow" && size == 16) {
         std::int32_t box[4];
         in.read(reinterpret_cast<char*>(box), 16);
-        const std::int64_t w = std::int64_t(box[2]) - box[0] + 1;
-        const std::int64_t h = std::int64_t(box[3]) - box[1] + 1;
+        w = std::int64_t(box[2]) - box[0] + 1;
+        h = std::int64_t(box[3]) - box[1] + 1;
         if (w <= 0 || h <= 0) damaged("empty data window");
-        if (std::uint64_t(w) * std::uint64_t(h) > max_values)
-          fail_read(path, std::to_string(w) + "x" + std::to_string(h) +
-                              " pixels exceed the image size limit (" +
-                              std::to_string(max_values) + " values in all)");
-      } else if (type == "chlist" && size <= (1 << 20)) {
-        // OpenImageIO aborts (an assertion) on a pixel type other than UINT, HALF and FLOAT.
-        std::string list(static_cast<std::size_t>(size), '\0');
-        in.read(list.data(), size);
-        for (std::size_t c = 0; c < list.size() && list[c] != '\0';) {
-          std::size_t end = list.find('\0', c);
-          if (end == std::string::npos || end + 17 > list.size()) damaged("channel list");
-          std::int32_t pixel_type;
-          std::memcpy(&pixel_type, list.data() + end + 1, 4);
-          if (pixel_type < 0 || pixel_type > 2)
-            damaged("channel '" + list.substr(c, end - c) + "' has unknown pixel type " +
-                    std::to_string(pixel_type));
-          c = end + 17;
+      } else if (attribute == "compression" && size == 1) {
+        compression = in.get();
+      } else if (attribute == "tiles" && size == 9) {
+        std::uint32_t tile[2];
+        in.read(reinterpret_cast<char*>(tile), 8);
+        in.seekg(1, std::ios::cur);
+        tile_w = tile[0];
+        tile_h = tile[1];
+      } else if (type == "chlist" || type == "stringvector" || type == "preview") {
+        // OpenEXR reads these by their content, not by the size they claim: the content must
+        // end where the size says (a channel list without its terminator there made OpenEXR
+        // read on into a 1.9 GB attribute; found by fuzzing preview inputs).
+        if (size > (1 << 20)) damaged("attribute '" + attribute + "' of " + std::to_string(size) + " bytes");
+        std::string v(static_cast<std::size_t>(size), '\0');
+        in.read(v.data(), size);
+        if (type == "chlist") {
+          // Channels (name, pixel type, linearity, 3 reserved bytes, x and y sampling), then an
+          // empty name. OpenImageIO aborts (an assertion) on a pixel type other than UINT, HALF
+          // and FLOAT.
+          channels = 0;
+          std::size_t c = 0;
+          for (; c < v.size() && v[c] != '\0'; ++channels) {
+            std::size_t end = v.find('\0', c);
+            if (end == std::string::npos || end + 17 > v.size()) damaged("channel list");
+            std::int32_t pixel_type;
+            std::memcpy(&pixel_type, v.data() + end + 1, 4);
+            if (pixel_type < 0 || pixel_type > 2)
+              damaged("channel '" + v.substr(c, end - c) + "' has unknown pixel type " +
+                      std::to_string(pixel_type));
+            c = end + 17;
+          }
+          if (c + 1 != v.size()) damaged("channel list not ending where its size says");
+        } else if (type == "stringvector") {  // strings, each an int32 length and its bytes
+          for (std::size_t c = 0; c < v.size();) {
+            std::int32_t n = -1;
+            if (c + 4 <= v.size()) std::memcpy(&n, v.data() + c, 4);
+            if (n < 0 || static_cast<std::uint64_t>(n) > v.size() - c - 4)
+              damaged("string vector '" + attribute + "'");
+            c += 4 + static_cast<std::size_t>(n);
+          }
+        } else {  // preview: u32 width and height, then RGBA bytes
+          std::uint32_t wh[2] = {0, 0};
+          if (v.size() >= 8) std::memcpy(wh, v.data(), 8);
+          if (v.size() < 8 || std::uint64_t(wh[0]) * wh[1] * 4 != v.size() - 8)
+            damaged("preview image");
         }
       } else {
         in.seekg(size, std::ios::cur);
       }
     }
+    const std::uint64_t pixels = std::uint64_t(w) * std::uint64_t(h);
+    if (pixels > max_values)
+      fail_read(path, std::to_string(w) + "x" + std::to_string(h) +
+                          " pixels exceed the image size limit (" + std::to_string(max_values) +
+                          " values in all)");
+    // Scanlines a compressed block holds (OpenEXR's Compression enum, 0-9): NONE, RLE and ZIPS
+    // one, ZIP and PXR24 16, PIZ, B44, B44A and DWAA 32, DWAB 256. The decompressor's buffer
+    // holds a block (or a tile) of every channel however few lines the image has; small blocks
+    // (up to 2^20 values, 4 MB) are allowed whatever the limit.
+    static constexpr std::int64_t kBlockLines[10] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+    const std::int64_t lines = compression >= 0 && compression < 10 ? kBlockLines[compression] : 1;
+    const std::uint64_t block = tile_w > 0 ? std::uint64_t(tile_w) * std::uint64_t(tile_h)
+                                           : std::uint64_t(w) * std::uint64_t(lines);
+    const std::uint64_t most = std::max(pixels, block);
+    const std::uint64_t n = std::max<std::uint64_t>(channels, 1);
+    if (most > max_values / n && (pixels > max_values / n || most > (std::uint64_t{1} << 20) / n))
+      fail_read(path, std::to_string(w) + "x" + std::to_string(h) + " pixels of " +
+                          std::to_string(channels) + " channels" +
+                          (block > pixels ? " (decompressed " + std::to_string(block) +
+                                                " pixels at a time)"
+                                          : std::string()) +
+                          " exceed the image size limit (" + std::to_string(max_values) +
+                          " values in all)");
     if (!multipart) break;
   }
 }
 
-OpenedInput open_input(const std::string& path, std::uint64_t max_values) {
+// Opens `path` with the reader of `format` (an OpenImageIO format name) if one is given, else
+// with the reader OpenImageIO finds for the file.
+OpenedInput open_input(const std::string& path, std::uint64_t max_values,
+                       const char* format = nullptr) {
   std::error_code ec;
   if (!fs::exists(path, ec)) fail_read(path, "no such file");
   if (fs::is_directory(path, ec)) fail_read(path, "is a directory");
@@ -263,6 +345,17 @@ OpenedInput open_input(const std::string& path, std::uint64_t max_values) {
   // Keep straight (unassociated) colour: alpha is dropped, so premultiplying would darken it.
   ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
+  if (format) {
+    // Named by its format, OpenImageIO creates that reader and nothing else. Given a path, it
+    // asks the reader its extension names whether the file is valid and, when the answer is no,
+    // tries every other reader it has (WebP, RAW, DICOM, HEIF, ...): for a damaged file that is
+    // most of the time spent, and one of them allocated 78 MB for a 3 KB file.
+    std::unique_ptr<ImageInput> in = ImageInput::create(format);
+    if (!in) fail_read(path, OIIO::geterror());
+    ImageSpec spec;
+    if (!in->open(path, spec, config)) fail_read(path, in->geterror());
+    return {std::move(in), std::move(spec)};
+  }
   auto in = ImageInput::open(path, &config);
   if (!in) fail_read(path, OIIO::geterror());
   ImageSpec spec = in->spec();
@@ -290,15 +383,33 @@ std::vector<float> read_pixels(const std::string& path, ImageInput& in, const Im
                         std::to_string(budget.limit) + " values in all)");
   budget.left -= pixels * channels;
   std::vector<float> values(static_cast<size_t>(pixels) * spec.nchannels);
-  // Float scanline images (all that dofcache writes) are read straight into `values`:
-  // read_image stages every call through a 64 MB buffer, whatever the image's size.
-  const bool float_scanlines = spec.tile_width == 0 && spec.format == TypeDesc::FLOAT &&
-                               spec.channelformats.empty();
-  const bool ok =
-      float_scanlines
-          ? in.read_native_scanlines(subimage, 0, spec.y, spec.y + spec.height, spec.z, 0,
-                                     spec.nchannels, values.data())
-          : in.read_image(subimage, 0, 0, spec.nchannels, TypeDesc::FLOAT, values.data());
+  // Scanline images (all that dofcache writes, and most EXR and PNG files) are read in their
+  // own formats and converted here: read_image stages every call through a 64 MB buffer, whatever
+  // the image's size (most of the time spent reading a small half-float file). Float ones are
+  // read straight into `values`.
+  bool ok;
+  if (spec.tile_width != 0) {
+    ok = in.read_image(subimage, 0, 0, spec.nchannels, TypeDesc::FLOAT, values.data());
+  } else if (spec.format == TypeDesc::FLOAT && spec.channelformats.empty()) {
+    ok = in.read_native_scanlines(subimage, 0, spec.y, spec.y + spec.height, spec.z, 0,
+                                  spec.nchannels, values.data());
+  } else {
+    const auto pixel_bytes = static_cast<OIIO::stride_t>(spec.pixel_bytes(/*native=*/true));
+    std::vector<char> native(static_cast<size_t>(pixels) * static_cast<size_t>(pixel_bytes));
+    ok = in.read_native_scanlines(subimage, 0, spec.y, spec.y + spec.height, spec.z, 0,
+                                  spec.nchannels, native.data());
+    // Channel by channel: each may have its own format (channelformats).
+    const auto float_pixel = static_cast<OIIO::stride_t>(sizeof(float) * channels);
+    std::size_t offset = 0;
+    for (int c = 0; ok && c < spec.nchannels; ++c) {
+      const TypeDesc type = spec.channelformat(c);
+      ok = OIIO::convert_image(1, spec.width, spec.height, 1, native.data() + offset, type,
+                               pixel_bytes, pixel_bytes * spec.width, OIIO::AutoStride,
+                               values.data() + c, TypeDesc::FLOAT, float_pixel,
+                               float_pixel * spec.width, OIIO::AutoStride);
+      offset += type.size();
+    }
+  }
   if (!ok) fail_read(path, in.geterror());
   return values;
 }
@@ -464,7 +575,7 @@ void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& pa
 
 std::vector<ExrPart> read_multipart_exr(const std::string& path, std::uint64_t max_values) {
   ValueBudget budget(max_values);
-  OpenedInput file = open_input(path, max_values);
+  OpenedInput file = open_input(path, max_values, "openexr");
   std::vector<ExrPart> parts;
   const std::string prefix = kAttributePrefix;
   for (int subimage = 0; file.in->seek_subimage(subimage, 0); ++subimage) {

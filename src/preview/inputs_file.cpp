@@ -62,8 +62,9 @@ class Reader {
  public:
   explicit Reader(std::string path) : path_(std::move(path)) {}
 
+  // `what` may quote the file's own text, line breaks and all: the message is made one line.
   [[noreturn]] void fail(const std::string& what) const {
-    throw Error("'" + path_ + "' is not a usable preview-inputs file: " + what);
+    throw Error("'" + path_ + "' is not a usable preview-inputs file: " + one_line(what));
   }
 
   image::ExrPart& part(std::vector<image::ExrPart>& parts, const std::string& name,

@@ -2,6 +2,8 @@
 // The only translation unit of the sequence module that includes OpenVDB.
 #include "dofcache/sequence/cache_file.h"
 
+#include "cache_file_layout.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -173,8 +175,8 @@ void append_cache_file_trailer(const std::string& path) {
 
 namespace {
 
-// Checks the trailer: the file is complete and unchanged since it was written.
-void check_integrity(const std::string& path) {
+// Checks the trailer: the file is complete and unchanged since it was written. Returns the file.
+std::string check_integrity(const std::string& path) {
   std::string data = slurp(path);
   if (data.size() < kTrailerSize || std::memcmp(data.data() + data.size() - kTrailerSize,
                                                 kTrailerMagic, 8) != 0)
@@ -186,6 +188,8 @@ void check_integrity(const std::string& path) {
     throw Error(path + ": cache file is damaged (length does not match its trailer)");
   if (hash != hash_bytes(data.data(), length))
     throw Error(path + ": cache file is damaged (checksum mismatch)");
+  data.resize(length);
+  return data;
 }
 
 class MetaReader {
@@ -275,6 +279,8 @@ CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
                 " samples, metadata says " + std::to_string(count) + ")");
   file.records.reserve(static_cast<std::size_t>(points));
   for (auto leaf = grid->tree().cbeginLeaf(); leaf; ++leaf) {
+    // The voxels' offsets index the attribute arrays below: increasing, ending at their length.
+    leaf->validateOffsets();
     using vdb::points::AttributeHandle;
     auto p = AttributeHandle<vdb::Vec3f>::create(leaf->constAttributeArray("P"));
     auto nrm = AttributeHandle<vdb::Vec3f>::create(leaf->constAttributeArray("N"));
@@ -363,7 +369,9 @@ void write_cache_file(const std::string& path, const CacheFile& file) {
 }
 
 CacheFile read_cache_file(const std::string& path, std::uint64_t max_samples) {
-  check_integrity(path);
+  // The trailer catches accidental damage; the layout walk catches forged files (sealed with a
+  // valid trailer) before OpenVDB allocates what they declare.
+  check_cache_file_layout(path, check_integrity(path));
   CacheFile file;
   try {
     file = read_vdb(path, max_samples);

@@ -17,11 +17,16 @@
 
 namespace dofcache::fuzz {
 
-// A scratch directory of this process (removed at exit), for readers that take a path.
+// A scratch directory of this process (removed at exit), for readers that take a path. In memory
+// (/dev/shm) where there is one: each input is a file written and read again, and on a disk
+// (ext4) rewriting a file flushes it to the device, a quarter of the time per input.
 inline const std::filesystem::path& scratch_dir() {
   static const std::filesystem::path dir = [] {
-    auto d = std::filesystem::temp_directory_path() /
-             ("dofcache-fuzz-" + std::to_string(::getpid()));
+    std::error_code ec;
+    const std::filesystem::path base = std::filesystem::is_directory("/dev/shm", ec)
+                                           ? std::filesystem::path("/dev/shm")
+                                           : std::filesystem::temp_directory_path();
+    auto d = base / ("dofcache-fuzz-" + std::to_string(::getpid()));
     std::filesystem::create_directories(d);
     std::atexit([] {
       std::error_code ec;
@@ -36,6 +41,8 @@ inline const std::filesystem::path& scratch_dir() {
 inline std::string write_input(const std::string& name, const std::uint8_t* data, std::size_t size,
                                const std::string& suffix = "") {
   std::string path = (scratch_dir() / name).string();
+  std::error_code ec;
+  std::filesystem::remove(path, ec);  // a new file: ext4 flushes a truncated one when it closes
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   out.write(suffix.data(), static_cast<std::streamsize>(suffix.size()));

@@ -133,6 +133,39 @@ TEST_F(ImageIo, PngStoresSrgbCodes) {
   EXPECT_NEAR(read_image(file).at(1, 1, 2), srgb_to_linear(188.0f / 255.0f), 1e-6);
 }
 
+// Files in other formats than dofcache writes: half-float channels beside a float one (read in
+// their own formats and converted), and tiles (read through OpenImageIO's conversion).
+TEST_F(ImageIo, HalfMixedAndTiledExrsReadExactly) {
+  const std::vector<float> px = {0.5f, 1.25f, -3.0f, 2.0f, 0.0f, 65504.0f,
+                                 0.125f, 7.0f, 1e-3f, 4.0f, 0.75f, 3.5f};  // 2x2 RGB
+  auto write = [&](const std::string& file, bool mixed, bool tiled) {
+    auto out = OIIO::ImageOutput::create(file);
+    ASSERT_TRUE(out);
+    OIIO::ImageSpec spec(2, 2, 3, OIIO::TypeDesc::HALF);
+    if (mixed) spec.channelformats = {OIIO::TypeDesc::HALF, OIIO::TypeDesc::HALF, OIIO::TypeDesc::FLOAT};
+    if (tiled) spec.tile_width = spec.tile_height = 16;
+    spec.channelnames = {"R", "G", "B"};
+    ASSERT_TRUE(out->open(file, spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+    ASSERT_TRUE(out->close());
+  };
+  for (int variant = 0; variant < 3; ++variant) {
+    const std::string file = path("v" + std::to_string(variant) + ".exr");
+    write(file, variant == 1, variant == 2);
+    Image im = read_image(file);
+    ASSERT_EQ(im.width(), 2);
+    ASSERT_EQ(im.height(), 2);
+    for (int i = 0; i < 12; ++i) {
+      // Every value above is exact in half precision, except 1e-3 (then within half's step).
+      const float got = im.at((i / 3) % 2, i / 6, i % 3);
+      if (px[i] == 1e-3f && !(variant == 1 && i % 3 == 2))
+        EXPECT_NEAR(got, px[i], 1e-6f) << variant << " " << i;
+      else
+        EXPECT_EQ(got, px[i]) << variant << " " << i;
+    }
+  }
+}
+
 TEST_F(ImageIo, GreyAndAlphaPngsReadAsRgb) {
   auto write_raw = [](const std::string& file, int channels, const std::vector<unsigned char>& px) {
     auto out = OIIO::ImageOutput::create(file);
@@ -380,6 +413,74 @@ TEST_F(ImageIo, ExrChannelOfUnknownPixelTypeIsRefused) {
     std::string msg = error_of(read);
     EXPECT_NE(msg.find("channel 'B' has unknown pixel type 3"), std::string::npos) << msg;
   }
+}
+
+// Found by fuzzing (preview_inputs): OpenEXR reads a float attribute as 4 bytes whatever size it
+// claims; one claiming 2 put OpenEXR 2 bytes past the header walk, where it read an attribute of
+// 1.7 GB that the walk never saw. Attributes of fixed-size types must claim their size.
+TEST_F(ImageIo, ExrFixedSizeAttributeOfAnotherSizeIsRefused) {
+  write_multipart_exr(path("ok.exr"), {{"color", {"R", "G", "B"}, Image(2, 2, 3), {}}});
+  std::ifstream in(path("ok.exr"), std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string attribute("pixelAspectRatio\0float\0", 23);
+  std::size_t at = d.find(attribute);
+  ASSERT_NE(at, std::string::npos);
+  const std::int32_t two = 2;
+  d.replace(at + attribute.size(), 4, reinterpret_cast<const char*>(&two), 4);
+  d.erase(at + attribute.size() + 4, 2);  // the value now 2 bytes, as claimed
+  std::ofstream(path("bad.exr"), std::ios::binary) << d;
+  std::string msg = error_of([&] { read_multipart_exr(path("bad.exr")); });
+  EXPECT_NE(msg.find("attribute 'pixelAspectRatio' of type float claims 2 bytes, not 4"),
+            std::string::npos)
+      << msg;
+}
+
+// Found by fuzzing (preview_inputs): OpenEXR reads a channel list up to its terminator, whatever
+// size the attribute claims; a list claiming more bytes than that put OpenEXR past the header
+// walk, where it read a 1.9 GB attribute. The list must end where its size says.
+TEST_F(ImageIo, ExrChannelListNotEndingAtItsSizeIsRefused) {
+  write_multipart_exr(path("ok.exr"), {{"color", {"R", "G", "B"}, Image(2, 2, 3), {}}});
+  std::ifstream in(path("ok.exr"), std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string list("channels\0chlist\0", 16);
+  std::size_t at = d.find(list);
+  ASSERT_NE(at, std::string::npos);
+  std::int32_t size;
+  std::memcpy(&size, d.data() + at + list.size(), 4);
+  const std::int32_t longer = size + 4;
+  d.replace(at + list.size(), 4, reinterpret_cast<const char*>(&longer), 4);
+  d.insert(at + list.size() + 4 + size, std::string(4, 'x'));  // after the terminator
+  std::ofstream(path("bad.exr"), std::ios::binary) << d;
+  std::string msg = error_of([&] { read_multipart_exr(path("bad.exr")); });
+  EXPECT_NE(msg.find("channel list not ending where its size says"), std::string::npos) << msg;
+}
+
+// Found by fuzzing (preview_inputs): a 2.7 KB file of one scanline 2 million pixels wide, of 6
+// channels, ZIP-compressed, made OpenEXR allocate 805 MB: its decompressor holds a block of 16
+// scanlines of every channel, however few lines the image has. The header walk counts channels
+// and compression blocks against the limit.
+TEST_F(ImageIo, ExrCompressionBlockIsCountedAgainstTheLimit) {
+  write_multipart_exr(path("ok.exr"), {{"color", {"R", "G", "B"}, Image(2, 1, 3), {}}});
+  std::ifstream in(path("ok.exr"), std::ios::binary);
+  std::string d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string window("dataWindow\0box2i\0", 17), compression("compression\0compression\0", 24);
+  std::size_t w = d.find(window), c = d.find(compression);
+  ASSERT_NE(w, std::string::npos);
+  ASSERT_NE(c, std::string::npos);
+  const std::int32_t box[4] = {0, 0, 999999, 0};  // 1000000x1
+  d.replace(w + window.size() + 4, 16, reinterpret_cast<const char*>(box), 16);
+  d[c + compression.size() + 4] = 3;  // ZIP: 16 scanlines a block
+  std::ofstream(path("wide.exr"), std::ios::binary) << d;
+  // 3 million values fit a limit of 4 million; a block of 16 lines (48 million) does not.
+  std::string msg = error_of([&] { read_multipart_exr(path("wide.exr"), 1 << 22); });
+  EXPECT_NE(msg.find("1000000x1 pixels of 3 channels (decompressed 16000000 pixels at a time) "
+                     "exceed the image size limit (4194304 values in all)"),
+            std::string::npos)
+      << msg;
+  // Small images are never refused for their blocks: 2x1 of 3 channels fits a limit of 6.
+  EXPECT_EQ(read_multipart_exr(path("ok.exr"), 6).size(), 1u);
+  EXPECT_NE(error_of([&] { read_multipart_exr(path("ok.exr"), 5); }).find("(5 values in all)"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -305,6 +305,25 @@ TEST_F(SavedInputs, RevealedPixelFarOutsideTheImageIsRefused) {
   }
 }
 
+// Found by fuzzing (preview_inputs): an attribute value with a line break, quoted in the error
+// ("'focal_length' is not a number ('050<newline>000...')"), made a two-line message.
+TEST_F(SavedInputs, QuotedValuesKeepTheErrorOnOneLine) {
+  const std::string good = (dir_ / "good.exr").string(), bad = (dir_ / "bad.exr").string();
+  save_preview_inputs(good, small_inputs(), {true, 1.5, 4.0, 0.05 / 2.8});
+  std::vector<image::ExrPart> parts = image::read_multipart_exr(good);
+  for (image::ExrPart& p : parts)
+    if (p.attributes.count("focal_length")) p.attributes["focal_length"] = "050\n000";
+  image::write_multipart_exr(bad, parts);
+  try {
+    load_preview_inputs(bad);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'focal_length' is not a number"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+}
+
 // The revealed lists expand to dense layers: the limit counts what the file makes the loader
 // allocate, not only what it holds.
 TEST_F(SavedInputs, ExpandedLayersCountAgainstTheImageLimit) {

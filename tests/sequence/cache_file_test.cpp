@@ -10,6 +10,8 @@
 #include <random>
 #include <sstream>
 
+#include <sys/resource.h>
+
 #include "dofcache/core/error.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
@@ -239,6 +241,150 @@ TEST_F(CacheFileTest, DeclaredSampleCountIsBounded) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("declares 10 samples, more than the limit of 9"),
               std::string::npos) << e.what();
+  }
+}
+
+// Forged files (re-sealed with a valid trailer, which accidental damage never produces) whose
+// declared lengths exceed the file: OpenVDB 10 allocated and filled what they declared (a 1.8 GB
+// string; 16 million attribute name pairs, 1 GB) before noticing the damage. The file's layout is
+// walked before OpenVDB reads it, so they are refused in one line without that memory.
+TEST_F(CacheFileTest, ForgedLengthsAreRefusedBeforeOpenVdbAllocatesThem) {
+  write_cache_file(path("good.vdb"), sample_file(20));
+  std::string good;
+  {
+    std::ifstream in(path("good.vdb"), std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    good = ss.str();
+  }
+  good.resize(good.size() - 24);  // the OpenVDB part, without the trailer
+  auto u32 = [](std::uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  auto u64 = [](std::uint64_t v) { return std::string(reinterpret_cast<const char*>(&v), 8); };
+  struct Forgery {
+    std::string name;
+    std::string anchor;   // bytes around the field (their first occurrence)
+    std::size_t offset;   // of the field in `anchor`
+    std::string value;    // the forged field
+    std::string message;  // expected in the error
+  };
+  const std::vector<Forgery> forgeries = {
+      // The scene's source string, in the file metadata.
+      {"scene-string", "dofcache.scene" + u32(6) + "string", 24, u32(1862270976),
+       "file metadata 'dofcache.scene' needs 1862270976 bytes"},
+      // The grid's name, in its descriptor after the grid count.
+      {"grid-name", u32(1) + u32(7) + "samples", 4, u32(2000000000),
+       "grid name needs 2000000000 bytes"},
+      // The number of point attributes, in the first leaf's buffers.
+      {"attribute-count", "\x01" + u64(10) + u32(5) + "vec3s", 1, u64(std::uint64_t{1} << 24),
+       "16777216 point attributes, dofcache writes 10"},
+  };
+  for (const Forgery& f : forgeries) {
+    std::string bytes = good;
+    const std::size_t at = bytes.find(f.anchor);
+    ASSERT_NE(at, std::string::npos) << f.name;
+    bytes.replace(at + f.offset, f.value.size(), f.value);
+    const std::string file = path(f.name + ".vdb");
+    std::ofstream(file, std::ios::binary) << bytes;
+    append_cache_file_trailer(file);
+
+    rusage before{}, after{};
+    getrusage(RUSAGE_SELF, &before);
+    try {
+      read_cache_file(file);
+      ADD_FAILURE() << f.name << ": accepted";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind(file + ": ", 0), 0u) << what;
+      EXPECT_NE(what.find(f.message), std::string::npos) << f.name << ": " << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+    getrusage(RUSAGE_SELF, &after);
+    EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << f.name << ": peak RSS grew (KB)";
+  }
+}
+
+// A forged blosc header in an attribute page (found by fuzzing): blosc believes the compressed
+// size its header states over the buffer OpenVDB hands it, and read past the page's buffer
+// (AddressSanitizer: heap-buffer-overflow in LZ4_decompress_safe). The walk checks each blosc
+// header against the page sizes around it.
+TEST_F(CacheFileTest, ForgedBloscHeaderIsRefused) {
+  constexpr std::size_t n = 3000;  // last_used, the last attribute: 12000 bytes, one blosc page
+  write_cache_file(path("good.vdb"), sample_file(n));
+  std::string bytes;
+  {
+    std::ifstream in(path("good.vdb"), std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    bytes = ss.str();
+  }
+  bytes.resize(bytes.size() - 24);  // the OpenVDB part, without the trailer
+  // The last page is the file's end: a blosc header (u32 uncompressed size at +4, u32 compressed
+  // size at +12) whose compressed size reaches exactly to the end.
+  std::size_t at = std::string::npos;
+  for (std::size_t o = bytes.size() - 16; o > 0 && at == std::string::npos; --o) {
+    std::uint32_t nbytes, cbytes;
+    std::memcpy(&nbytes, bytes.data() + o + 4, 4);
+    std::memcpy(&cbytes, bytes.data() + o + 12, 4);
+    if (nbytes == 4 * n && cbytes == bytes.size() - o) at = o;
+  }
+  ASSERT_NE(at, std::string::npos) << "no blosc page at the end";
+  const std::uint32_t forged = 1 << 20;
+  std::memcpy(bytes.data() + at + 12, &forged, 4);
+  const std::string file = path("forged.vdb");
+  std::ofstream(file, std::ios::binary) << bytes;
+  append_cache_file_trailer(file);
+  try {
+    read_cache_file(file);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("attribute page: blosc header does not match"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// Found by fuzzing: an attribute array's flags without "constant stride" make OpenVDB take the
+// array for one value in all, and indexing it by point read past its end.
+TEST_F(CacheFileTest, AttributeArrayFlagsAreChecked) {
+  write_cache_file(path("good.vdb"), sample_file(20));
+  std::string bytes;
+  {
+    std::ifstream in(path("good.vdb"), std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    bytes = ss.str();
+  }
+  bytes.resize(bytes.size() - 24);
+  // The descriptor's last attribute name (sorted), its position, no groups, no metadata; then
+  // the first array's metadata: u64 bytes, u8 flags.
+  const std::string last = std::string("\x0b\0\0\0", 4) + "view_radius";
+  const std::size_t at = bytes.find(last);
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t flags = at + last.size() + 8 + 8 + 4 + 8;
+  ASSERT_EQ(bytes[flags], '\x08');
+  bytes[flags] = '\x12';
+  const std::string file = path("flags.vdb");
+  std::ofstream(file, std::ios::binary) << bytes;
+  append_cache_file_trailer(file);
+  try {
+    read_cache_file(file);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("attribute array flags 18"), std::string::npos)
+        << e.what();
+  }
+}
+
+// The layout walk accepts every file the writer makes: empty, with and without a checkpoint, and
+// many samples in many leaves and pages (P's 1.4 MB span two pages).
+TEST_F(CacheFileTest, LayoutWalkAcceptsWhatTheWriterMakes) {
+  for (std::size_t n : {std::size_t{0}, std::size_t{3}, std::size_t{120000}}) {
+    CacheFile f = sample_file(n);
+    if (n == 3) f.checkpoint = SequenceCheckpoint{0xfedcba9876543210ULL, 4, 9};
+    write_cache_file(path("file.vdb"), f);
+    CacheFile back = read_cache_file(path("file.vdb"));
+    EXPECT_EQ(back.records.size(), n);
+    EXPECT_EQ(back.checkpoint.has_value(), n == 3);
   }
 }
 

@@ -16,6 +16,10 @@
 //                   u64 hash of it. Checked before OpenVDB parses anything, so a damaged file is
 //                   refused with a message instead of reaching OpenVDB's readers.
 //
+// A forged file (one sealed with a valid trailer) is walked before OpenVDB reads it: only the
+// layout write_cache_file produces passes, every declared length within the file
+// (src/sequence/cache_file_layout.h).
+//
 // OpenVDB stays inside src/sequence/cache_file.cpp.
 #include <cstdint>
 #include <optional>
