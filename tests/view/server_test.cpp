@@ -338,10 +338,18 @@ TEST_F(ViewReferenceTest, RefinesComparesAndRestartsOnALensChange) {
   EXPECT_TRUE(json::parse(client->Get("/api/status", auth())->body)
                   .at("reference").at("done").get<bool>());
 
+  // A lens change restarts the reference (synchronously: the old one is dropped before the
+  // request returns); the next one refines again to its limit, for the new lens. Whether the
+  // restarted reference is seen before its first pass is a race with the background thread, so
+  // the test compares what it converges to instead.
   ASSERT_EQ(post("/api/lens", R"({"fstop": 8})")->status, 200);
-  EXPECT_EQ(reference_spp(), 0);  // the old reference no longer applies
-  EXPECT_EQ(get_status("/api/image?kind=reference", auth()), 503);
-  ASSERT_TRUE(wait_for_reference(2));
+  ASSERT_TRUE(wait_for_reference(4));
+  auto again = client->Get("/api/image?kind=reference&format=raw", auth());
+  ASSERT_TRUE(again);
+  ASSERT_EQ(again->status, 200);
+  EXPECT_EQ(again->get_header_value("X-Reference-Spp"), "4");
+  ASSERT_EQ(again->body.size(), ref->body.size());
+  EXPECT_NE(again->body, ref->body);  // rendered through the new lens
 }
 
 }  // namespace
