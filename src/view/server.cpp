@@ -52,6 +52,13 @@ json lens_json(const lens::ThinLens& lens) {
           {"focus_distance", lens.focus_distance}};
 }
 
+// The lens and the preview method, as GET and POST /api/lens answer.
+json lens_and_method_json(const ViewStatus& s) {
+  json j = lens_json(s.lens);
+  j["method"] = preview::preview_method_name(s.method);
+  return j;
+}
+
 json number_or_null(double v) { return v < 0 ? json(nullptr) : json(v); }
 
 json status_json(const ViewStatus& s) {
@@ -262,10 +269,7 @@ void ViewServer::Impl::add_routes() {
     send_json(res, status_json(session.status()));
   });
   server.Get("/api/lens", [this](const httplib::Request&, httplib::Response& res) {
-    const ViewStatus s = session.status();
-    json j = lens_json(s.lens);
-    j["method"] = preview::preview_method_name(s.method);
-    send_json(res, j);
+    send_json(res, lens_and_method_json(session.status()));
   });
   // Any of focal_length, fstop, focus_distance (metres, f-number) and method.
   server.Post("/api/lens", [this](const httplib::Request& req, httplib::Response& res) {
@@ -282,10 +286,7 @@ void ViewServer::Impl::add_routes() {
     }
     session.set_lens(lens);  // validates first, so a bad lens changes nothing
     if (method) session.set_method(*method);
-    const ViewStatus s = session.status();
-    json j = lens_json(s.lens);
-    j["method"] = preview::preview_method_name(s.method);
-    send_json(res, j);
+    send_json(res, lens_and_method_json(session.status()));
   });
   // {x, y}: pixel of the image; focuses at the depth seen there.
   server.Post("/api/focus", [this](const httplib::Request& req, httplib::Response& res) {

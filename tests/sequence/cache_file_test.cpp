@@ -178,13 +178,7 @@ TEST_F(CacheFileTest, RefusesOtherSceneOrShading) {
 TEST_F(CacheFileTest, RefusesDamagedFiles) {
   CacheFile f = sample_file(500);
   write_cache_file(path("good.vdb"), f);
-  std::string good;
-  {
-    std::ifstream in(path("good.vdb"), std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    good = ss.str();
-  }
+  std::string good = dofcache::testing::slurp(path("good.vdb"));
   auto write_raw = [&](const std::string& name, const std::string& bytes) {
     std::ofstream(path(name), std::ios::binary) << bytes;
     return path(name);
@@ -250,13 +244,7 @@ TEST_F(CacheFileTest, DeclaredSampleCountIsBounded) {
 // walked before OpenVDB reads it, so they are refused in one line without that memory.
 TEST_F(CacheFileTest, ForgedLengthsAreRefusedBeforeOpenVdbAllocatesThem) {
   write_cache_file(path("good.vdb"), sample_file(20));
-  std::string good;
-  {
-    std::ifstream in(path("good.vdb"), std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    good = ss.str();
-  }
+  std::string good = dofcache::testing::slurp(path("good.vdb"));
   good.resize(good.size() - 24);  // the OpenVDB part, without the trailer
   auto u32 = [](std::uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
   auto u64 = [](std::uint64_t v) { return std::string(reinterpret_cast<const char*>(&v), 8); };
@@ -310,13 +298,7 @@ TEST_F(CacheFileTest, ForgedLengthsAreRefusedBeforeOpenVdbAllocatesThem) {
 TEST_F(CacheFileTest, ForgedBloscHeaderIsRefused) {
   constexpr std::size_t n = 3000;  // last_used, the last attribute: 12000 bytes, one blosc page
   write_cache_file(path("good.vdb"), sample_file(n));
-  std::string bytes;
-  {
-    std::ifstream in(path("good.vdb"), std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    bytes = ss.str();
-  }
+  std::string bytes = dofcache::testing::slurp(path("good.vdb"));
   bytes.resize(bytes.size() - 24);  // the OpenVDB part, without the trailer
   // The last page is the file's end: a blosc header (u32 uncompressed size at +4, u32 compressed
   // size at +12) whose compressed size reaches exactly to the end.
@@ -347,13 +329,7 @@ TEST_F(CacheFileTest, ForgedBloscHeaderIsRefused) {
 // array for one value in all, and indexing it by point read past its end.
 TEST_F(CacheFileTest, AttributeArrayFlagsAreChecked) {
   write_cache_file(path("good.vdb"), sample_file(20));
-  std::string bytes;
-  {
-    std::ifstream in(path("good.vdb"), std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    bytes = ss.str();
-  }
+  std::string bytes = dofcache::testing::slurp(path("good.vdb"));
   bytes.resize(bytes.size() - 24);
   // The descriptor's last attribute name (sorted), its position, no groups, no metadata; then
   // the first array's metadata: u64 bytes, u8 flags.
