@@ -62,6 +62,21 @@ void centre_stats(const image::Image& img, double* mean, double* se) {
   *se = std::sqrt(std::max(0.0, sum2 / n - *mean * *mean) / n);
 }
 
+// Mean and standard error of the red channel of n independent estimates of E/pi at p (estimate k
+// seeded from `seed` and k).
+void diffuse_stats(const Shader& shader, const ShadingPoint& p, int n, std::uint64_t seed,
+                   double* mean, double* se) {
+  double sum = 0, sum2 = 0;
+  RayCounters counters;
+  for (int k = 0; k < n; ++k) {
+    Rng rng(seed, static_cast<std::uint64_t>(k));
+    const double v = shader.diffuse_illumination(p, hash_combine(seed, k), rng, counters).x;
+    sum += v, sum2 += v * v;
+  }
+  *mean = sum / n;
+  *se = std::sqrt(std::max(0.0, sum2 / n - *mean * *mean) / n);
+}
+
 // A convex sphere sees only the environment, so E/pi = L everywhere and the sphere shows
 // (1 - F) a L: hand-computed, (1 - 0.04) x 0.6 x 2 = 1.152.
 TEST(EnvironmentLight, FurnaceSphereShowsAlbedoTimesRadiance) {
@@ -90,15 +105,8 @@ TEST(EnvironmentLight, FurnaceSphereShowsAlbedoTimesRadiance) {
     scene::Ray ray;
     ray.direction = glm::normalize(glm::vec3(0.3f, 0.2f, -3.0f));
     const ShadingPoint p = shader.prepare(ray, accel.intersect(ray));
-    double sum = 0, sum2 = 0;
-    const int n = 4000;
-    RayCounters counters;
-    for (int k = 0; k < n; ++k) {
-      Rng rng(11, static_cast<std::uint64_t>(k));
-      const double v = shader.diffuse_illumination(p, hash_combine(11, k), rng, counters).x;
-      sum += v, sum2 += v * v;
-    }
-    const double m = sum / n, e = std::sqrt(std::max(0.0, sum2 / n - m * m) / n);
+    double m, e;
+    diffuse_stats(shader, p, 4000, 11, &m, &e);
     EXPECT_NEAR(m, kRadiance, 4.0 * e + 1e-4) << light << " light, " << gather << " gather";
   }
 }
@@ -229,15 +237,8 @@ TEST(EnvironmentLight, EnvironmentAndEmittersTogether) {
   ray.origin = glm::vec3(2.0f, 0.0f, 1.0f);  // passes beside the panel, hits the origin
   ray.direction = glm::normalize(glm::vec3(-2.0f, 0.0f, -1.0f));
   const ShadingPoint p = shader.prepare(ray, accel.intersect(ray));
-  double sum = 0, sum2 = 0;
-  const int n = 8000;
-  RayCounters counters;
-  for (int k = 0; k < n; ++k) {
-    Rng rng(5, static_cast<std::uint64_t>(k));
-    const double v = shader.diffuse_illumination(p, hash_combine(5, k), rng, counters).x;
-    sum += v, sum2 += v * v;
-  }
-  const double m = sum / n, e = std::sqrt(std::max(0.0, sum2 / n - m * m) / n);
+  double m, e;
+  diffuse_stats(shader, p, 8000, 5, &m, &e);
   EXPECT_NEAR(m, expected, 4.0 * e + 1e-3) << "standard error " << e;
 }
 
