@@ -6,6 +6,7 @@
 #include "commands.h"
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
 
 namespace dofcache::cli {
 
@@ -50,8 +51,13 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
   try {
-    for (auto& [sub, run] : runners)
-      if (sub->parsed()) return run();
+    for (auto& [sub, run] : runners) {
+      if (!sub->parsed()) continue;
+      // Every command but the viewer reads or writes images; the codecs load while it starts.
+      // The viewer shows its first preview without them and loads them when asked to save.
+      if (sub->get_name() != "view") image::preload_image_codecs();
+      return run();
+    }
   } catch (const Error& e) {
     std::fprintf(stderr, "dofcache: error: %s\n", e.what());
     return 1;

@@ -58,7 +58,7 @@ std::uint64_t count_set(const image::Image& mask) {
 
 }  // namespace
 
-ScenePreview render_scene_preview(const scene::Scene& scene, const scene::Accel& accel,
+SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel& accel,
                                   const scene::Camera& camera,
                                   const render::RenderSettings& settings, PreviewMethod method,
                                   const PreviewOptions& options) {
@@ -75,7 +75,7 @@ ScenePreview render_scene_preview(const scene::Scene& scene, const scene::Accel&
   base.triangle_ids = true;
   base.validate();
 
-  ScenePreview result;
+  SceneInputs result;
   ScenePreviewTimings& t = result.timings;
 
   // 1. The pinhole render: colour, depth and ids.
@@ -132,11 +132,52 @@ ScenePreview render_scene_preview(const scene::Scene& scene, const scene::Accel&
     }
   }
 
+  t.total_ms = ms_since(start);
+  return result;
+}
+
+PreviewInputs upscale_inputs(const PreviewInputs& in, int width, int height) {
+  if (!in.revealed.empty()) throw Error("preview: inputs with revealed layers cannot be upscaled");
+  if (width <= 0 || height <= 0 || in.color.empty())
+    throw Error("preview: cannot upscale inputs to " + std::to_string(width) + "x" +
+                std::to_string(height));
+  const int sw = in.color.width(), sh = in.color.height();
+  auto nearest = [&](const image::Image& src) {
+    image::Image dst(width, height, src.channels());
+    for (int y = 0; y < height; ++y) {
+      const int sy = std::min(sh - 1, static_cast<int>((y + 0.5) * sh / height));
+      for (int x = 0; x < width; ++x) {
+        const int sx = std::min(sw - 1, static_cast<int>((x + 0.5) * sw / width));
+        std::copy_n(src.pixel(sx, sy), src.channels(), dst.pixel(x, y));
+      }
+    }
+    return dst;
+  };
+  PreviewInputs out;
+  out.color = nearest(in.color);
+  out.depth = nearest(in.depth);
+  out.ids = nearest(in.ids);
+  out.imaging = in.imaging;
+  out.imaging.y_resolution = height;
+  return out;
+}
+
+ScenePreview render_scene_preview(const scene::Scene& scene, const scene::Accel& accel,
+                                  const scene::Camera& camera,
+                                  const render::RenderSettings& settings, PreviewMethod method,
+                                  const PreviewOptions& options) {
+  const auto start = clock::now();
+  SceneInputs in = render_preview_inputs(scene, accel, camera, settings, method, options);
+  ScenePreview result;
+  result.timings = in.timings;
+  ScenePreviewTimings& t = result.timings;
   // 5. The post-process.
-  t0 = clock::now();
-  result.image = render_preview(in, method, options, &t.postprocess);
+  const auto t0 = clock::now();
+  result.image = render_preview(in.inputs, method, options, &t.postprocess);
   t.postprocess_ms = ms_since(t0);
   t.layers = t.postprocess.layers;
+  result.inputs = std::move(in.inputs);
+  result.coverage = in.coverage;
   t.total_ms = ms_since(start);
   return result;
 }

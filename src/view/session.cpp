@@ -180,7 +180,7 @@ void ViewSession::run_worker() {
         if (state_->stop) return;
       }
       render_inputs(stage);
-      if (stage == InputStage::Occlusion) lower_thread_priority();  // the rest is background
+      if (stage == InputStage::Draft) lower_thread_priority();  // the rest is background
     }
     if (settings_.reference) refine_reference();
   } catch (const std::exception& e) {
@@ -197,20 +197,25 @@ void ViewSession::render_inputs(InputStage stage) {
   s.mode = render::Mode::Pinhole;
   s.seed = settings_.seed;
   s.progress = Progress::Display::Never;
-  const bool draft = stage != InputStage::Refined;
-  s.spp = draft ? 1 : settings_.input_spp;
-  s.shading = draft ? draft_shading(settings_.shading, stage) : settings_.shading;
-  // The user waits for the draft stages: they take every core.
+  const bool draft = stage == InputStage::Draft;
+  const bool quick = stage != InputStage::Refined;
+  s.spp = quick ? 1 : settings_.input_spp;
+  s.shading = quick ? draft_shading(settings_.shading, stage) : settings_.shading;
+  // The user waits for the draft: it takes every core.
   s.threads = draft ? settings_.threads : background_threads(settings_.threads);
+  if (draft) {  // a quarter of the pixels (rounded up, so the upscale covers every pixel)
+    s.width = (width_ + 1) / 2;
+    s.height = (height_ + 1) / 2;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     s.lens = state_->lens;  // the occlusion fix's layers are planned for the lens of the moment
   }
-  const preview::PreviewMethod method = stage == InputStage::Draft
-                                            ? preview::PreviewMethod::Layered
-                                            : preview::PreviewMethod::LayeredOcclusion;
-  preview::ScenePreview p =
-      preview::render_scene_preview(*scene_, render_->accel, render_->camera, s, method, options_);
+  const preview::PreviewMethod method =
+      draft ? preview::PreviewMethod::Layered : preview::PreviewMethod::LayeredOcclusion;
+  preview::SceneInputs p =
+      preview::render_preview_inputs(*scene_, render_->accel, render_->camera, s, method, options_);
+  if (draft) p.inputs = preview::upscale_inputs(p.inputs, width_, height_);
   auto saved = std::make_shared<SavedInputs>(SavedInputs{std::move(p.inputs), p.coverage});
 
   std::lock_guard<std::mutex> lock(mutex_);

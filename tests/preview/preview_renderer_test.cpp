@@ -110,6 +110,51 @@ TEST(PreviewRenderer, InFocusEqualsPinholeInEveryMode) {
   }
 }
 
+// The inputs alone are exactly what the full preview was made from.
+TEST(PreviewRenderer, InputsAloneEqualThePreviewsInputs) {
+  TwoQuads q;
+  const render::RenderSettings s = q.settings(1.0);
+  const ScenePreview full = q.preview(s, PreviewMethod::LayeredOcclusion);
+  const SceneInputs in = render_preview_inputs(q.scene, *q.accel, q.scene.cameras[0], s,
+                                               PreviewMethod::LayeredOcclusion);
+  expect_identical(in.inputs.color, full.inputs.color, "colour");
+  expect_identical(in.inputs.depth, full.inputs.depth, "depth");
+  expect_identical(in.inputs.ids, full.inputs.ids, "ids");
+  ASSERT_EQ(in.inputs.revealed.size(), full.inputs.revealed.size());
+  ASSERT_FALSE(in.inputs.revealed.empty());
+  expect_identical(in.inputs.revealed[0].color, full.inputs.revealed[0].color, "revealed");
+  EXPECT_EQ(in.timings.postprocess_ms, 0.0);
+}
+
+// A draft at half size, upscaled: each pixel is its nearest source pixel (pixel centres mapped
+// back: x -> floor((x + 1/2) / 2) for a factor of two; 3 -> 5 columns gives 0,0,1,2,2).
+TEST(PreviewRenderer, UpscaledInputsTakeTheNearestPixel) {
+  PreviewInputs in;
+  in.color = image::Image(3, 2, 3);
+  in.depth = image::Image(3, 2, 1);
+  in.ids = image::Image(3, 2, 1);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x) {
+      in.color.pixel(x, y)[1] = float(10 * y + x);
+      in.depth.pixel(x, y)[0] = float(1 + x + 3 * y);
+      in.ids.pixel(x, y)[0] = float(100 + x + 3 * y);
+    }
+  in.imaging.y_resolution = 2;
+  const PreviewInputs up = upscale_inputs(in, 5, 4);
+  ASSERT_EQ(up.color.width(), 5);
+  ASSERT_EQ(up.depth.height(), 4);
+  EXPECT_EQ(up.imaging.y_resolution, 4);
+  const int sx[5] = {0, 0, 1, 2, 2}, sy[4] = {0, 0, 1, 1};
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 5; ++x) {
+      EXPECT_EQ(up.color.pixel(x, y)[1], float(10 * sy[y] + sx[x])) << x << "," << y;
+      EXPECT_EQ(up.depth.pixel(x, y)[0], float(1 + sx[x] + 3 * sy[y]));
+      EXPECT_EQ(up.ids.pixel(x, y)[0], float(100 + sx[x] + 3 * sy[y]));
+    }
+  in.revealed.push_back(RevealedLayer{});
+  EXPECT_THROW(upscale_inputs(in, 5, 4), Error);
+}
+
 class TwoLayerMasks : public ::testing::TestWithParam<bool> {};
 
 // The front quad (c = -3.5 px) over the back quad (c = +2.7 px), f/1 focused at 1.6 m: the back

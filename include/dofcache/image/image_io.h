@@ -1,9 +1,10 @@
 #pragma once
-// Image files through OpenImageIO. The format follows the extension (case-insensitive): .exr is
+// Image files through OpenImageIO (loaded on first use: src/image/codec_module.h). The format follows the extension (case-insensitive): .exr is
 // linear 32-bit float, colour and extra channels alike (so every value round-trips exactly; ZIP
 // compression keeps the files reasonable), .png is 8-bit sRGB colour. Writes are atomic
 // (dofcache/core/atomic_file.h): a temporary file in the same directory, renamed over the target
 // only once complete.
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -69,8 +70,21 @@ void write_multipart_exr(const std::string& path, const std::vector<ExrPart>& pa
 std::vector<ExrPart> read_multipart_exr(const std::string& path,
                                         std::uint64_t max_values = kMaxImageValues);
 
+// Loads the image codecs in the background now, so that the first read or write does not wait
+// for them (a third of a CPU-second): for programs that will surely need them. Optional.
+void preload_image_codecs();
+
 // The sRGB transfer functions (IEC 61966-2-1): encode = linear -> display, decode the inverse.
-float linear_to_srgb(float linear);
-float srgb_to_linear(float encoded);
+// Inline: the codec module (which cannot see the program's symbols) uses them too.
+inline float linear_to_srgb(float linear) {
+  if (!(linear > 0.0f)) return 0.0f;  // also NaN
+  if (linear >= 1.0f) return 1.0f;
+  if (linear <= 0.0031308f) return 12.92f * linear;
+  return 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
+}
+inline float srgb_to_linear(float encoded) {
+  if (encoded <= 0.04045f) return encoded / 12.92f;
+  return std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
 
 }  // namespace dofcache::image

@@ -51,6 +51,25 @@ struct ScenePreview {
   ScenePreviewTimings timings;
 };
 
+// The pinhole inputs of the preview (steps 1-4 above) without the post-process: what
+// refocus_inputs() and render_preview() take, e.g. for a viewer that refocuses them on demand.
+// Arguments as render_scene_preview's; timings.postprocess* stay zero.
+struct SceneInputs {
+  PreviewInputs inputs;
+  RevealedCoverage coverage;
+  ScenePreviewTimings timings;
+};
+SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel& accel,
+                                  const scene::Camera& camera,
+                                  const render::RenderSettings& settings, PreviewMethod method,
+                                  const PreviewOptions& options = {});
+
+// `in` (without revealed layers) at width x height, every pixel taking the nearest source pixel's
+// colour, depth and id (never a blend: a depth or id between two surfaces belongs to neither),
+// the imaging's resolution set to the new height. For a first look rendered at a fraction of the
+// size. Throws dofcache::Error if `in` has revealed layers or the size is not positive.
+PreviewInputs upscale_inputs(const PreviewInputs& in, int width, int height);
+
 // Renders the preview of `camera`'s view. `settings` supplies the size, pinhole samples per pixel
 // (spp), seed, threads, shading, lens and progress display; its mode, near plane, mask and
 // visibility flag are ignored, and a radiance cache is refused (pinhole renders do not use one).

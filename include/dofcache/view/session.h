@@ -3,10 +3,13 @@
 // inputs and the reference refined in the background (docs/view.md).
 //
 // A background worker renders, in order:
-//   1. draft     the pinhole inputs at 1 sample per pixel, direct light only, no revealed layers:
-//                the first preview (Kraus & Strengert) as soon as possible;
+//   1. draft     the pinhole inputs at half the width and height (a quarter of the rays),
+//                1 sample per pixel, direct light only, no revealed layers, upscaled to the full
+//                size: the first preview (Kraus & Strengert) as soon as possible, on every core;
 //   2. occlusion the pinhole render at 1 sample per pixel with a little indirect light, and the
-//                near-plane renders and revealed layers, so the occlusion fix applies;
+//                near-plane renders and revealed layers, so the occlusion fix applies. From here
+//                on the worker runs at a lower priority and leaves a core to the post-process, so
+//                the first preview and the clicks are answered while it renders;
 //   3. refined   the inputs at ViewSettings::input_spp with full shading;
 //   4. reference distributed ray tracing with the radiance cache, in passes of
 //                ViewSettings::reference_pass_spp lens samples, accumulated, up to
