@@ -34,6 +34,8 @@ struct RenderOptions {
   render::CacheSettings cache_settings;
   preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
   bool quiet = false;
+  // Whether --spp / any shading option was given: the preview modes default to quick inputs.
+  bool spp_given = false, shading_given = false;
 };
 
 std::string describe_lens(const lens::ThinLens& l) {
@@ -41,6 +43,12 @@ std::string describe_lens(const lens::ThinLens& l) {
   std::snprintf(buf, sizeof buf, "%.0f mm f/%.3g, focus %.3g m (aperture %.3g mm)",
                 l.focal_length * 1000.0, l.fstop, l.focus_distance, l.aperture_diameter() * 1000.0);
   return buf;
+}
+
+nlohmann::json shading_json(const render::ShadingSettings& s) {
+  return {{"light_samples", s.light_samples}, {"gather_rays", s.gather_rays},
+          {"bounces", s.bounces}, {"specular_depth", s.specular_depth},
+          {"rough_lobe_rate", s.rough_lobe_rate}};
 }
 
 std::vector<std::string> with_auto(std::vector<std::string> names) {
@@ -80,6 +88,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
         {"lens", {{"focal_length", s.lens.focal_length}, {"fstop", s.lens.fstop},
                   {"focus_distance", s.lens.focus_distance}}},
         {"environment", environment_json(o.environment, environment)},
+        {"shading", shading_json(s.shading)},
         {"preview", {{"layers", t.layers}, {"revealed_layers", t.revealed_layers},
                      {"revealed_pixels", t.revealed_pixels},
                      {"pinhole_render_ms", t.pinhole_render_ms},
@@ -123,6 +132,10 @@ int run_render(const RenderOptions& o) {
   s.seed = o.seed;
   s.threads = o.threads;
   s.shading = o.shading;
+  // A preview is a quick look: its inputs default to one sample with cut-down shading (the
+  // post-process blurs most of their noise); --spp and the shading options ask for better ones.
+  if (method && !o.spp_given) s.spp = preview::kQuickInputSpp;
+  if (method && !o.shading_given) s.shading = preview::quick_input_shading(o.shading, true);
   const render::ResolvedEnvironment environment =
       render::resolve_environment(o.environment, scene, o.limits);
   s.shading.environment = environment.environment;
@@ -202,10 +215,7 @@ int run_render(const RenderOptions& o) {
         {"shading_points", st.shading_points},
         {"lens", {{"focal_length", s.lens.focal_length}, {"fstop", s.lens.fstop},
                   {"focus_distance", s.lens.focus_distance}}},
-        {"shading", {{"light_samples", s.shading.light_samples},
-                     {"gather_rays", s.shading.gather_rays}, {"bounces", s.shading.bounces},
-                     {"specular_depth", s.shading.specular_depth},
-                     {"rough_lobe_rate", s.shading.rough_lobe_rate}}},
+        {"shading", shading_json(s.shading)},
         {"environment", environment_json(o.environment, environment)},
         {"output", o.out},
         {"cache", cache_settings_json(backend, s)}};
@@ -245,7 +255,9 @@ Runner add_render_command(CLI::App& app) {
       ->capture_default_str();
   add_size_options(cmd, o->width, o->height);
   cmd->add_option("--spp", o->spp,
-                  "Samples (lens rays) per pixel; pinhole samples in the preview modes")
+                  "Samples (lens rays) per pixel; pinhole samples in the preview modes (default "
+                  "there: 1, with 1 light sample, 2 gather rays, 1 bounce and specular depth 1 "
+                  "unless shading options are given)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 20));
   cmd->add_option("--mode", o->mode,
@@ -300,7 +312,13 @@ Runner add_render_command(CLI::App& app) {
                   "Preview modes: also save the pinhole images (and revealed layers) as one "
                   "multi-part .exr for 'dofcache refocus'");
   cmd->add_flag("-q,--quiet", o->quiet, "Print only the output path");
-  return [o] { return run_render(*o); };
+  return [o, cmd] {
+    o->spp_given = cmd->count("--spp") > 0;
+    for (const char* name :
+         {"--light-samples", "--gather-rays", "--bounces", "--specular-depth", "--rough-lobe-rate"})
+      o->shading_given = o->shading_given || cmd->count(name) > 0;
+    return run_render(*o);
+  };
 }
 
 }  // namespace dofcache::cli

@@ -58,6 +58,15 @@ std::uint64_t count_set(const image::Image& mask) {
 
 }  // namespace
 
+render::ShadingSettings quick_input_shading(const render::ShadingSettings& full, bool indirect) {
+  render::ShadingSettings s = full;
+  s.light_samples = std::min(full.light_samples, 1);
+  s.gather_rays = indirect ? std::min(full.gather_rays, 2) : 0;
+  s.bounces = indirect ? std::min(full.bounces, 1) : 0;
+  s.specular_depth = std::min(full.specular_depth, 1);
+  return s;
+}
+
 SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel& accel,
                                   const scene::Camera& camera,
                                   const render::RenderSettings& settings, PreviewMethod method,

@@ -29,18 +29,6 @@ double ms_since(clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
 }
 
-// The first inputs are rendered for speed: one pinhole sample per pixel and direct light only
-// (one light sample, mirror reflections one level deep). The occlusion stage adds two gather rays
-// of indirect light. Measured in docs/view.md.
-render::ShadingSettings draft_shading(const render::ShadingSettings& full, InputStage stage) {
-  render::ShadingSettings s = full;
-  s.light_samples = std::min(full.light_samples, 1);
-  s.gather_rays = stage == InputStage::Draft ? 0 : std::min(full.gather_rays, 2);
-  s.bounces = stage == InputStage::Draft ? 0 : std::min(full.bounces, 1);
-  s.specular_depth = std::min(full.specular_depth, 1);
-  return s;
-}
-
 // Background work (the refined inputs, the reference) leaves one core to the post-process, so a
 // click is answered while they run.
 int background_threads(int requested) {
@@ -199,8 +187,9 @@ void ViewSession::render_inputs(InputStage stage) {
   s.progress = Progress::Display::Never;
   const bool draft = stage == InputStage::Draft;
   const bool quick = stage != InputStage::Refined;
-  s.spp = quick ? 1 : settings_.input_spp;
-  s.shading = quick ? draft_shading(settings_.shading, stage) : settings_.shading;
+  s.spp = quick ? preview::kQuickInputSpp : settings_.input_spp;
+  s.shading =
+      quick ? preview::quick_input_shading(settings_.shading, !draft) : settings_.shading;
   // The user waits for the draft: it takes every core.
   s.threads = draft ? settings_.threads : background_threads(settings_.threads);
   if (draft) {  // a quarter of the pixels (rounded up, so the upscale covers every pixel)

@@ -58,6 +58,26 @@ class PreviewCli : public dofcache::testing::CliTest {
   }
 };
 
+// A preview is a quick look: without --spp or shading options its inputs take one sample per
+// pixel with cut-down shading (preview::quick_input_shading); given options are respected.
+TEST_F(PreviewCli, QuickInputsByDefaultAndGivenOptionsRespected) {
+  auto stats = [&](const std::string& options) {
+    const std::string json = path("s.json");
+    dofcache::testing::CliResult r = run("render " + kScene + " --mode preview --width 32 -q --out " +
+                                         path("p.png") + " --stats-json " + json + options);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return slurp(json);
+  };
+  const std::string quick = stats("");
+  EXPECT_NE(quick.find("\"spp\": 1,"), std::string::npos) << quick;
+  EXPECT_NE(quick.find("\"gather_rays\": 2,"), std::string::npos) << quick;
+  EXPECT_NE(quick.find("\"light_samples\": 1,"), std::string::npos) << quick;
+  const std::string asked = stats(" --spp 3 --gather-rays 5");
+  EXPECT_NE(asked.find("\"spp\": 3,"), std::string::npos) << asked;
+  EXPECT_NE(asked.find("\"gather_rays\": 5,"), std::string::npos) << asked;
+  EXPECT_NE(asked.find("\"light_samples\": 4,"), std::string::npos) << asked;  // the default
+}
+
 TEST_F(PreviewCli, EveryPreviewModeWritesAnImage) {
   for (const char* mode : {"preview", "preview-occlusion", "preview-gather", "preview-scatter"}) {
     const std::string out = path(std::string(mode) + ".png");

@@ -51,6 +51,13 @@ struct ScenePreview {
   ScenePreviewTimings timings;
 };
 
+// What preview inputs are rendered with for a quick look (the defaults of `render --mode
+// preview*` and the viewer's first stages): one pinhole sample per pixel, and shading cut down
+// from `full` to one light sample and mirrors one level deep, plus, if `indirect`, two gather rays
+// of one bounce (else direct light only). The post-process blurs most of the noise this leaves.
+constexpr int kQuickInputSpp = 1;
+render::ShadingSettings quick_input_shading(const render::ShadingSettings& full, bool indirect);
+
 // The pinhole inputs of the preview (steps 1-4 above) without the post-process: what
 // refocus_inputs() and render_preview() take, e.g. for a viewer that refocuses them on demand.
 // Arguments as render_scene_preview's; timings.postprocess* stay zero.
