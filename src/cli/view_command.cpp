@@ -15,6 +15,7 @@
 #include "common_options.h"
 #include "dofcache/core/error.h"
 #include "dofcache/render/setup.h"
+#include "dofcache/sequence/camera_path.h"
 #include "dofcache/view/server.h"
 #include "dofcache/view/session.h"
 
@@ -24,7 +25,7 @@ namespace dofcache::cli {
 namespace {
 
 struct ViewOptions {
-  std::string scene_path, camera;
+  std::string scene_path, camera, keyframes;
   int scene_index = -1, width = 640, height = 0, port = 0;
   scene::LoadLimits limits;
   std::optional<double> fstop, focal_length, focus_distance;
@@ -80,7 +81,10 @@ int run_view(ViewOptions& o) {
   const std::string source = scene.source;
   view::ViewSession session(std::move(scene), {o.focal_length, o.fstop, o.focus_distance},
                             o.settings);
-  view::ViewServer server(session, view::ServerSettings{o.port, ""});
+  // A keyframe file the page would append to must be one already: say so now, not at the click.
+  if (!o.keyframes.empty() && std::filesystem::exists(o.keyframes))
+    sequence::load_keyframe_path(o.keyframes, session.camera());
+  view::ViewServer server(session, view::ServerSettings{o.port, "", o.keyframes, source});
   session.start();
   server.start();
   std::printf("scene   %s, %dx%d\n", source.c_str(), session.width(), session.height());
@@ -141,6 +145,9 @@ Runner add_view_command(CLI::App& app) {
                   "The reference's radiance cache: none, octree or vdb")
       ->capture_default_str()
       ->check(CLI::IsMember({"none", "octree", "vdb"}));
+  cmd->add_option("--keyframes", o->keyframes,
+                  "Keyframe file the page's 'Append keyframe' adds the camera and lens to (created "
+                  "if missing), for 'dofcache sequence --path'");
   cmd->add_flag("--no-reference", o->no_reference,
                 "Do not render the reference in the background (preview only)");
   return [o] { return run_view(*o); };

@@ -1,4 +1,4 @@
-// JSON keyframe files (docs/sequence.md, "Keyframe files"). Each quantity (position, target or
+// JSON keyframe files (docs/sequence.md, "Keyframe files"): read, and appended to. Each quantity (position, target or
 // rotation, yfov, focal length, f-number, focus distance) is its own track, made of the keys
 // that give it, so a focus pull needs nothing but focus distances.
 #include <algorithm>
@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <type_traits>
@@ -14,6 +15,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/sequence/camera_path.h"
 
@@ -232,6 +234,58 @@ CameraPath load_keyframe_path(const std::string& json_file, const scene::Camera&
   if (!in) throw Error(json_file + ": cannot open file (" + std::strerror(errno) + ")");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   return parse_keyframe_path(text, json_file, base);
+}
+
+int append_keyframe(const std::string& json_file, const scene::Camera& camera,
+                    const lens::ThinLens& lens, const std::string& description) {
+  lens.validate();
+  json doc;
+  std::error_code ec;
+  if (std::filesystem::exists(json_file, ec)) {
+    load_keyframe_path(json_file, camera);  // a valid keyframe file, or its one-line error
+    std::ifstream in(json_file, std::ios::binary);
+    doc = json::parse(in);
+  } else {
+    doc = {{kFormatKey, kFormatVersion}, {"fps", 24}, {"interpolation", "smooth"},
+           {"keys", json::array()}};
+    if (!description.empty()) doc["description"] = description;
+  }
+  json& keys = doc["keys"];
+  json key = json::object();
+  if (keys.empty() || keys.back().contains("frame")) {
+    const double fps = doc.contains("fps") ? doc["fps"].get<double>() : 24.0;
+    const double last = keys.empty() ? -fps : keys.back()["frame"].get<double>();
+    key["frame"] = static_cast<long long>(std::floor(last + fps + 0.5));  // one second on
+  } else {
+    key["time"] = keys.back()["time"].get<double>() + 1.0;
+  }
+  const glm::dmat4 m(camera.camera_to_world);
+  const glm::dvec3 position(m[3]);
+  key["position"] = {position.x, position.y, position.z};
+  const bool by_target = std::any_of(keys.begin(), keys.end(),
+                                     [](const json& k) { return k.contains("target"); });
+  if (by_target) {
+    const glm::dvec3 target = position - glm::normalize(glm::dvec3(m[2])) * lens.focus_distance;
+    key["target"] = {target.x, target.y, target.z};
+  } else {
+    const glm::dquat q = glm::normalize(glm::quat_cast(glm::dmat3(m)));
+    key["rotation"] = {q.x, q.y, q.z, q.w};  // glTF order
+  }
+  key["yfov"] = camera.yfov;
+  key["focal_length"] = lens.focal_length;
+  key["fstop"] = lens.fstop;
+  key["focus_distance"] = lens.focus_distance;
+  keys.push_back(std::move(key));
+
+  const std::string text = doc.dump(2) + "\n";
+  parse_keyframe_path(text, json_file, camera);  // what is written reads back
+  write_atomically(json_file, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.close();
+    if (!out) throw Error(json_file + ": cannot write the keyframe file");
+  });
+  return static_cast<int>(keys.size());
 }
 
 }  // namespace dofcache::sequence

@@ -20,6 +20,7 @@
 
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
+#include "dofcache/sequence/camera_path.h"
 #include "dofcache/view/page.h"
 #include "dofcache/view/session.h"
 
@@ -158,7 +159,9 @@ std::size_t resident_memory_bytes() {
 
 struct ViewServer::Impl {
   Impl(ViewSession& s, const ServerSettings& settings)
-      : session(s), token(settings.token.empty() ? random_token() : settings.token) {}
+      : session(s),
+        settings(settings),
+        token(settings.token.empty() ? random_token() : settings.token) {}
 
   void configure();
   void add_routes();
@@ -167,6 +170,7 @@ struct ViewServer::Impl {
   void send_image(const httplib::Request& req, httplib::Response& res);
 
   ViewSession& session;
+  ServerSettings settings;
   std::string token;
   httplib::Server server;
   int port = 0;
@@ -317,6 +321,16 @@ void ViewServer::Impl::add_routes() {
     if (!m) return send_error(res, 503, "no reference for the current lens yet");
     send_json(res, {{"rel_mse", m->rel_mse}, {"psnr", m->psnr}, {"ssim", m->ssim},
                     {"reference_spp", session.status().reference_spp}});
+  });
+  // Appends the camera and the lens as a key of the keyframe file given with --keyframes, for
+  // `dofcache sequence --path`.
+  server.Post("/api/keyframe", [this](const httplib::Request&, httplib::Response& res) {
+    if (settings.keyframes.empty())
+      return send_error(res, 409, "no keyframe file: start dofcache view with --keyframes FILE");
+    const lens::ThinLens lens = session.lens();
+    const int keys = sequence::append_keyframe(settings.keyframes, session.camera(), lens,
+                                               "keys from dofcache view of " + settings.scene_name);
+    send_json(res, {{"keys", keys}, {"file", settings.keyframes}, {"lens", lens_json(lens)}});
   });
   // The lens as a glTF camera node's extras (docs/scenes.md), ready to paste.
   server.Get("/api/lens.gltf", [this](const httplib::Request&, httplib::Response& res) {

@@ -302,6 +302,8 @@ ViewStatus ViewSession::status() const {
   return s;
 }
 
+const scene::Camera& ViewSession::camera() const { return render_->camera; }
+
 lens::ThinLens ViewSession::lens() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return state_->lens;

@@ -2,6 +2,7 @@
 // CUBICSPLINE channels, normalised-integer rotations), and JSON keyframe files, against poses
 // computed by hand.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstring>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
 #include "dofcache/core/error.h"
@@ -357,6 +359,54 @@ TEST(KeyframePath, NumberBeyondDoubleRangeIsAOneLineError) {
     EXPECT_NE(what.find("overflow.json: invalid JSON: number overflow parsing '1e3081'"),
               std::string::npos) << what;
   }
+}
+
+// `dofcache view`'s "append keyframe": a new file gets the camera's pose and lens as key 0; the
+// next key comes one second (24 frames) later; the path read back passes through both poses.
+TEST(KeyframePath, AppendedKeysReadBackAsThePosesAndLensesGiven) {
+  const fs::path dir = fs::temp_directory_path() / ("dofcache_append_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string file = (dir / "keys.json").string();
+  scene::Camera a = base_camera();
+  a.camera_to_world = glm::translate(glm::mat4(1.0f), glm::vec3(1, 2, 3));
+  scene::Camera b = a;  // turned 90 degrees left (about +Y): looks down -X
+  b.camera_to_world = glm::rotate(a.camera_to_world, float(M_PI / 2), glm::vec3(0, 1, 0));
+  b.yfov = 0.5f;
+  EXPECT_EQ(append_keyframe(file, a, lens::ThinLens{0.05, 2.0, 4.0}, "test"), 1);
+  EXPECT_EQ(append_keyframe(file, b, lens::ThinLens{0.08, 5.6, 2.5}), 2);
+  const CameraPath p = load_keyframe_path(file, base_camera());
+  EXPECT_DOUBLE_EQ(*p.fps, 24.0);
+  EXPECT_DOUBLE_EQ(p.start_time, 0.0);
+  EXPECT_DOUBLE_EQ(p.end_time, 1.0);
+  const PathSample s0 = p.at(0.0), s1 = p.at(1.0);
+  expect_vec(position(s0), {1, 2, 3}, 1e-6);
+  expect_vec(forward(s0), {0, 0, -1}, 1e-6);
+  expect_vec(forward(s1), {-1, 0, 0}, 1e-6);
+  EXPECT_NEAR(*s1.yfov, 0.5, 1e-7);
+  EXPECT_DOUBLE_EQ(*s0.fstop, 2.0);
+  EXPECT_DOUBLE_EQ(*s1.focus_distance, 2.5);
+  EXPECT_DOUBLE_EQ(*s1.focal_length, 0.08);
+
+  // A file of look-at keys gets a look-at key (the target on the axis at the focus distance).
+  const std::string look = (dir / "look.json").string();
+  std::ofstream(look) << R"({"dofcache_camera_path": 1, "fps": 10,
+      "keys": [{"frame": 3, "position": [0, 0, 5], "target": [0, 0, 0]}]})";
+  EXPECT_EQ(append_keyframe(look, b, lens::ThinLens{0.05, 2.0, 4.0}), 2);
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(look));
+  EXPECT_EQ(j["keys"][1]["frame"].get<double>(), 13.0);
+  const nlohmann::json& target = j["keys"][1]["target"];
+  expect_vec({target[0].get<double>(), target[1].get<double>(), target[2].get<double>()},
+             {-3, 2, 3}, 1e-6);
+  EXPECT_FALSE(j["keys"][1].contains("rotation"));
+
+  // Not a keyframe file: one line, the file untouched.
+  const std::string bad = (dir / "bad.json").string();
+  std::ofstream(bad) << "{\"keys\": 3}";
+  EXPECT_THROW(append_keyframe(bad, a, lens::ThinLens{0.05, 2.0, 4.0}), Error);
+  std::ifstream in(bad);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), "{\"keys\": 3}");
+  fs::remove_all(dir);
 }
 
 TEST(KeyframePath, ShippedPathsLoad) {

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
@@ -18,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dofcache/core/error.h"
+#include "dofcache/sequence/camera_path.h"
 #include "dofcache/view/server.h"
 #include "dofcache/view/session.h"
 #include "render/test_scenes.h"
@@ -63,9 +65,9 @@ ViewSettings small_settings(bool reference) {
 
 class ViewServerTest : public ::testing::Test {
  protected:
-  void start(bool reference = false) {
+  void start(bool reference = false, const std::string& keyframes = "") {
     session = std::make_unique<ViewSession>(two_planes(), wide_open(), small_settings(reference));
-    server = std::make_unique<ViewServer>(*session, ServerSettings{0, ""});
+    server = std::make_unique<ViewServer>(*session, ServerSettings{0, "", keyframes, "planes"});
     session->start();
     server->start();
     ASSERT_TRUE(session->wait_for_stage(InputStage::Refined, 60.0));
@@ -153,7 +155,7 @@ TEST_F(ViewServerTest, TokensAreRandomAndTheServerListensOnLoopbackOnly) {
   // A port in use is refused, not shared (no SO_REUSEPORT).
   ViewSession other(two_planes(), wide_open(), small_settings(false));
   try {
-    ViewServer second(other, ServerSettings{server->port(), ""});
+    ViewServer second(other, ServerSettings{server->port(), "", "", ""});
     ADD_FAILURE() << "a second server bound port " << server->port();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("cannot bind"), std::string::npos) << e.what();
@@ -296,6 +298,37 @@ TEST_F(ViewServerTest, ImagesComeAsPngOrRaw) {
   EXPECT_EQ(get_status("/api/compare", auth()), 503);
   auto gltf = json::parse(client->Get("/api/lens.gltf", auth())->body);
   EXPECT_DOUBLE_EQ(gltf.at("extras").at("lens").at("fstop").get<double>(), 0.5);
+}
+
+// "Append keyframe": each press adds the camera and the lens of the moment to the file named on
+// the command line, which `dofcache sequence --path` then reads; without one the route says how.
+TEST_F(ViewServerTest, KeyframesAreAppendedToTheFileGivenOnly) {
+  auto refused = post("/api/keyframe", "");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 409);
+  EXPECT_NE(refused->body.find("--keyframes"), std::string::npos);
+
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("dofcache_view_keys_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string file = (dir / "keys.json").string();
+  server->stop();
+  session->stop();
+  start(false, file);
+  auto first = post("/api/keyframe", "");
+  ASSERT_TRUE(first && first->status == 200) << (first ? first->body : "no answer");
+  EXPECT_EQ(json::parse(first->body)["keys"], 1);
+  ASSERT_EQ(post("/api/lens", R"({"fstop": 8, "focus_distance": 3.5})")->status, 200);
+  auto second = post("/api/keyframe", "");
+  ASSERT_TRUE(second && second->status == 200);
+  EXPECT_EQ(json::parse(second->body)["keys"], 2);
+
+  const sequence::CameraPath path = sequence::load_keyframe_path(file, session->camera());
+  EXPECT_DOUBLE_EQ(path.end_time - path.start_time, 1.0);
+  EXPECT_DOUBLE_EQ(*path.at(path.start_time).fstop, 0.5);  // wide_open()
+  EXPECT_DOUBLE_EQ(*path.at(path.end_time).fstop, 8.0);
+  EXPECT_DOUBLE_EQ(*path.at(path.end_time).focus_distance, 3.5);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_F(ViewServerTest, MethodIsChosenWithoutTouchingTheLens) {

@@ -82,6 +82,17 @@ CameraPath load_keyframe_path(const std::string& json_file, const scene::Camera&
 CameraPath parse_keyframe_path(const std::string& json_text, const std::string& name,
                                const scene::Camera& base);
 
+// Appends the camera's pose, field of view and `lens` as a new last key of the keyframe file
+// `json_file` (e.g. from `dofcache view`), one second after its last key: in frames at the file's
+// fps if its keys give frames, else in seconds. The orientation is written as the file's keys give
+// theirs: a rotation quaternion, or for a file of "target" keys a target on the optical axis at
+// the focus distance. A missing file is created (format version 1, 24 fps, smooth interpolation,
+// `description`). The file is checked as load_keyframe_path checks it before and after, and
+// rewritten atomically. Returns the number of keys now in the file. Throws dofcache::Error (one
+// line) if the file exists but is not a valid keyframe file, or cannot be written.
+int append_keyframe(const std::string& json_file, const scene::Camera& camera,
+                    const lens::ThinLens& lens, const std::string& description = "");
+
 // One frame of a sequence: its number, the camera and the resolved lens.
 struct FrameSpec {
   int number = 0;

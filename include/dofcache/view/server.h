@@ -6,7 +6,8 @@
 //   * bound to 127.0.0.1 only (there is no option to bind elsewhere);
 //   * every request carries the session's random token (header X-Dofcache-Token, or the query
 //     parameter `token` for the page itself): 401 without one, 403 with a wrong one;
-//   * no request names a file: the page is compiled in, images are made in memory;
+//   * no request names a file: the page is compiled in, images are made in memory, and the one
+//     file a request may write is the keyframe file named on the command line;
 //   * request bodies are limited to kMaxRequestBody bytes (413), URIs and headers by the HTTP
 //     library (8 KiB), reads time out, and a malformed or oversized request is answered with an
 //     error while the server keeps serving.
@@ -25,6 +26,10 @@ std::string random_token();
 struct ServerSettings {
   int port = 0;       // 0: any free port
   std::string token;  // empty: random_token()
+  // POST /api/keyframe appends the current camera and lens to this keyframe file
+  // (sequence::append_keyframe); empty: the route answers 409.
+  std::string keyframes;
+  std::string scene_name;  // the keyframe file's description when it is created
 };
 
 class ViewServer {

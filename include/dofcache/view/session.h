@@ -112,6 +112,7 @@ class ViewSession {
 
   // Validates and applies a lens; restarts the reference if it changed.
   void set_lens(const lens::ThinLens& lens);
+  const scene::Camera& camera() const;  // the camera looked through (fixed for the session)
   void set_method(preview::PreviewMethod method);
   // Focuses at pixel (x, y): the focus distance becomes the camera-space depth the pinhole inputs
   // see there. Returns the new lens. Throws dofcache::Error if there are no inputs yet, the pixel

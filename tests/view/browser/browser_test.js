@@ -27,7 +27,9 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 // Starts the server; resolves with its address once printed.
 function startServer() {
   const args = ["view", scene, "--port", "0", "--width", String(width), "--input-spp", "4",
-                "--reference-pass-spp", "1", "--reference-max-spp", "4"];
+                "--reference-pass-spp", "1", "--reference-max-spp", "4",
+                "--keyframes", path.join(outDir, "keyframes.json")];
+  fs.rmSync(path.join(outDir, "keyframes.json"), {force: true});
   const child = spawn(exe, args, {stdio: ["ignore", "pipe", "inherit"]});
   const started = Date.now();
   return new Promise((resolve, reject) => {
@@ -214,6 +216,17 @@ async function main() {
     await page.waitForFunction(() => document.getElementById("lens-text").value.length > 0);
     const text = await page.$eval("#lens-text", (el) => el.value);
     check(JSON.parse(text).extras.lens.fstop === lens.fstop, "copy lens gives extras.lens " + text);
+
+    // Two keys appended to the keyframe file given on the command line, the second with the lens
+    // of the moment.
+    const keyframes = path.join(outDir, "keyframes.json");
+    await page.click("#keyframe");
+    await page.waitForFunction(() => window.dofcacheView.keyframes === 1);
+    await page.click("#keyframe");
+    await page.waitForFunction(() => window.dofcacheView.keyframes === 2);
+    const keys = JSON.parse(fs.readFileSync(keyframes, "utf8")).keys;
+    check(keys.length === 2 && keys[1].fstop === lens.fstop && keys[1].frame === 24,
+          "Append keyframe writes the lens as keys of " + keyframes);
 
     // Back to the occlusion-fixed preview focused on the near object, wide open, for the
     // screenshot in docs/view.md.
