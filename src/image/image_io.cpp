@@ -72,6 +72,14 @@ std::vector<unsigned char> encode_png(const Image& color) {
   return bytes;
 }
 
+std::vector<unsigned char> encode_exr(const Image& color) {
+  if (color.empty() || color.channels() != 3)
+    throw Error("cannot encode an EXR image: colour must be a non-empty RGB image");
+  std::vector<unsigned char> bytes;
+  check(codec::table().encode_exr(color, bytes));
+  return bytes;
+}
+
 Image read_image(const std::string& path, std::uint64_t max_values) {
   Image out;
   check(codec::table().read_image(path, max_values, out));

@@ -560,6 +560,18 @@ std::vector<unsigned char> encode_png(const Image& color) {
   return bytes;
 }
 
+std::vector<unsigned char> encode_exr(const Image& color) {
+  const ImageSpec spec = exr_spec(color.width(), color.height(), {"R", "G", "B"});
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput memory(bytes);
+  auto out = ImageOutput::create("openexr");
+  if (!out || !out->set_ioproxy(&memory) || !out->open("memory.exr", spec) ||
+      !out->write_image(TypeDesc::FLOAT, color.data().data()) || !out->close())
+    throw Error(std::string("cannot encode an EXR image: ") +
+                (out ? out->geterror() : OIIO::geterror()));
+  return bytes;
+}
+
 // Every entry catches what the codec throws: exceptions do not cross the module boundary.
 template <class Fn>
 std::string guarded(Fn&& fn) noexcept {
@@ -584,6 +596,9 @@ const codec::Table kTable = {
     },
     [](const Image& color, std::vector<unsigned char>& bytes) {
       return guarded([&] { bytes = oiio::encode_png(color); });
+    },
+    [](const Image& color, std::vector<unsigned char>& bytes) {
+      return guarded([&] { bytes = oiio::encode_exr(color); });
     },
     [](const std::string& path, std::uint64_t max_values, Image& out) {
       return guarded([&] { out = oiio::read_image(path, max_values); });

@@ -242,8 +242,8 @@ void ViewServer::Impl::configure() {
 void ViewServer::Impl::send_image(const httplib::Request& req, httplib::Response& res) {
   const std::string kind = req.has_param("kind") ? req.get_param_value("kind") : "preview";
   const std::string format = req.has_param("format") ? req.get_param_value("format") : "png";
-  if (format != "png" && format != "raw")
-    throw Error("format must be png or raw, not '" + format + "'");
+  if (format != "png" && format != "raw" && format != "exr")
+    throw Error("format must be png, exr or raw, not '" + format + "'");
   std::optional<ViewImage> image;
   if (kind == "preview")
     image = session.preview();
@@ -261,8 +261,10 @@ void ViewServer::Impl::send_image(const httplib::Request& req, httplib::Response
   res.set_header("X-Lens-Version", std::to_string(image->lens_version));
   res.set_header("X-Inputs-Version", std::to_string(image->inputs_version));
   if (format == "raw") return res.set_content(rgba8(image->color), "application/octet-stream");
-  const std::vector<unsigned char> png = image::encode_png(image->color);
-  res.set_content(std::string(png.begin(), png.end()), "image/png");
+  const bool exr = format == "exr";  // linear float, for compositing; png is 8-bit sRGB
+  const std::vector<unsigned char> bytes =
+      exr ? image::encode_exr(image->color) : image::encode_png(image->color);
+  res.set_content(std::string(bytes.begin(), bytes.end()), exr ? "image/x-exr" : "image/png");
 }
 
 void ViewServer::Impl::add_routes() {

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -19,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
 #include "dofcache/sequence/camera_path.h"
 #include "dofcache/view/server.h"
 #include "dofcache/view/session.h"
@@ -282,7 +284,7 @@ TEST_F(ViewServerTest, RefocusChangesTheImage) {
   EXPECT_GT(status.at("memory_bytes").get<double>(), 0.0);
 }
 
-TEST_F(ViewServerTest, ImagesComeAsPngOrRaw) {
+TEST_F(ViewServerTest, ImagesComeAsPngExrOrRaw) {
   auto png = client->Get("/api/image?kind=preview&format=png", auth());
   ASSERT_TRUE(png);
   ASSERT_EQ(png->status, 200);
@@ -293,6 +295,26 @@ TEST_F(ViewServerTest, ImagesComeAsPngOrRaw) {
   ASSERT_EQ(raw->status, 200);
   EXPECT_EQ(raw->body.size(), std::size_t(kWidth) * kHeight * 4);
   EXPECT_EQ(raw->get_header_value("X-Image-Width"), std::to_string(kWidth));
+  // The EXR holds the linear values whose sRGB encoding the raw bytes are.
+  auto exr = client->Get("/api/image?kind=pinhole&format=exr", auth());
+  ASSERT_TRUE(exr);
+  ASSERT_EQ(exr->status, 200);
+  EXPECT_EQ(exr->get_header_value("Content-Type"), "image/x-exr");
+  const std::string file = std::filesystem::temp_directory_path() /
+                           ("dofcache_view_exr_" + std::to_string(::getpid()) + ".exr");
+  std::ofstream(file, std::ios::binary) << exr->body;
+  const image::Image linear = image::read_image(file);
+  std::filesystem::remove(file);
+  ASSERT_EQ(linear.width(), kWidth);
+  ASSERT_EQ(linear.height(), kHeight);
+  int off = 0;
+  for (int p = 0; p < kWidth * kHeight; ++p)
+    for (int c = 0; c < 3; ++c) {
+      const int byte = static_cast<unsigned char>(raw->body[p * 4 + c]);
+      off += std::abs(std::lround(image::linear_to_srgb(linear.data()[p * 3 + c]) * 255.0f) -
+                      byte) > 0;
+    }
+  EXPECT_EQ(off, 0);
   // No reference in this session.
   EXPECT_EQ(get_status("/api/image?kind=reference", auth()), 503);
   EXPECT_EQ(get_status("/api/compare", auth()), 503);

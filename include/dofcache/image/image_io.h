@@ -29,6 +29,9 @@ void write_image(const std::string& path, const Image& color,
 // `color` (RGB linear) as the bytes of an 8-bit sRGB PNG file, in memory (what write_image
 // writes for .png), e.g. for an HTTP response. Throws dofcache::Error if encoding fails.
 std::vector<unsigned char> encode_png(const Image& color);
+// The same as a linear 32-bit float RGB EXR file (what write_image writes for .exr, without
+// extra channels).
+std::vector<unsigned char> encode_exr(const Image& color);
 
 // Throws the error write_image would give for an unsupported extension or a missing directory,
 // so callers can refuse a bad output path before spending time on a render.

@@ -211,6 +211,14 @@ async function main() {
     check(!!saved, "Save PNG downloads " + saved);
     const bytes = fs.readFileSync(path.join(downloads, saved));
     check(bytes.slice(1, 4).toString() === "PNG", "the saved file is a PNG");
+    await page.click("#save-exr");
+    let exr = null;
+    for (let i = 0; i < 100 && !exr; ++i) {
+      await sleep(100);
+      exr = fs.readdirSync(downloads).find((f) => f.endsWith(".exr"));
+    }
+    check(!!exr && fs.readFileSync(path.join(downloads, exr)).readUInt32LE(0) === 20000630,
+          "Save EXR downloads an OpenEXR file " + exr);
 
     await page.click("#copy");
     await page.waitForFunction(() => document.getElementById("lens-text").value.length > 0);
