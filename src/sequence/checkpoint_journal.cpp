@@ -94,12 +94,16 @@ SampleRecord get_sample(const char* p) {
   return r;
 }
 
-// Equal in every bit but last_used (the encoding's last 4 bytes).
+// Equal in every bit but last_used (what the encoding holds; compared field by field, since this
+// runs for every sample of every frame).
 bool same_but_last_used(const SampleRecord& a, const SampleRecord& b) {
-  char x[kSampleBytes], y[kSampleBytes];
-  store_sample(x, a);
-  store_sample(y, b);
-  return std::memcmp(x, y, kSampleBytes - 4) == 0;
+  const cache::CacheSample &x = a.sample, &y = b.sample;
+  auto same = [](const auto& u, const auto& v) { return std::memcmp(&u, &v, sizeof u) == 0; };
+  return same(x.position, y.position) && same(x.normal, y.normal) && same(x.value, y.value) &&
+         same(x.radius, y.radius) && x.id == y.id && x.frame == y.frame &&
+         same(a.origin.radius, b.origin.radius) &&
+         same(a.origin.view_radius, b.origin.view_radius) &&
+         same(a.origin.footprint, b.origin.footprint);
 }
 
 bool bit(const std::vector<std::uint8_t>& bits, std::size_t k) {

@@ -417,10 +417,17 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
                        "/" + std::to_string(n) + ")");
     render::RenderSettings rs = frame_settings(s, spec);
     std::vector<SampleRecord> before;  // the cache after the reuse rule, for the journal
+    double before_seconds = 0.0, before_cpu = 0.0;
     if (cache_) {
       if (s.cache_mode == CacheMode::Fresh) cache_->assign(initial);
       rs.cache.cache = cache_->begin_frame(spec.number, render::make_camera(spec.camera, rs));
-      if (store && store->journaling()) before = cache_->records();
+      if (store && store->journaling()) {
+        auto t = std::chrono::steady_clock::now();
+        const double cpu = cpu_seconds();
+        before = cache_->records();
+        before_cpu = cpu_seconds() - cpu;
+        before_seconds = seconds_since(t);
+      }
     }
     rep.output = render::render(scene_, accel_, spec.camera, rs);
     rep.render_seconds = rep.output.stats.seconds;
@@ -443,8 +450,8 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
                              frames_.front().number, spec.number});
       rep.checkpoint_bytes = saved.bytes;
       rep.checkpoint_full = saved.base;
-      rep.checkpoint_cpu_seconds = cpu_seconds() - cpu;
-      rep.checkpoint_seconds = seconds_since(t_checkpoint);
+      rep.checkpoint_cpu_seconds = cpu_seconds() - cpu + before_cpu;
+      rep.checkpoint_seconds = seconds_since(t_checkpoint) + before_seconds;
     }
     rep.write_seconds = seconds_since(t_write);
     ++summary.rendered;

@@ -73,7 +73,8 @@ struct FrameReport {
   double cache_seconds = 0.0;   // cache maintenance (reuse rule, rebuilds, eviction)
   double write_seconds = 0.0;   // image and checkpoint files
   // The checkpoint saved after the frame: bytes written, whether it was a full checkpoint (else
-  // a journal record), and its wall and process CPU time (part of write_seconds).
+  // a journal record), and its wall and process CPU time (in write_seconds, except for the copy
+  // of the cache that a journal record is computed against, made before the render).
   std::uint64_t checkpoint_bytes = 0;
   bool checkpoint_full = false;
   double checkpoint_seconds = 0.0, checkpoint_cpu_seconds = 0.0;
