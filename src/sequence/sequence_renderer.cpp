@@ -1,8 +1,8 @@
 #include "dofcache/sequence/sequence_renderer.h"
 
-#include <algorithm>
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
