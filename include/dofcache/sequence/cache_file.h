@@ -1,6 +1,7 @@
 #pragma once
-// Radiance cache files (--cache-in / --cache-out, and the checkpoints of persistent sequences):
-// OpenVDB files written and read with openvdb::io::File. Layout (docs/sequence.md):
+// Radiance cache files (--cache-in / --cache-out, and the full checkpoints of persistent
+// sequences, which a journal extends: checkpoint_journal.h): OpenVDB files written and read with
+// openvdb::io::File. Layout (docs/sequence.md):
 //
 //   file metadata   dofcache.format = "dofcache radiance cache", dofcache.version = 1,
 //                   dofcache.scene_hash (16 hex digits), dofcache.scene (source, informational),
