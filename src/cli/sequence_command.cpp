@@ -79,7 +79,10 @@ int run_sequence(const SequenceOptions& o) {
                     {"samples_inserted", c.inserted}, {"samples_shrunk", c.shrunk},
                     {"samples_grown", c.grown}, {"evicted_unused", c.evicted_unused},
                     {"evicted_memory", c.evicted_memory}, {"samples", c.samples_at_end},
-                    {"cache_memory_bytes", c.memory_bytes}});
+                    {"cache_memory_bytes", c.memory_bytes},
+                    {"checkpoint_bytes", f.checkpoint_bytes}, {"checkpoint_full", f.checkpoint_full},
+                    {"checkpoint_seconds", f.checkpoint_seconds},
+                    {"checkpoint_cpu_seconds", f.checkpoint_cpu_seconds}});
   };
   auto notice = [&](const std::string& text) {
     if (!o.quiet) std::printf("notice   %s\n", text.c_str());

@@ -59,6 +59,11 @@ void add_sequence_options(CLI::App* cmd, SequenceOptions& o) {
   cmd->add_option("--checkpoint", o.checkpoint,
                   "Checkpoint of the persistent cache, written after every frame so an "
                   "interrupted run resumes (default: .<pattern>.checkpoint.vdb beside the frames)");
+  cmd->add_option("--checkpoint-journal", o.checkpoint_journal,
+                  "After the first frame, append each frame's changes to a journal beside the "
+                  "checkpoint until it reaches this many times the checkpoint's size, then "
+                  "rewrite the checkpoint (0: rewrite it after every frame)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1e6));
   cmd->add_flag("--restart", o.restart,
                 "Render every frame again, ignoring complete frames and the checkpoint");
   cmd->add_option("--stats-json", o.stats_json, "Write per-frame statistics as JSON to this file");
@@ -112,6 +117,7 @@ PreparedSequence prepare_sequence(const SequenceOptions& o) {
   s.cache_in = o.cache_in;
   s.cache_out = o.cache_out;
   s.checkpoint = o.checkpoint;
+  s.checkpoint_journal_ratio = o.checkpoint_journal;
   s.resume = !o.restart;
   s.validate();  // before planning frames (which may probe the scene for autofocus)
 

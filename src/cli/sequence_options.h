@@ -34,6 +34,7 @@ struct SequenceOptions {
   render::CacheSettings cache_settings;
   int evict_after = 8;
   double cache_memory_mb = 0.0;
+  double checkpoint_journal = 1.0;
   std::string cache_in, cache_out, checkpoint;
 };
 

@@ -21,6 +21,7 @@
 #include <openvdb/tools/PointIndexGrid.h>
 
 #include "dofcache/core/atomic_file.h"
+#include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
 
@@ -36,18 +37,7 @@ constexpr const char* kGridName = "samples";
 constexpr char kTrailerMagic[8] = {'D', 'O', 'F', 'C', 'S', 'U', 'M', '1'};
 constexpr std::size_t kTrailerSize = 24;
 
-std::uint64_t hash_bytes(const char* data, std::size_t n) {
-  std::uint64_t h = 0x646f6663616368ULL;
-  std::size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
-    std::uint64_t w;
-    std::memcpy(&w, data + i, 8);
-    h = hash_combine(h, w);
-  }
-  std::uint64_t tail = 0;
-  std::memcpy(&tail, data + i, n - i);
-  return hash_combine(hash_combine(h, tail), n);
-}
+constexpr std::uint64_t kTrailerHashSeed = 0x646f6663616368ULL;  // "dofcach"
 
 std::string hex64(std::uint64_t v) {
   char buf[17];
@@ -162,7 +152,8 @@ void write_vdb(const std::string& path, const CacheFile& file) {
 
 void append_cache_file_trailer(const std::string& path) {
   std::string data = slurp(path);
-  std::uint64_t length = data.size(), hash = hash_bytes(data.data(), data.size());
+  std::uint64_t length = data.size();
+  std::uint64_t hash = hash_bytes(data.data(), data.size(), kTrailerHashSeed);
   char trailer[kTrailerSize];
   std::memcpy(trailer, kTrailerMagic, 8);
   std::memcpy(trailer + 8, &length, 8);
@@ -186,7 +177,7 @@ std::string check_integrity(const std::string& path) {
   std::memcpy(&hash, data.data() + data.size() - 8, 8);
   if (length != data.size() - kTrailerSize)
     throw Error(path + ": cache file is damaged (length does not match its trailer)");
-  if (hash != hash_bytes(data.data(), length))
+  if (hash != hash_bytes(data.data(), length, kTrailerHashSeed))
     throw Error(path + ": cache file is damaged (checksum mismatch)");
   data.resize(length);
   return data;
@@ -321,21 +312,12 @@ CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
   return file;
 }
 
-bool finite3(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
-
 void validate_records(CacheFile& file, const std::string& path) {
   std::sort(file.records.begin(), file.records.end(),
             [](const SampleRecord& a, const SampleRecord& b) { return a.sample.id < b.sample.id; });
   for (std::size_t i = 0; i < file.records.size(); ++i) {
-    const SampleRecord& r = file.records[i];
-    const cache::CacheSample& s = r.sample;
-    float nl = std::sqrt(glm::dot(s.normal, s.normal));
-    bool ok = finite3(s.position) && finite3(s.value) && std::abs(nl - 1.0f) < 1e-3f &&
-              s.radius > 0.0f && std::isfinite(s.radius) && r.origin.radius > 0.0f &&
-              std::isfinite(r.origin.radius) && r.origin.view_radius > 0.0f &&
-              std::isfinite(r.origin.view_radius) && r.origin.footprint >= 0.0f &&
-              std::isfinite(r.origin.footprint);
-    if (!ok)
+    const cache::CacheSample& s = file.records[i].sample;
+    if (!valid_sample_record(file.records[i]))
       throw Error(path + ": cache file holds an invalid sample (id " + std::to_string(s.id) +
                   ": non-finite value, non-unit normal or non-positive radius)");
     if (i > 0 && file.records[i - 1].sample.id == s.id)
@@ -344,6 +326,19 @@ void validate_records(CacheFile& file, const std::string& path) {
 }
 
 }  // namespace
+
+bool valid_sample_record(const SampleRecord& r) {
+  auto finite3 = [](glm::vec3 v) {
+    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+  };
+  const cache::CacheSample& s = r.sample;
+  float nl = std::sqrt(glm::dot(s.normal, s.normal));
+  return finite3(s.position) && finite3(s.value) && std::abs(nl - 1.0f) < 1e-3f &&
+         s.radius > 0.0f && std::isfinite(s.radius) && r.origin.radius > 0.0f &&
+         std::isfinite(r.origin.radius) && r.origin.view_radius > 0.0f &&
+         std::isfinite(r.origin.view_radius) && r.origin.footprint >= 0.0f &&
+         std::isfinite(r.origin.footprint);
+}
 
 CacheIdentity cache_identity(const scene::Scene& scene, const render::RenderSettings& settings) {
   CacheIdentity id;

@@ -98,6 +98,17 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
   mutable tbb::enumerable_thread_specific<Counters> counters_;
 };
 
+void apply_reuse_rule(std::vector<SampleRecord>& records, const render::ThinLensCamera& camera,
+                      double min_factor, FrameCacheStats* stats) {
+  for (SampleRecord& r : records) {
+    float radius = cache::reuse_radius(r.origin, r.sample.radius, camera.imaging(),
+                                       camera.depth(r.sample.position), min_factor);
+    if (stats && radius < r.sample.radius) ++stats->shrunk;
+    if (stats && radius > r.sample.radius) ++stats->grown;
+    r.sample.radius = radius;
+  }
+}
+
 PersistentCache::PersistentCache(std::string backend, ReusePolicy policy,
                                  cache::RadiusSettings radius)
     : backend_(std::move(backend)), policy_(policy), radius_(radius) {
@@ -135,13 +146,7 @@ cache::RadianceCache* PersistentCache::begin_frame(std::int32_t frame,
   frame_ = frame;
   camera_ = camera;
   stats_ = FrameCacheStats{};
-  for (SampleRecord& r : records_) {
-    float radius = cache::reuse_radius(r.origin, r.sample.radius, camera.imaging(),
-                                       camera.depth(r.sample.position), radius_.min_factor);
-    if (radius < r.sample.radius) ++stats_.shrunk;
-    if (radius > r.sample.radius) ++stats_.grown;
-    r.sample.radius = radius;
-  }
+  apply_reuse_rule(records_, camera, radius_.min_factor, &stats_);
   live_ = build(records_);
   live_->start_frame();
   stats_.samples_at_start = records_.size();

@@ -1,9 +1,12 @@
 #include "dofcache/sequence/sequence_renderer.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/core/atomic_file.h"
@@ -13,6 +16,7 @@
 #include "dofcache/core/rng.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/sequence/cache_file.h"
+#include "dofcache/sequence/checkpoint_store.h"
 
 namespace dofcache::sequence {
 namespace {
@@ -26,6 +30,23 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 // Seed of the sequence key and the records hash ("sequence"); floats hash as the doubles they
 // equal (ContentHasher::add(float)).
 constexpr std::uint64_t kSequenceHashSeed = 0x73657175656e6365ULL;
+
+double cpu_seconds() {
+  timespec t{};
+  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+// The render settings of one frame (its lens, seed and cache frame; no cache attached yet).
+render::RenderSettings frame_settings(const SequenceSettings& s, const FrameSpec& spec) {
+  render::RenderSettings rs = s.render;
+  rs.lens = spec.lens;
+  rs.seed = frame_seed(s.render.seed, spec.number);
+  rs.progress = Progress::Display::Never;
+  rs.cache.frame = static_cast<std::uint32_t>(spec.number);
+  rs.cache.cache = nullptr;
+  return rs;
+}
 
 std::uint64_t work_of(const render::RenderSettings& s) {
   return static_cast<std::uint64_t>(s.width) * static_cast<std::uint64_t>(s.height) *
@@ -156,6 +177,8 @@ void SequenceSettings::validate() const {
   if (evict_after < 0) throw Error("--cache-evict-after must be >= 0");
   if (!(cache_memory_mb >= 0.0) || !std::isfinite(cache_memory_mb))
     throw Error("--cache-memory must be a number of MB >= 0");
+  if (!(checkpoint_journal_ratio >= 0.0) || !std::isfinite(checkpoint_journal_ratio))
+    throw Error("--checkpoint-journal must be a number >= 0");
   if (cache_mode != CacheMode::None) {
     cache::check_radiance_cache_backend(cache_backend, /*allow_none=*/false);
     if (render.mode == render::Mode::Pinhole)
@@ -182,6 +205,55 @@ SequenceRenderer::SequenceRenderer(const scene::Scene& scene, const scene::Accel
     checkpoint_ = default_checkpoint_path(settings_.output);
 }
 
+std::size_t SequenceRenderer::replay_journal(const CheckpointJournal& journal, std::size_t at,
+                                             const std::vector<std::string>& paths,
+                                             std::uint64_t initial_hash,
+                                             std::vector<SampleRecord>& records,
+                                             std::string* why) const {
+  const std::size_t n = frames_.size();
+  const double min_factor = settings_.render.cache.radius.min_factor;
+  std::size_t replayed = 0;
+  why->clear();
+  for (const JournalRecord& r : journal.records) {
+    const std::size_t i = at + replayed + 1;
+    if (i >= n) return replayed;  // the journal goes on past this run's last frame
+    const FrameSpec& spec = frames_[i];
+    const std::string frame = "frame " + std::to_string(r.frame);
+    if (r.frame != spec.number) {
+      *why = "its record after frame " + std::to_string(frames_[i - 1].number) + " is for frame " +
+             std::to_string(r.frame) + ", this run's next is " + std::to_string(spec.number);
+      return replayed;
+    }
+    if (r.sequence_key != sequence_key(scene_, settings_, frames_, i + 1, initial_hash)) {
+      *why = frame + " was made with another camera or lens";
+      return replayed;
+    }
+    if (!frame_complete(paths[i], settings_.render.width, settings_.render.height)) {
+      *why = frame + " (" + paths[i] + ") is missing or unreadable";
+      return replayed;
+    }
+    // The frame's reuse rule, then its recorded changes, on a copy: a record that does not fit
+    // leaves the cache as the previous one made it.
+    std::vector<SampleRecord> next = records;
+    apply_reuse_rule(next, render::make_camera(spec.camera, frame_settings(settings_, spec)),
+                     min_factor);
+    try {
+      apply_frame_delta(next, r.delta, r.frame);
+    } catch (const Error& e) {
+      *why = frame + ": " + e.what();
+      return replayed;
+    }
+    if (state_hash(next) != r.state_hash) {
+      *why = "replaying " + frame + " does not reproduce the cache it recorded";
+      return replayed;
+    }
+    records = std::move(next);
+    ++replayed;
+  }
+  if (!journal.tail.empty()) *why = journal.tail;
+  return replayed;
+}
+
 SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
                                       const NoticeCallback& notice) {
   auto start = std::chrono::steady_clock::now();
@@ -201,6 +273,7 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
     image::check_output_path(paths[0]);
     std::vector<std::string> targets = paths;
     targets.push_back(checkpoint_);
+    if (!checkpoint_.empty()) targets.push_back(checkpoint_journal_path(checkpoint_));
     remove_stale_temporaries(targets);
   }
 
@@ -220,6 +293,15 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
     policy.memory_limit = static_cast<std::size_t>(s.cache_memory_mb * 1e6);
     cache_ = std::make_unique<PersistentCache>(s.cache_backend, policy, s.render.cache.radius);
     cache_->assign(initial);
+  }
+
+  std::optional<CheckpointStore> store;
+  if (s.cache_mode == CacheMode::Persistent && !checkpoint_.empty()) {
+    CacheFile header;
+    header.identity = identity;
+    header.scene_source = scene_.source;
+    header.min_factor = s.render.cache.radius.min_factor;
+    store.emplace(checkpoint_, std::move(header), s.checkpoint_journal_ratio);
   }
 
   // What is complete already.
@@ -248,11 +330,48 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
             if (!frame_complete(paths[i], width, height))
               throw Error("frame " + std::to_string(frames_[i].number) + " (" + paths[i] +
                           ") is missing or unreadable");
+          std::size_t replayed = 0;
+          const std::string journal_path = checkpoint_journal_path(checkpoint_);
+          if (fs::exists(journal_path, ec)) {
+            // A journal that is unreadable or extends another base is not used: the run goes on
+            // from the base alone, and its next frame writes a new base.
+            std::optional<CheckpointJournal> journal;
+            const std::uint64_t base_bytes = fs::file_size(checkpoint_, ec);
+            try {
+              journal = read_checkpoint_journal(journal_path);
+              const JournalBase& b = journal->base;
+              if (b.sequence_key != cp.checkpoint->sequence_key ||
+                  b.frame != cp.checkpoint->frame || b.state_hash != state_hash(cp.records))
+                throw Error(journal_path + ": it extends another checkpoint than " + checkpoint_ +
+                            " (one after frame " + std::to_string(b.frame) + ")");
+              if (ec) throw Error(checkpoint_ + ": " + ec.message());
+            } catch (const Error& e) {
+              std::string reason = e.what();
+              if (reason.rfind(journal_path + ": ", 0) == 0)
+                reason = reason.substr(journal_path.size() + 2);
+              journal.reset();
+              say("not using checkpoint journal " + journal_path + ": " + reason +
+                  "; resuming from the full checkpoint alone");
+            }
+            if (journal) {
+              std::string why;
+              replayed = replay_journal(*journal, at, paths, initial_hash, cp.records, &why);
+              store->continue_journal(base_bytes, replayed ? journal->ends[replayed - 1]
+                                                           : kJournalHeaderBytes);
+              if (!why.empty())
+                say("checkpoint journal " + journal_path + ": " + why + "; resuming after frame " +
+                    std::to_string(frames_[at + replayed].number));
+            }
+          }
+          at += replayed;
           cache_->assign(std::move(cp.records));
           for (std::size_t i = 0; i <= at; ++i) skip[i] = true;
-          summary.resumed_after = cp.checkpoint->frame;
-          say("resuming after frame " + std::to_string(cp.checkpoint->frame) + " (checkpoint " +
-              checkpoint_ + ", " + std::to_string(cache_->size()) + " cache samples)");
+          summary.resumed_after = frames_[at].number;
+          summary.journal_records_replayed = static_cast<int>(replayed);
+          say("resuming after frame " + std::to_string(frames_[at].number) + " (checkpoint " +
+              checkpoint_ +
+              (replayed ? " and " + std::to_string(replayed) + " journal records" : "") + ", " +
+              std::to_string(cache_->size()) + " cache samples)");
         } catch (const Error& e) {
           std::string why = e.what();
           if (why.rfind(checkpoint_ + ": ", 0) == 0) why = why.substr(checkpoint_.size() + 2);
@@ -296,15 +415,19 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
     }
     progress.set_label("frame " + std::to_string(spec.number) + " (" + std::to_string(i + 1) +
                        "/" + std::to_string(n) + ")");
-    render::RenderSettings rs = s.render;
-    rs.lens = spec.lens;
-    rs.seed = frame_seed(s.render.seed, spec.number);
-    rs.progress = Progress::Display::Never;
-    rs.cache.frame = static_cast<std::uint32_t>(spec.number);
-    rs.cache.cache = nullptr;
+    render::RenderSettings rs = frame_settings(s, spec);
+    std::vector<SampleRecord> before;  // the cache after the reuse rule, for the journal
+    double before_seconds = 0.0, before_cpu = 0.0;
     if (cache_) {
       if (s.cache_mode == CacheMode::Fresh) cache_->assign(initial);
       rs.cache.cache = cache_->begin_frame(spec.number, render::make_camera(spec.camera, rs));
+      if (store && store->journaling()) {
+        auto t = std::chrono::steady_clock::now();
+        const double cpu = cpu_seconds();
+        before = cache_->records();
+        before_cpu = cpu_seconds() - cpu;
+        before_seconds = seconds_since(t);
+      }
     }
     rep.output = render::render(scene_, accel_, spec.camera, rs);
     rep.render_seconds = rep.output.stats.seconds;
@@ -318,15 +441,17 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
                          {{{"Z"}, rep.output.depth},
                           {{"N.X", "N.Y", "N.Z"}, rep.output.normal},
                           {{"id"}, rep.output.ids}});
-    if (s.cache_mode == CacheMode::Persistent && !checkpoint_.empty()) {
-      CacheFile cp;
-      cp.identity = identity;
-      cp.scene_source = scene_.source;
-      cp.min_factor = s.render.cache.radius.min_factor;
-      cp.records = cache_->records();
-      cp.checkpoint = SequenceCheckpoint{sequence_key(scene_, s, frames_, i + 1, initial_hash),
-                                         frames_.front().number, spec.number};
-      write_cache_file(checkpoint_, cp);
+    if (store) {
+      auto t_checkpoint = std::chrono::steady_clock::now();
+      const double cpu = cpu_seconds();
+      CheckpointStore::Saved saved = store->save(
+          cache_->records(), store->journaling() ? &before : nullptr,
+          SequenceCheckpoint{sequence_key(scene_, s, frames_, i + 1, initial_hash),
+                             frames_.front().number, spec.number});
+      rep.checkpoint_bytes = saved.bytes;
+      rep.checkpoint_full = saved.base;
+      rep.checkpoint_cpu_seconds = cpu_seconds() - cpu + before_cpu;
+      rep.checkpoint_seconds = seconds_since(t_checkpoint) + before_seconds;
     }
     rep.write_seconds = seconds_since(t_write);
     ++summary.rendered;

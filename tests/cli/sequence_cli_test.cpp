@@ -40,6 +40,10 @@ class SequenceCli : public dofcache::testing::CliTest {
   }
 
   std::string at(const std::string& name) const { return path(name); }
+
+  // An uninterrupted run and the same command killed with SIGKILL and run again give the same
+  // frames.
+  void killed_run_resumes(const std::string& extra, int kill_after);
 };
 
 TEST_F(SequenceCli, ShippedPathsRender) {
@@ -60,13 +64,17 @@ TEST_F(SequenceCli, ShippedPathsRender) {
   EXPECT_NE(slurp(dir_ / "pull.json").find("\"per_frame\""), std::string::npos);
 }
 
-TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) {
+// `extra`: more options; the run is killed once frame `kill_after` is on disk.
+void SequenceCli::killed_run_resumes(const std::string& extra, int kill_after) {
   const std::string args = "sequence " + kScenes + "cornell_box_dolly.gltf --fps 12 --frames 0-9 "
-                           "--persistent --width 48 --spp 8 --light-samples 1 --gather-rays 8 -q";
+                           "--persistent --width 48 --spp 8 --light-samples 1 --gather-rays 8 -q" +
+                           extra;
   ASSERT_EQ(run(args + " -o '" + at("full/####.exr") + "'").exit_code, 0);
 
-  // The same command, killed (SIGKILL: no chance to clean up) once frame 2 is on disk.
+  // The same command, killed (SIGKILL: no chance to clean up) once frame `kill_after` is on disk.
   const std::string cut = at("cut/####.exr");
+  char waited[16];
+  std::snprintf(waited, sizeof waited, "%04d.exr", kill_after);
   pid_t pid = ::fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -75,7 +83,7 @@ TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) {
     ::_exit(127);
   }
   auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!fs::exists(dir_ / "cut/0002.exr") && std::chrono::steady_clock::now() < deadline)
+  while (!fs::exists(dir_ / "cut" / waited) && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   ::kill(pid, SIGKILL);
   int status = 0;
@@ -91,11 +99,29 @@ TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) {
               dofcache::image::read_image((dir_ / "full" / name).string()).data())
         << "frame " << f;
   }
-  // Nothing half-written is left behind: only frames and the checkpoint.
+  // Nothing half-written is left behind: only frames, the checkpoint and its journal, which
+  // holds what the uninterrupted run's does.
   for (const auto& e : fs::directory_iterator(dir_ / "cut")) {
     std::string name = e.path().filename().string();
-    EXPECT_TRUE(name.size() == 8 || name == ".####.exr.checkpoint.vdb") << name;
+    EXPECT_TRUE(name.size() == 8 || name == ".####.exr.checkpoint.vdb" ||
+                name == ".####.exr.checkpoint.vdb.journal")
+        << name;
   }
+  for (const char* name : {".####.exr.checkpoint.vdb", ".####.exr.checkpoint.vdb.journal"})
+    EXPECT_EQ(fs::exists(dir_ / "cut" / name), fs::exists(dir_ / "full" / name)) << name;
+}
+
+TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) { killed_run_resumes("", 2); }
+
+// With a small journal ratio the checkpoint is rewritten every few frames: the kill lands around
+// a compaction or a journal record after one.
+TEST_F(SequenceCli, KilledRunWithCompactionsResumesToTheSameFrames) {
+  killed_run_resumes(" --checkpoint-journal 0.15", 6);
+}
+
+// Without a journal (a full checkpoint after every frame), as before journals existed.
+TEST_F(SequenceCli, KilledRunWithFullCheckpointsResumesToTheSameFrames) {
+  killed_run_resumes(" --checkpoint-journal 0", 4);
 }
 
 TEST_F(SequenceCli, RefusesForeignAndDamagedCacheFiles) {

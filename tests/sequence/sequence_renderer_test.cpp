@@ -11,6 +11,7 @@
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
 #include "dofcache/sequence/cache_file.h"
+#include "dofcache/sequence/checkpoint_journal.h"
 #include "dofcache/sequence/sequence_renderer.h"
 #include "scratch_dir.h"
 
@@ -62,6 +63,19 @@ class SequenceTest : public dofcache::testing::ScratchDirTest {
 
   static std::vector<float> pixels(const std::string& path) {
     return image::read_image(path).data();
+  }
+
+  // Frames 0..last of dir_/a and dir_/b ("####.exr") are identical.
+  void expect_same_frames(const std::string& a, const std::string& b, int last = 5) const {
+    for (int f = 0; f <= last; ++f) {
+      std::string name = frame_path("####.exr", f);
+      EXPECT_EQ(pixels((dir_ / a / name).string()), pixels((dir_ / b / name).string()))
+          << "frame " << f;
+    }
+  }
+
+  std::string journal_of(const std::string& pattern) const {
+    return checkpoint_journal_path(default_checkpoint_path((dir_ / pattern).string()));
   }
 
   static scene::Scene* scene_;
@@ -133,18 +147,195 @@ TEST_F(SequenceTest, ResumedPersistentRunMatchesUninterruptedRun) {
   EXPECT_EQ(sum.resumed_after, 2);
   EXPECT_EQ(sum.skipped, 3);
   EXPECT_EQ(sum.rendered, 3);
-  ASSERT_FALSE(notices.empty());
+  // From the full checkpoint of frame 0 and the journal's records of frames 1 and 2.
+  EXPECT_EQ(sum.journal_records_replayed, 2);
+  ASSERT_EQ(notices.size(), 1u);
   EXPECT_NE(notices[0].find("resuming after frame 2"), std::string::npos) << notices[0];
-  for (int f = 0; f <= 5; ++f) {
-    std::string name = frame_path("####.exr", f);
-    EXPECT_EQ(pixels((dir_ / "cut" / name).string()), pixels((dir_ / "full" / name).string()))
-        << "frame " << f;
-  }
-  // The checkpoints agree as well.
+  EXPECT_NE(notices[0].find("2 journal records"), std::string::npos) << notices[0];
+  expect_same_frames("cut", "full");
+  // The checkpoints agree as well: the same full checkpoint, journals of the same records.
   CacheFile a = read_cache_file(default_checkpoint_path((dir_ / "full/####.exr").string()));
   CacheFile b = read_cache_file(default_checkpoint_path((dir_ / "cut/####.exr").string()));
-  EXPECT_EQ(a.checkpoint->frame, 5);
+  EXPECT_EQ(a.checkpoint->frame, 0);
   EXPECT_EQ(records_hash(a.records), records_hash(b.records));
+  CheckpointJournal ja = read_checkpoint_journal(journal_of("full/####.exr"));
+  CheckpointJournal jb = read_checkpoint_journal(journal_of("cut/####.exr"));
+  ASSERT_EQ(ja.records.size(), 5u);
+  ASSERT_EQ(jb.records.size(), 5u);
+  EXPECT_EQ(ja.records.back().frame, 5);
+  for (std::size_t k = 0; k < 5; ++k)
+    EXPECT_EQ(ja.records[k].state_hash, jb.records[k].state_hash) << k;
+}
+
+// Each frame's checkpoint is a journal record much smaller than the full checkpoint, and the
+// cache the journal replays to is the one the run ended with.
+TEST_F(SequenceTest, JournalRecordsCostWhatTheFrameChanged) {
+  std::vector<FrameReport> reports;
+  SequenceSettings s = settings(CacheMode::Persistent, "j/####.exr");
+  SequenceRenderer r(*scene_, *accel_, frames(), s);
+  r.run([&](const FrameReport& f) { reports.push_back(f); });
+  ASSERT_EQ(reports.size(), 6u);
+  EXPECT_TRUE(reports[0].checkpoint_full);
+  const std::string base = default_checkpoint_path(s.output);
+  EXPECT_EQ(reports[0].checkpoint_bytes, fs::file_size(base) + kJournalHeaderBytes);
+  std::uint64_t journal = kJournalHeaderBytes;
+  for (std::size_t i = 1; i < reports.size(); ++i) {
+    EXPECT_FALSE(reports[i].checkpoint_full) << i;
+    EXPECT_LT(reports[i].checkpoint_bytes * 4, fs::file_size(base)) << i;
+    // 56 bytes of record and frame data, 64 per new sample, at least one bit per kept sample.
+    EXPECT_GE(reports[i].checkpoint_bytes, 56 + 64 * reports[i].cache.inserted) << i;
+    journal += reports[i].checkpoint_bytes;
+  }
+  EXPECT_EQ(fs::file_size(journal_of("j/####.exr")), journal);
+  CheckpointJournal j = read_checkpoint_journal(journal_of("j/####.exr"));
+  ASSERT_EQ(j.records.size(), 5u);
+  EXPECT_EQ(j.records.back().state_hash, state_hash(r.cache()->records()));
+
+  // Ratio 0: the full checkpoint after every frame, no journal.
+  s = settings(CacheMode::Persistent, "full/####.exr");
+  s.checkpoint_journal_ratio = 0.0;
+  SequenceRenderer(*scene_, *accel_, frames(0, 2), s).run([](const FrameReport& f) {
+    EXPECT_TRUE(f.checkpoint_full) << f.frame;
+  });
+  EXPECT_FALSE(fs::exists(journal_of("full/####.exr")));
+  EXPECT_EQ(read_cache_file(default_checkpoint_path(s.output)).checkpoint->frame, 2);
+}
+
+// A run killed while appending frame 3's record: the record is cut short, the journal is used up
+// to frame 2 and frame 3 is rendered again, identically; its new record replaces the cut one.
+TEST_F(SequenceTest, RecordCutShortIsRenderedAgain) {
+  SequenceRenderer(*scene_, *accel_, frames(), settings(CacheMode::Persistent, "full/####.exr"))
+      .run();
+  SequenceSettings s = settings(CacheMode::Persistent, "cut/####.exr");
+  EXPECT_THROW(SequenceRenderer(*scene_, *accel_, frames(), s).run([](const FrameReport& f) {
+    if (f.frame == 3) throw Interrupted();
+  }),
+               Interrupted);
+  const std::string journal = journal_of("cut/####.exr");
+  fs::resize_file(journal, fs::file_size(journal) - 7);
+  std::vector<std::string> notices;
+  SequenceSummary sum = SequenceRenderer(*scene_, *accel_, frames(), s)
+                            .run({}, [&](const std::string& n) { notices.push_back(n); });
+  EXPECT_EQ(sum.resumed_after, 2);
+  EXPECT_EQ(sum.rendered, 3);
+  ASSERT_EQ(notices.size(), 2u);
+  EXPECT_NE(notices[0].find("cut short; resuming after frame 2"), std::string::npos)
+      << notices[0];
+  expect_same_frames("cut", "full");
+  CheckpointJournal j = read_checkpoint_journal(journal);
+  EXPECT_TRUE(j.tail.empty()) << j.tail;
+  EXPECT_EQ(j.records.size(), 5u);
+  EXPECT_EQ(fs::file_size(journal), fs::file_size(journal_of("full/####.exr")));
+}
+
+// Damaged bytes in a record end the journal before it; in the header, the journal is not used
+// and the run resumes from the full checkpoint alone. Either way one line says so, and the frames
+// come out as in an uninterrupted run.
+TEST_F(SequenceTest, DamagedJournalIsRefusedInOneLine) {
+  SequenceRenderer(*scene_, *accel_, frames(), settings(CacheMode::Persistent, "full/####.exr"))
+      .run();
+  for (bool in_header : {false, true}) {
+    const std::string out = in_header ? "header/####.exr" : "record/####.exr";
+    SequenceSettings s = settings(CacheMode::Persistent, out);
+    EXPECT_THROW(SequenceRenderer(*scene_, *accel_, frames(), s).run([](const FrameReport& f) {
+      if (f.frame == 3) throw Interrupted();
+    }),
+                 Interrupted);
+    const std::string journal = journal_of(out);
+    CheckpointJournal before = read_checkpoint_journal(journal);
+    ASSERT_EQ(before.records.size(), 3u);
+    std::string bytes = dofcache::testing::slurp(journal);
+    // The header's frame field, or the middle of frame 2's record.
+    std::size_t at = in_header ? 17 : (before.ends[0] + before.ends[1]) / 2;
+    bytes[at] ^= 0x04;
+    std::ofstream(journal, std::ios::binary | std::ios::trunc) << bytes;
+    std::vector<std::string> notices;
+    SequenceSummary sum = SequenceRenderer(*scene_, *accel_, frames(), s)
+                              .run({}, [&](const std::string& n) { notices.push_back(n); });
+    EXPECT_EQ(sum.resumed_after, in_header ? 0 : 1) << out;
+    ASSERT_EQ(notices.size(), 2u);
+    EXPECT_EQ(notices[0].find('\n'), std::string::npos);
+    if (in_header) {
+      EXPECT_EQ(notices[0].rfind("not using checkpoint journal " + journal + ": ", 0), 0u)
+          << notices[0];
+      EXPECT_NE(notices[0].find("damaged"), std::string::npos) << notices[0];
+    } else {
+      EXPECT_NE(notices[0].find("(checksum mismatch); resuming after frame 1"), std::string::npos)
+          << notices[0];
+    }
+    expect_same_frames(out.substr(0, out.find('/')), "full");
+  }
+}
+
+// A frame deleted after the full checkpoint: the journal is replayed up to the frame before it.
+TEST_F(SequenceTest, JournalStopsAtAMissingFrame) {
+  SequenceSettings s = settings(CacheMode::Persistent, "out/####.exr");
+  SequenceRenderer(*scene_, *accel_, frames(), s).run();
+  std::vector<float> frame4 = pixels((dir_ / "out/0004.exr").string());
+  fs::remove(dir_ / "out/0003.exr");
+  std::vector<std::string> notices;
+  SequenceSummary sum = SequenceRenderer(*scene_, *accel_, frames(), s)
+                            .run({}, [&](const std::string& n) { notices.push_back(n); });
+  EXPECT_EQ(sum.resumed_after, 2);
+  EXPECT_EQ(sum.rendered, 3);
+  ASSERT_FALSE(notices.empty());
+  EXPECT_NE(notices[0].find("0003.exr) is missing"), std::string::npos) << notices[0];
+  EXPECT_EQ(pixels((dir_ / "out/0004.exr").string()), frame4);
+}
+
+// Compaction: with a small ratio the journal soon outgrows its share and a frame writes a new
+// full checkpoint and an empty journal. A run killed after a later frame resumes from the new
+// base and its journal; a run killed between the new base and its journal (the old journal still
+// there) does not apply the old journal to the new base.
+TEST_F(SequenceTest, CompactionKeepsResumeExact) {
+  // The ratio that lets the journal take frame 1's record but not frame 2's as well, from the
+  // sizes of a run with the default ratio (no compaction in 6 frames).
+  std::vector<std::uint64_t> bytes;
+  SequenceRenderer(*scene_, *accel_, frames(0, 2), settings(CacheMode::Persistent, "probe/#.exr"))
+      .run([&](const FrameReport& f) { bytes.push_back(f.checkpoint_bytes); });
+  const double base = double(bytes[0] - kJournalHeaderBytes);
+  const double ratio = (double(kJournalHeaderBytes + bytes[1]) + 0.5 * double(bytes[2])) / base;
+  auto with_ratio = [&](const std::string& out) {
+    SequenceSettings s = settings(CacheMode::Persistent, out);
+    s.checkpoint_journal_ratio = ratio;
+    return s;
+  };
+  std::vector<FrameReport> full;
+  SequenceRenderer(*scene_, *accel_, frames(), with_ratio("full/####.exr"))
+      .run([&](const FrameReport& f) { full.push_back(f); });
+  const int compacted = 2;
+  EXPECT_FALSE(full[1].checkpoint_full);
+  ASSERT_TRUE(full[compacted].checkpoint_full) << "ratio " << ratio;
+  ASSERT_FALSE(full[compacted + 1].checkpoint_full) << "ratio " << ratio;
+
+  // Killed after the frame after the compaction: new base and one journal record.
+  SequenceSettings s = with_ratio("after/####.exr");
+  EXPECT_THROW(SequenceRenderer(*scene_, *accel_, frames(), s).run([&](const FrameReport& f) {
+    if (f.frame == compacted + 1) throw Interrupted();
+  }),
+               Interrupted);
+  SequenceSummary sum = SequenceRenderer(*scene_, *accel_, frames(), s).run();
+  EXPECT_EQ(sum.resumed_after, compacted + 1);
+  EXPECT_EQ(sum.journal_records_replayed, 1);
+  expect_same_frames("after", "full");
+
+  // Killed between the compaction's new base and its new journal.
+  s = with_ratio("between/####.exr");
+  const std::string journal = journal_of("between/####.exr");
+  EXPECT_THROW(SequenceRenderer(*scene_, *accel_, frames(), s).run([&](const FrameReport& f) {
+    if (f.frame == compacted - 1) fs::copy_file(journal, journal + ".old");
+    if (f.frame == compacted) throw Interrupted();
+  }),
+               Interrupted);
+  fs::rename(journal + ".old", journal);
+  std::vector<std::string> notices;
+  sum = SequenceRenderer(*scene_, *accel_, frames(), s)
+            .run({}, [&](const std::string& n) { notices.push_back(n); });
+  EXPECT_EQ(sum.resumed_after, compacted);
+  EXPECT_EQ(sum.journal_records_replayed, 0);
+  ASSERT_EQ(notices.size(), 2u);
+  EXPECT_NE(notices[0].find("extends another checkpoint"), std::string::npos) << notices[0];
+  expect_same_frames("between", "full");
 }
 
 TEST_F(SequenceTest, KilledBetweenImageAndCheckpoint) {
@@ -152,21 +343,27 @@ TEST_F(SequenceTest, KilledBetweenImageAndCheckpoint) {
       .run();
   // Keep the checkpoint as it was after frame 1, let frame 2's image be written, then put the old
   // checkpoint back: the state of a run killed after writing frame 2 but before its checkpoint.
-  SequenceSettings s = settings(CacheMode::Persistent, "cut/####.exr");
-  const std::string cp = default_checkpoint_path(s.output);
-  EXPECT_THROW(SequenceRenderer(*scene_, *accel_, frames(), s).run([&](const FrameReport& f) {
-    if (f.frame == 1) fs::copy_file(cp, cp + ".after1");
-    if (f.frame == 2) throw Interrupted();
-  }),
-               Interrupted);
-  fs::rename(cp + ".after1", cp);
-  SequenceSummary sum = SequenceRenderer(*scene_, *accel_, frames(), s).run();
-  EXPECT_EQ(sum.resumed_after, 1);
-  EXPECT_EQ(sum.rendered, 4);  // frame 2 again, identical
-  for (int f = 0; f <= 5; ++f) {
-    std::string name = frame_path("####.exr", f);
-    EXPECT_EQ(pixels((dir_ / "cut" / name).string()), pixels((dir_ / "full" / name).string()))
-        << "frame " << f;
+  // Both ways of checkpointing: a journal record (the default) and a full checkpoint (ratio 0).
+  for (double ratio : {1.0, 0.0}) {
+    const std::string out = ratio > 0.0 ? "cut/####.exr" : "cutfull/####.exr";
+    SequenceSettings s = settings(CacheMode::Persistent, out);
+    s.checkpoint_journal_ratio = ratio;
+    const std::string cp = default_checkpoint_path(s.output);
+    const std::string journal = checkpoint_journal_path(cp);
+    EXPECT_THROW(SequenceRenderer(*scene_, *accel_, frames(), s).run([&](const FrameReport& f) {
+      if (f.frame == 1) {
+        fs::copy_file(cp, cp + ".after1");
+        if (ratio > 0.0) fs::copy_file(journal, journal + ".after1");
+      }
+      if (f.frame == 2) throw Interrupted();
+    }),
+                 Interrupted);
+    fs::rename(cp + ".after1", cp);
+    if (ratio > 0.0) fs::rename(journal + ".after1", journal);
+    SequenceSummary sum = SequenceRenderer(*scene_, *accel_, frames(), s).run();
+    EXPECT_EQ(sum.resumed_after, 1) << ratio;
+    EXPECT_EQ(sum.rendered, 4) << ratio;  // frame 2 again, identical
+    expect_same_frames(out.substr(0, out.find('/')), "full");
   }
 }
 
@@ -186,11 +383,12 @@ TEST_F(SequenceTest, CheckpointOfOtherSettingsIsNotUsed) {
   EXPECT_EQ(other.rendered, 4);
   ASSERT_FALSE(notices.empty());
   EXPECT_NE(notices[0].find("other settings"), std::string::npos) << notices[0];
-  // A deleted frame before the checkpoint: start over too.
-  fs::remove(dir_ / "out/0001.png");
+  // A deleted frame up to the full checkpoint's (frame 0 here; the journal holds the others):
+  // start over too.
+  fs::remove(dir_ / "out/0000.png");
   SequenceSummary again = SequenceRenderer(*scene_, *accel_, frames(0, 3), s).run();
   EXPECT_EQ(again.rendered, 4);
-  EXPECT_TRUE(fs::exists(dir_ / "out/0001.png"));
+  EXPECT_TRUE(fs::exists(dir_ / "out/0000.png"));
 }
 
 TEST_F(SequenceTest, IndependentFramesSkipCompleteOnes) {

@@ -2,6 +2,7 @@
 // Content hashing: a stable 64-bit identity of some content, the same on every run and machine
 // (hash_combine over the values in order). It identifies loaded scenes (Scene::content_hash) and
 // sequences and their cache files (sequence_key, records_hash), so its values must never change.
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -45,5 +46,21 @@ class ContentHasher {
  private:
   std::uint64_t h_;
 };
+
+// A checksum of `n` bytes: 8-byte little-endian words, then the zero-padded tail and the length,
+// folded with hash_combine from `seed` (cache file trailers, checkpoint journal records).
+inline std::uint64_t hash_bytes(const void* data, std::size_t n, std::uint64_t seed) {
+  const char* bytes = static_cast<const char*>(data);
+  std::uint64_t h = seed;
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, bytes + i, 8);
+    h = hash_combine(h, w);
+  }
+  std::uint64_t tail = 0;
+  if (n > i) std::memcpy(&tail, bytes + i, n - i);
+  return hash_combine(hash_combine(h, tail), n);
+}
 
 }  // namespace dofcache

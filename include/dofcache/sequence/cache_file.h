@@ -1,6 +1,7 @@
 #pragma once
-// Radiance cache files (--cache-in / --cache-out, and the checkpoints of persistent sequences):
-// OpenVDB files written and read with openvdb::io::File. Layout (docs/sequence.md):
+// Radiance cache files (--cache-in / --cache-out, and the full checkpoints of persistent
+// sequences, which a journal extends: checkpoint_journal.h): OpenVDB files written and read with
+// openvdb::io::File. Layout (docs/sequence.md):
 //
 //   file metadata   dofcache.format = "dofcache radiance cache", dofcache.version = 1,
 //                   dofcache.scene_hash (16 hex digits), dofcache.scene (source, informational),
@@ -78,6 +79,10 @@ constexpr std::uint64_t kMaxCacheFileSamples = std::uint64_t{1} << 28;
 // metadata).
 CacheFile read_cache_file(const std::string& path,
                           std::uint64_t max_samples = kMaxCacheFileSamples);
+
+// What every stored sample must be (cache files and checkpoint journals): finite position and
+// value, a unit normal (within 1e-3), finite positive radii, a finite footprint >= 0.
+bool valid_sample_record(const SampleRecord& record);
 
 // Appends the integrity trailer to the file at `path` (write_cache_file does this after OpenVDB
 // has written the file; public so that tests and tools can seal hand-made files).

@@ -68,6 +68,12 @@ struct FrameCacheStats {
   double hit_rate() const { return lookups ? double(hits) / double(lookups) : 0.0; }
 };
 
+// The reuse rule (step 1) on a list of samples for a frame seen by `camera`: what begin_frame
+// does to the cache's radii, and what replaying a checkpoint journal does to a loaded list
+// (checkpoint_journal.h). Counts the radii shrunk and grown into `stats` if given.
+void apply_reuse_rule(std::vector<SampleRecord>& records, const render::ThinLensCamera& camera,
+                      double min_factor, FrameCacheStats* stats = nullptr);
+
 class PersistentCache {
  public:
   // `backend`: "octree" or "vdb". `radius`: the rule the renderer makes samples with

@@ -6,11 +6,14 @@
 // Resume. A frame's image is written to a temporary file and renamed, so an output file that
 // exists and reads back is a complete frame. Without a persistent cache frames are independent:
 // complete frames are skipped. With one, frame f depends on the cache left by frames before it,
-// so after every frame the cache is saved as a checkpoint (written atomically after the image).
+// so after every frame the cache is saved as a checkpoint, after the image: a record of what the
+// frame changed appended to a journal, or now and then the whole cache (checkpoint_store.h).
 // A rerun loads the checkpoint if it matches the run (same scene, settings, first frame and the
 // same camera and lens for every frame up to the checkpoint; see sequence_key) and every frame up
-// to it is complete, and continues after it; the frames then come out exactly as in an
-// uninterrupted run. Otherwise it starts from the first frame.
+// to it is complete, replays the journal's records as far as they continue the run (each
+// checked against its frame's key, its image and the cache state it recorded), and continues
+// after the last; the frames then come out exactly as in an uninterrupted run. Otherwise it
+// starts from the first frame.
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -21,6 +24,7 @@
 #include "dofcache/scene/accel.h"
 #include "dofcache/scene/scene.h"
 #include "dofcache/sequence/camera_path.h"
+#include "dofcache/sequence/checkpoint_journal.h"
 #include "dofcache/sequence/persistent_cache.h"
 
 namespace dofcache::sequence {
@@ -50,6 +54,10 @@ struct SequenceSettings {
   // none otherwise.
   std::string checkpoint;
   bool resume = true;  // false: render every frame, ignoring existing frames and checkpoints
+  // Frames append to the checkpoint's journal while it stays within this many times the size of
+  // the full checkpoint, then one rewrites the full checkpoint (CheckpointStore). 0: the full
+  // checkpoint after every frame.
+  double checkpoint_journal_ratio = 1.0;
 
   void validate() const;  // throws dofcache::Error
 };
@@ -64,12 +72,19 @@ struct FrameReport {
   double render_seconds = 0.0;  // the renderer
   double cache_seconds = 0.0;   // cache maintenance (reuse rule, rebuilds, eviction)
   double write_seconds = 0.0;   // image and checkpoint files
+  // The checkpoint saved after the frame: bytes written, whether it was a full checkpoint (else
+  // a journal record), and its wall and process CPU time (in write_seconds, except for the copy
+  // of the cache that a journal record is computed against, made before the render).
+  std::uint64_t checkpoint_bytes = 0;
+  bool checkpoint_full = false;
+  double checkpoint_seconds = 0.0, checkpoint_cpu_seconds = 0.0;
   double seconds() const { return render_seconds + cache_seconds + write_seconds; }
 };
 
 struct SequenceSummary {
   int rendered = 0, skipped = 0;
   int resumed_after = -1;  // the checkpoint's frame when a persistent run resumed, else -1
+  int journal_records_replayed = 0;  // of those frames, the ones replayed from the journal
   double seconds = 0.0;
 };
 
@@ -93,6 +108,13 @@ class SequenceRenderer {
   const std::string& checkpoint_path() const { return checkpoint_; }
 
  private:
+  // Replays `journal` on `records` (the cache after frames_[at], the base's frame) while its
+  // records continue this run; returns how many it replayed, and in `why` the reason it stopped
+  // before the journal's end (empty: none, or the sequence ended).
+  std::size_t replay_journal(const CheckpointJournal& journal, std::size_t at,
+                             const std::vector<std::string>& paths, std::uint64_t initial_hash,
+                             std::vector<SampleRecord>& records, std::string* why) const;
+
   const scene::Scene& scene_;
   const scene::Accel& accel_;
   std::vector<FrameSpec> frames_;
