@@ -54,9 +54,14 @@ json lens_json(const lens::ThinLens& lens) {
 }
 
 // The lens and the preview method, as GET and POST /api/lens answer.
+const char* composite_name(preview::LayerComposite c) {
+  return c == preview::LayerComposite::Slabs ? "slabs" : "over";
+}
+
 json lens_and_method_json(const ViewStatus& s) {
   json j = lens_json(s.lens);
   j["method"] = preview::preview_method_name(s.method);
+  j["composite"] = composite_name(s.composite);
   return j;
 }
 
@@ -67,6 +72,7 @@ json status_json(const ViewStatus& s) {
           {"height", s.height},
           {"lens", lens_json(s.lens)},
           {"method", preview::preview_method_name(s.method)},
+          {"composite", composite_name(s.composite)},
           {"lens_version", s.lens_version},
           {"stage", input_stage_name(s.stage)},
           {"inputs_version", s.inputs_version},
@@ -277,10 +283,10 @@ void ViewServer::Impl::add_routes() {
   server.Get("/api/lens", [this](const httplib::Request&, httplib::Response& res) {
     send_json(res, lens_and_method_json(session.status()));
   });
-  // Any of focal_length, fstop, focus_distance (metres, f-number) and method.
+  // Any of focal_length, fstop, focus_distance (metres, f-number), method and composite.
   server.Post("/api/lens", [this](const httplib::Request& req, httplib::Response& res) {
     const json body = body_object(req);
-    check_keys(body, {"focal_length", "fstop", "focus_distance", "method"});
+    check_keys(body, {"focal_length", "fstop", "focus_distance", "method", "composite"});
     lens::ThinLens lens = session.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
@@ -290,8 +296,15 @@ void ViewServer::Impl::add_routes() {
       if (!it->is_string()) throw Error("'method' must be a string");
       method = preview::parse_preview_method(it->get<std::string>());
     }
+    std::optional<preview::LayerComposite> composite;
+    if (auto it = body.find("composite"); it != body.end()) {
+      const std::string c = it->is_string() ? it->get<std::string>() : "";
+      if (c != "over" && c != "slabs") throw Error("'composite' must be \"over\" or \"slabs\"");
+      composite = c == "slabs" ? preview::LayerComposite::Slabs : preview::LayerComposite::Over;
+    }
     session.set_lens(lens);  // validates first, so a bad lens changes nothing
     if (method) session.set_method(*method);
+    if (composite) session.set_composite(*composite);
     send_json(res, lens_and_method_json(session.status()));
   });
   // {x, y}: pixel of the image; focuses at the depth seen there.

@@ -88,8 +88,9 @@ struct SavedInputs {
 struct ViewSession::State {
   lens::ThinLens lens;
   preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
+  preview::LayerComposite composite = preview::LayerComposite::Over;
   std::uint64_t lens_version = 1;    // the reference restarts when it changes
-  std::uint64_t method_version = 0;  // the preview only is recomputed when it changes
+  std::uint64_t method_version = 0;  // method or composite: only the preview is recomputed
   std::uint64_t last_preview_method_version = 0;
 
   std::shared_ptr<const SavedInputs> inputs;
@@ -287,6 +288,7 @@ ViewStatus ViewSession::status() const {
   s.height = height_;
   s.lens = st.lens;
   s.method = st.method;
+  s.composite = st.composite;
   s.lens_version = st.lens_version;
   s.stage = st.stage;
   s.inputs_version = st.inputs_version;
@@ -330,6 +332,13 @@ void ViewSession::set_method(preview::PreviewMethod method) {
   ++state_->method_version;
 }
 
+void ViewSession::set_composite(preview::LayerComposite composite) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (state_->composite == composite) return;
+  state_->composite = composite;
+  ++state_->method_version;
+}
+
 double ViewSession::depth_at(int x, int y) const {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!state_->inputs) throw Error("no pinhole inputs yet");
@@ -356,6 +365,7 @@ std::optional<ViewImage> ViewSession::preview() {
   std::shared_ptr<const SavedInputs> inputs;
   lens::ThinLens lens;
   preview::PreviewMethod method;
+  preview::PreviewOptions options = options_;  // with the composite of the moment
   std::uint64_t lens_version, method_version, inputs_version;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -371,15 +381,16 @@ std::optional<ViewImage> ViewSession::preview() {
     inputs = st.inputs;
     lens = st.lens;
     method = st.method;
+    options.layer_composite = st.composite;
     lens_version = st.lens_version;
     method_version = st.method_version;
     inputs_version = st.inputs_version;
   }
   const auto t0 = clock::now();
   preview::RefocusedInputs in =
-      preview::refocus_inputs(inputs->inputs, inputs->coverage, lens, options_);
+      preview::refocus_inputs(inputs->inputs, inputs->coverage, lens, options);
   // state_->workspace is used only here, under refocus_mutex_.
-  image::Image color = preview::render_preview(in.inputs, method, options_, state_->workspace);
+  image::Image color = preview::render_preview(in.inputs, method, options, state_->workspace);
   ViewImage result{std::move(color), lens_version, inputs_version, ms_since(t0), 0};
 
   std::lock_guard<std::mutex> lock(mutex_);

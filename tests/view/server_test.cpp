@@ -362,6 +362,26 @@ TEST_F(ViewServerTest, MethodIsChosenWithoutTouchingTheLens) {
   EXPECT_EQ(session->status().lens_version, 1u);
 }
 
+// The slab composite changes the layered preview (the blurred edge of the near plane), not the
+// lens; back to "over" gives the first image again, bit for bit.
+TEST_F(ViewServerTest, CompositeIsChosenWithoutTouchingTheLens) {
+  auto image = [&] { return client->Get("/api/image?kind=preview&format=raw", auth())->body; };
+  ASSERT_EQ(post("/api/lens", R"({"method": "layered"})")->status, 200);
+  const std::string over = image();
+  auto res = post("/api/lens", R"({"composite": "slabs"})");
+  ASSERT_TRUE(res && res->status == 200);
+  EXPECT_EQ(json::parse(res->body).at("composite").get<std::string>(), "slabs");
+  EXPECT_EQ(session->status().composite, preview::LayerComposite::Slabs);
+  EXPECT_EQ(session->status().lens_version, 1u);
+  const std::string slabs = image();
+  ASSERT_EQ(slabs.size(), over.size());
+  EXPECT_NE(slabs, over);
+  ASSERT_EQ(post("/api/lens", R"({"composite": "over"})")->status, 200);
+  EXPECT_EQ(image(), over);
+  EXPECT_EQ(post("/api/lens", R"({"composite": "union"})")->status, 400);
+  EXPECT_EQ(post("/api/lens", R"({"composite": 1})")->status, 400);
+}
+
 class ViewReferenceTest : public ViewServerTest {
  protected:
   void SetUp() override { start(/*reference=*/true); }

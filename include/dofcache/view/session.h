@@ -62,6 +62,7 @@ struct ViewStatus {
   int width = 0, height = 0;
   lens::ThinLens lens;
   preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
+  preview::LayerComposite composite = preview::LayerComposite::Over;  // layered methods
   std::uint64_t lens_version = 0;     // raised by every lens change (the reference restarts)
   InputStage stage = InputStage::None;
   std::uint64_t inputs_version = 0;   // raised whenever new inputs replace the old
@@ -114,6 +115,7 @@ class ViewSession {
   void set_lens(const lens::ThinLens& lens);
   const scene::Camera& camera() const;  // the camera looked through (fixed for the session)
   void set_method(preview::PreviewMethod method);
+  void set_composite(preview::LayerComposite composite);  // how layered methods composite
   // Focuses at pixel (x, y): the focus distance becomes the camera-space depth the pinhole inputs
   // see there. Returns the new lens. Throws dofcache::Error if there are no inputs yet, the pixel
   // is outside the image, nothing is seen there, or it is nearer than the focal length allows.
