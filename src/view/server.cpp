@@ -14,6 +14,7 @@
 #include <thread>
 #include <utility>
 
+#include <glm/geometric.hpp>
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
@@ -65,6 +66,15 @@ json lens_and_method_json(const ViewStatus& s) {
   return j;
 }
 
+// Where the camera is and looks, with the lens (which a dolly refocuses).
+json camera_json(const scene::Camera& c, const ViewStatus& s) {
+  const glm::vec3 p(c.camera_to_world[3]), f = -glm::normalize(glm::vec3(c.camera_to_world[2]));
+  return {{"position", {p.x, p.y, p.z}},
+          {"forward", {f.x, f.y, f.z}},
+          {"camera_version", s.camera_version},
+          {"lens", lens_json(s.lens)}};
+}
+
 json number_or_null(double v) { return v < 0 ? json(nullptr) : json(v); }
 
 json status_json(const ViewStatus& s) {
@@ -74,6 +84,7 @@ json status_json(const ViewStatus& s) {
           {"method", preview::preview_method_name(s.method)},
           {"composite", composite_name(s.composite)},
           {"lens_version", s.lens_version},
+          {"camera_version", s.camera_version},
           {"stage", input_stage_name(s.stage)},
           {"inputs_version", s.inputs_version},
           {"first_preview_ms", number_or_null(s.first_preview_ms)},
@@ -336,6 +347,17 @@ void ViewServer::Impl::add_routes() {
     if (!m) return send_error(res, 503, "no reference for the current lens yet");
     send_json(res, {{"rel_mse", m->rel_mse}, {"psnr", m->psnr}, {"ssim", m->ssim},
                     {"reference_spp", session.status().reference_spp}});
+  });
+  // {yaw, pitch (degrees), dolly (metres)}, each optional: moves the camera (ViewSession::
+  // move_camera); the inputs are rendered again and the reference restarts.
+  server.Post("/api/camera", [this](const httplib::Request& req, httplib::Response& res) {
+    const json body = body_object(req);
+    check_keys(body, {"yaw", "pitch", "dolly"});
+    constexpr double kRadians = M_PI / 180.0;
+    const scene::Camera c = session.move_camera(optional_number(body, "yaw").value_or(0) * kRadians,
+                                                optional_number(body, "pitch").value_or(0) * kRadians,
+                                                optional_number(body, "dolly").value_or(0));
+    send_json(res, camera_json(c, session.status()));
   });
   // Appends the camera and the lens as a key of the keyframe file given with --keyframes, for
   // `dofcache sequence --path`.

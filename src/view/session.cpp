@@ -12,6 +12,8 @@
 #include <exception>
 #include <utility>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/core/error.h"
 #include "dofcache/preview/preview_renderer.h"
@@ -89,6 +91,8 @@ struct ViewSession::State {
   lens::ThinLens lens;
   preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
   preview::LayerComposite composite = preview::LayerComposite::Over;
+  scene::Camera camera;               // moved by move_camera
+  std::uint64_t camera_version = 0;   // the inputs and the reference restart when it changes
   std::uint64_t lens_version = 1;    // the reference restarts when it changes
   std::uint64_t method_version = 0;  // method or composite: only the preview is recomputed
   std::uint64_t last_preview_method_version = 0;
@@ -120,6 +124,7 @@ ViewSession::ViewSession(scene::Scene scene, const render::LensOverrides& lens,
       state_(std::make_unique<State>()) {
   settings_.validate();
   render_ = std::make_unique<Render>(*scene_, settings_.camera);
+  state_->camera = render_->camera;
   state_->lens = render::resolve_lens(*scene_, render_->accel, render_->camera, lens).lens;
   state_->lens.validate();
   width_ = settings_.width;
@@ -163,15 +168,23 @@ bool ViewSession::wait_for_stage(InputStage stage, double seconds) {
 
 void ViewSession::run_worker() {
   try {
-    for (InputStage stage : {InputStage::Draft, InputStage::Occlusion, InputStage::Refined}) {
+    bool lowered = false;
+    for (;;) {  // once per camera position: the inputs in stages, then the reference
+      std::uint64_t camera_version;
       {
         std::lock_guard<std::mutex> lock(mutex_);
         if (state_->stop) return;
+        camera_version = state_->camera_version;
       }
-      render_inputs(stage);
-      if (stage == InputStage::Draft) lower_thread_priority();  // the rest is background
+      for (InputStage stage : {InputStage::Draft, InputStage::Occlusion, InputStage::Refined}) {
+        if (!render_inputs(stage, camera_version)) break;  // stopped, or the camera moved
+        if (!lowered) lower_thread_priority();  // after the first draft, the rest is background
+        lowered = true;
+      }
+      if (settings_.reference) refine_reference(camera_version);  // returns when the camera moves
+      std::unique_lock<std::mutex> lock(mutex_);
+      changed_.wait(lock, [&] { return state_->stop || state_->camera_version != camera_version; });
     }
-    if (settings_.reference) refine_reference();
   } catch (const std::exception& e) {
     std::lock_guard<std::mutex> lock(mutex_);
     state_->error = e.what();
@@ -179,7 +192,7 @@ void ViewSession::run_worker() {
   }
 }
 
-void ViewSession::render_inputs(InputStage stage) {
+bool ViewSession::render_inputs(InputStage stage, std::uint64_t camera_version) {
   render::RenderSettings s;
   s.width = width_;
   s.height = height_;
@@ -197,40 +210,47 @@ void ViewSession::render_inputs(InputStage stage) {
     s.width = (width_ + 1) / 2;
     s.height = (height_ + 1) / 2;
   }
+  scene::Camera camera;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    if (state_->stop || state_->camera_version != camera_version) return false;
     s.lens = state_->lens;  // the occlusion fix's layers are planned for the lens of the moment
+    camera = state_->camera;
   }
   const preview::PreviewMethod method =
       draft ? preview::PreviewMethod::Layered : preview::PreviewMethod::LayeredOcclusion;
   preview::SceneInputs p =
-      preview::render_preview_inputs(*scene_, render_->accel, render_->camera, s, method, options_);
+      preview::render_preview_inputs(*scene_, render_->accel, camera, s, method, options_);
   if (draft) p.inputs = preview::upscale_inputs(p.inputs, width_, height_);
   auto saved = std::make_shared<SavedInputs>(SavedInputs{std::move(p.inputs), p.coverage});
 
   std::lock_guard<std::mutex> lock(mutex_);
+  if (state_->camera_version != camera_version) return false;  // moved meanwhile: discard
   state_->inputs = std::move(saved);
   state_->stage = stage;
   ++state_->inputs_version;
   if (state_->first_preview_ms < 0) state_->first_preview_ms = ms_since(state_->started);
   changed_.notify_all();
+  return true;
 }
 
-void ViewSession::refine_reference() {
+void ViewSession::refine_reference(std::uint64_t camera_version) {
   std::unique_ptr<cache::RadianceCache> radiance_cache;
   image::Image sum;
   int spp = 0;
   std::uint64_t pass = 0, lens_version = 0;
   lens::ThinLens lens;
+  scene::Camera camera;
   for (;;) {
     {
       std::unique_lock<std::mutex> lock(mutex_);
       // Converged: sleep until the lens changes.
       changed_.wait(lock, [&] {
         return state_->stop || state_->lens_version != lens_version ||
-               spp < settings_.reference_max_spp;
+               state_->camera_version != camera_version || spp < settings_.reference_max_spp;
       });
-      if (state_->stop) return;
+      if (state_->stop || state_->camera_version != camera_version) return;
+      camera = state_->camera;
       if (state_->lens_version != lens_version) {  // (re)start for the current lens
         lens_version = state_->lens_version;
         lens = state_->lens;
@@ -259,7 +279,7 @@ void ViewSession::refine_reference() {
     // The cache outlives the passes, so its samples are shaded for the total, not one pass.
     s.cache.sample_quality = render::recommended_sample_quality(64, s.shading.gather_rays);
     const auto t0 = clock::now();
-    render::RenderOutput out = render::render(*scene_, render_->accel, render_->camera, s);
+    render::RenderOutput out = render::render(*scene_, render_->accel, camera, s);
     const double seconds = ms_since(t0) * 1e-3;
 
     if (sum.empty()) sum = image::Image(out.color.width(), out.color.height(), 3, 0.0f);
@@ -290,6 +310,7 @@ ViewStatus ViewSession::status() const {
   s.method = st.method;
   s.composite = st.composite;
   s.lens_version = st.lens_version;
+  s.camera_version = st.camera_version;
   s.stage = st.stage;
   s.inputs_version = st.inputs_version;
   s.first_preview_ms = st.first_preview_ms;
@@ -304,7 +325,41 @@ ViewStatus ViewSession::status() const {
   return s;
 }
 
-const scene::Camera& ViewSession::camera() const { return render_->camera; }
+scene::Camera ViewSession::camera() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return state_->camera;
+}
+
+scene::Camera ViewSession::move_camera(double yaw, double pitch, double dolly) {
+  if (!std::isfinite(yaw) || !std::isfinite(pitch) || !std::isfinite(dolly) ||
+      std::abs(yaw) > 2 * M_PI || std::abs(pitch) > M_PI / 2)
+    throw Error("camera: yaw must be within a turn, pitch within a quarter turn, all finite");
+  std::lock_guard<std::mutex> lock(mutex_);
+  State& st = *state_;
+  const glm::dmat4 m(st.camera.camera_to_world);
+  const glm::dvec3 position(m[3]), forward = -glm::normalize(glm::dvec3(m[2]));
+  const double distance = st.lens.focus_distance;
+  const glm::dvec3 pivot = position + forward * distance;
+  // Yaw about the world's up (+Y) through the pivot, pitch about the camera's right axis; the
+  // camera keeps looking at the pivot and its distance, then moves `dolly` along its new axis.
+  const glm::dvec3 right = glm::normalize(glm::dvec3(m[0]));
+  glm::dmat4 turn = glm::rotate(glm::dmat4(1.0), yaw, glm::dvec3(0, 1, 0)) *
+                    glm::rotate(glm::dmat4(1.0), pitch, right);
+  glm::dmat4 moved = glm::translate(glm::dmat4(1.0), pivot) * turn *
+                     glm::translate(glm::dmat4(1.0), -pivot) * m;
+  const glm::dvec3 new_forward = -glm::normalize(glm::dvec3(moved[2]));
+  if (std::abs(new_forward.y) > 0.999) throw Error("camera: cannot look straight up or down");
+  // A dolly stops short of the pivot (keeping a tenth of the distance): the focus stays ahead.
+  const double step = std::min(dolly, 0.9 * distance);
+  moved[3] += glm::dvec4(new_forward * step, 0.0);
+  st.camera.camera_to_world = glm::mat4(moved);
+  if (step != 0.0) st.lens.focus_distance = distance - step;  // the pivot stays in focus
+  ++st.camera_version;
+  ++st.lens_version;  // the reference restarts; previews of the old view are stale
+  st.stage = InputStage::None;
+  changed_.notify_all();
+  return st.camera;
+}
 
 lens::ThinLens ViewSession::lens() const {
   std::lock_guard<std::mutex> lock(mutex_);

@@ -362,6 +362,38 @@ TEST_F(ViewServerTest, MethodIsChosenWithoutTouchingTheLens) {
   EXPECT_EQ(session->status().lens_version, 1u);
 }
 
+// A dolly moves the camera along its axis (depths shrink by its length, the point in focus stays
+// in focus); an orbit turns it about that point. Each move renders the inputs again.
+TEST_F(ViewServerTest, CameraMovesRenderTheInputsAgain) {
+  auto depth_at = [&](int x, int y) {
+    return json::parse(client->Get(("/api/depth?x=" + std::to_string(x) + "&y=" +
+                                    std::to_string(y)).c_str(), auth())->body)["depth"];
+  };
+  EXPECT_NEAR(depth_at(10, 24).get<double>(), kNear, 1e-4);  // the near quad, left half
+  EXPECT_NEAR(depth_at(50, 24).get<double>(), kFar, 1e-3);
+  auto res = post("/api/camera", R"({"dolly": 0.5})");
+  ASSERT_TRUE(res && res->status == 200) << (res ? res->body : "no answer");
+  json moved = json::parse(res->body);
+  EXPECT_EQ(moved["camera_version"], 1);
+  EXPECT_NEAR(moved["position"][2].get<double>(), -0.5, 1e-6);
+  EXPECT_NEAR(moved["lens"]["focus_distance"].get<double>(), kFar - 0.5, 1e-5);
+  ASSERT_TRUE(session->wait_for_stage(InputStage::Draft, 60.0));
+  EXPECT_NEAR(depth_at(50, 24).get<double>(), kFar - 0.5, 1e-3);
+
+  // Yaw 90 degrees about the point in focus, (0, 0, -4), 3.5 m ahead: the camera goes to
+  // (3.5, 0, -4), looking down -X.
+  res = post("/api/camera", R"({"yaw": 90})");
+  ASSERT_TRUE(res && res->status == 200);
+  moved = json::parse(res->body);
+  EXPECT_NEAR(moved["position"][0].get<double>(), 3.5, 1e-5);
+  EXPECT_NEAR(moved["position"][2].get<double>(), -4.0, 1e-5);
+  EXPECT_NEAR(moved["forward"][0].get<double>(), -1.0, 1e-6);
+  EXPECT_EQ(post("/api/camera", R"({"pitch": 100})")->status, 400);
+  EXPECT_EQ(post("/api/camera", R"({"yaw": "left"})")->status, 400);
+  EXPECT_EQ(post("/api/camera", R"({"roll": 1})")->status, 400);
+  EXPECT_EQ(session->status().camera_version, 2u);  // refused moves change nothing
+}
+
 // The slab composite changes the layered preview (the blurred edge of the near plane), not the
 // lens; back to "over" gives the first image again, bit for bit.
 TEST_F(ViewServerTest, CompositeIsChosenWithoutTouchingTheLens) {

@@ -15,7 +15,7 @@
 //                ViewSettings::reference_pass_spp lens samples, accumulated, up to
 //                reference_max_spp. A lens change restarts it with an empty cache (the pass in
 //                flight finishes and is discarded).
-// Every preview is the post-process rerun on the latest inputs for the current lens
+// A camera move (move_camera) starts again from 1. Every preview is the post-process rerun on the latest inputs for the current lens
 // (preview::refocus_inputs, preview::render_preview): the inputs do not depend on the lens.
 //
 // Thread safety: every public method may be called from any thread at any time.
@@ -64,6 +64,7 @@ struct ViewStatus {
   preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
   preview::LayerComposite composite = preview::LayerComposite::Over;  // layered methods
   std::uint64_t lens_version = 0;     // raised by every lens change (the reference restarts)
+  std::uint64_t camera_version = 0;   // raised by every camera move (the inputs restart too)
   InputStage stage = InputStage::None;
   std::uint64_t inputs_version = 0;   // raised whenever new inputs replace the old
   double first_preview_ms = -1;       // session start to the first inputs (-1: not yet)
@@ -113,7 +114,13 @@ class ViewSession {
 
   // Validates and applies a lens; restarts the reference if it changed.
   void set_lens(const lens::ThinLens& lens);
-  const scene::Camera& camera() const;  // the camera looked through (fixed for the session)
+  scene::Camera camera() const;  // the camera looked through now
+  // Orbits the camera about the point in focus on its axis (`yaw` radians about the world's +Y,
+  // `pitch` about the camera's right axis), then moves it `dolly` metres along its axis (at most
+  // nine tenths of the way to that point, which stays in focus). The inputs are rendered again
+  // from the draft on, and the reference restarts. Returns the new camera. Throws
+  // dofcache::Error for non-finite or absurd angles, or a view straight up or down.
+  scene::Camera move_camera(double yaw, double pitch, double dolly);
   void set_method(preview::PreviewMethod method);
   void set_composite(preview::LayerComposite composite);  // how layered methods composite
   // Focuses at pixel (x, y): the focus distance becomes the camera-space depth the pinhole inputs
@@ -137,8 +144,9 @@ class ViewSession {
  private:
   struct State;
   void run_worker();
-  void render_inputs(InputStage stage);
-  void refine_reference();
+  // False (nothing published) when stopped or the camera moved before the inputs were done.
+  bool render_inputs(InputStage stage, std::uint64_t camera_version);
+  void refine_reference(std::uint64_t camera_version);  // returns when the camera moves
 
   std::unique_ptr<scene::Scene> scene_;
   struct Render;

@@ -225,6 +225,13 @@ async function main() {
     const text = await page.$eval("#lens-text", (el) => el.value);
     check(JSON.parse(text).extras.lens.fstop === lens.fstop, "copy lens gives extras.lens " + text);
 
+    // The camera dollied in with the + key: new inputs are rendered and drawn.
+    const inputsBefore = await page.evaluate(() => window.dofcacheView.drawnInputsVersion);
+    await page.keyboard.press("+");
+    await page.waitForFunction(() => window.dofcacheView.cameraVersion === 1);
+    await page.waitForFunction((v) => window.dofcacheView.drawnInputsVersion > v, {}, inputsBefore);
+    check(true, "the + key dollies the camera and the preview is drawn again");
+
     // Two keys appended to the keyframe file given on the command line, the second with the lens
     // of the moment.
     const keyframes = path.join(outDir, "keyframes.json");
