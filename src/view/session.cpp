@@ -352,13 +352,27 @@ scene::Camera ViewSession::move_camera(double yaw, double pitch, double dolly) {
   // A dolly stops short of the pivot (keeping a tenth of the distance): the focus stays ahead.
   const double step = std::min(dolly, 0.9 * distance);
   moved[3] += glm::dvec4(new_forward * step, 0.0);
-  st.camera.camera_to_world = glm::mat4(moved);
   if (step != 0.0) st.lens.focus_distance = distance - step;  // the pivot stays in focus
+  scene::Camera camera = st.camera;
+  camera.camera_to_world = glm::mat4(moved);
+  place_camera(camera);
+  return camera;
+}
+
+void ViewSession::set_camera(const scene::Camera& camera) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (camera.camera_to_world == state_->camera.camera_to_world && camera.yfov == state_->camera.yfov)
+    return;
+  place_camera(camera);
+}
+
+void ViewSession::place_camera(const scene::Camera& camera) {
+  State& st = *state_;
+  st.camera = camera;
   ++st.camera_version;
   ++st.lens_version;  // the reference restarts; previews of the old view are stale
   st.stage = InputStage::None;
   changed_.notify_all();
-  return st.camera;
 }
 
 lens::ThinLens ViewSession::lens() const {

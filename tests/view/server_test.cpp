@@ -202,6 +202,33 @@ TEST_F(ViewServerTest, MalformedRequestsAreRefusedAndTheServerKeepsServing) {
   EXPECT_TRUE(alive());
 }
 
+// Error answers quote the request's text, which need not be UTF-8 or one line: a query parameter
+// of byte 0xFF, a key cut at its 64th byte inside a two-byte character, a method name holding a
+// line break. The JSON writer threw on the first two from inside the server's exception handler,
+// which ended the process (found writing the request handling's fuzz target).
+TEST_F(ViewServerTest, ErrorsQuotingTextThatIsNotUtf8OrOneLineAreAnswered) {
+  auto bad_format = client->Get("/api/image?kind=preview&format=%FF", auth());
+  ASSERT_TRUE(bad_format);
+  EXPECT_EQ(bad_format->status, 400);
+  const std::string message = json::parse(bad_format->body).at("error").get<std::string>();
+  EXPECT_NE(message.find("format must be png or raw"), std::string::npos) << message;
+  EXPECT_NE(message.find("\xEF\xBF\xBD"), std::string::npos) << message;  // U+FFFD for 0xFF
+
+  auto cut_key = post("/api/lens", "{\"" + std::string(63, 'k') + "\xC3\xA9\": 1}");
+  ASSERT_TRUE(cut_key);
+  EXPECT_EQ(cut_key->status, 400);
+  EXPECT_NE(json::parse(cut_key->body).at("error").get<std::string>().find("unknown key"),
+            std::string::npos);
+
+  auto two_lines = post("/api/lens", R"({"method": "layered\nocclusion"})");
+  ASSERT_TRUE(two_lines);
+  EXPECT_EQ(two_lines->status, 400);
+  const std::string folded = json::parse(two_lines->body).at("error").get<std::string>();
+  EXPECT_EQ(folded.find('\n'), std::string::npos) << folded;
+  EXPECT_NE(folded.find("layered; occlusion"), std::string::npos) << folded;
+  EXPECT_TRUE(alive());
+}
+
 // Clients that ask for an image and hang up before (or while) it is sent: the server's writes
 // fail (no SIGPIPE kills the process) and it keeps serving.
 TEST_F(ViewServerTest, ClientsThatDisconnectMidStreamLeaveTheServerRunning) {

@@ -1,6 +1,6 @@
 #pragma once
 // The HTTP server of `dofcache view`: the embedded page and a JSON API over a ViewSession
-// (docs/view.md lists the routes).
+// (docs/view.md lists the routes), answered by ViewApi (api.h); this is the HTTP transport.
 //
 // Safe by construction:
 //   * bound to 127.0.0.1 only (there is no option to bind elsewhere);

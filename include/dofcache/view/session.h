@@ -121,6 +121,8 @@ class ViewSession {
   // from the draft on, and the reference restarts. Returns the new camera. Throws
   // dofcache::Error for non-finite or absurd angles, or a view straight up or down.
   scene::Camera move_camera(double yaw, double pitch, double dolly);
+  // Puts the camera at `camera`'s pose (e.g. back where it started); nothing if it is there.
+  void set_camera(const scene::Camera& camera);
   void set_method(preview::PreviewMethod method);
   void set_composite(preview::LayerComposite composite);  // how layered methods composite
   // Focuses at pixel (x, y): the focus distance becomes the camera-space depth the pinhole inputs
@@ -147,6 +149,7 @@ class ViewSession {
   // False (nothing published) when stopped or the camera moved before the inputs were done.
   bool render_inputs(InputStage stage, std::uint64_t camera_version);
   void refine_reference(std::uint64_t camera_version);  // returns when the camera moves
+  void place_camera(const scene::Camera& camera);        // under mutex_
 
   std::unique_ptr<scene::Scene> scene_;
   struct Render;

@@ -1,0 +1,115 @@
+// The request handling of `dofcache view` without the HTTP transport (view::ViewApi), over a
+// session that was never started (nothing is rendered): what the fuzz target drives.
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "dofcache/view/api.h"
+#include "dofcache/view/session.h"
+#include "render/test_scenes.h"
+
+namespace dofcache::view {
+namespace {
+
+using json = nlohmann::json;
+constexpr const char* kToken = "00112233445566778899aabbccddeeff";
+
+scene::Scene one_plane() {
+  scene::Scene s;
+  s.materials.push_back(testing::emissive_material({0.5f, 0.5f, 0.5f}));
+  testing::add_quad_z(s, -5.0f, 5.0f, -5.0f, 5.0f, -2.0f, 0, 0);
+  testing::build_emitters(s);
+  s.cameras.push_back(testing::origin_camera(0.8f));
+  return s;
+}
+
+ViewSettings tiny() {
+  ViewSettings s;
+  s.width = 16;
+  s.height = 16;
+  s.reference = false;
+  return s;
+}
+
+class ViewApiTest : public ::testing::Test {
+ protected:
+  ViewApiTest() : session(one_plane(), {0.05, 2.0, 2.0}, tiny()), api(session, kToken) {}
+  ApiResponse request(const std::string& method, const std::string& path,
+                      const std::string& body = "", const std::string& token = kToken) {
+    ApiRequest r;
+    r.method = method;
+    r.path = path;
+    r.token_header = token;
+    r.body = body;
+    return api.handle(r);
+  }
+  static std::string error_of(const ApiResponse& res) {
+    return json::parse(res.body).at("error").get<std::string>();
+  }
+  ViewSession session;
+  ViewApi api;
+};
+
+TEST_F(ViewApiTest, TheTokenComesFirst) {
+  EXPECT_EQ(request("GET", "/api/lens", "", "").status, 401);
+  EXPECT_EQ(request("GET", "/api/lens", "", "wrong").status, 403);
+  EXPECT_EQ(request("POST", "/api/lens", R"({"fstop": 4})", "wrong").status, 403);
+  EXPECT_DOUBLE_EQ(session.lens().fstop, 2.0);
+  ApiRequest by_param;
+  by_param.method = "GET";
+  by_param.path = "/api/lens";
+  by_param.params = {{"token", "wrong"}, {"token", kToken}};  // the first counts, as in HTTP
+  EXPECT_EQ(api.handle(by_param).status, 403);
+  by_param.params = {{"token", kToken}, {"token", "wrong"}};
+  EXPECT_EQ(api.handle(by_param).status, 200);
+}
+
+TEST_F(ViewApiTest, RoutesByMethodAndPath) {
+  const ApiResponse get = request("GET", "/api/lens");
+  ASSERT_EQ(get.status, 200);
+  EXPECT_EQ(get.content_type, "application/json");
+  EXPECT_DOUBLE_EQ(json::parse(get.body).at("focus_distance").get<double>(), 2.0);
+  EXPECT_EQ(request("HEAD", "/api/lens").body, get.body);  // the transport drops the body
+  EXPECT_EQ(request("PUT", "/api/lens").status, 404);
+  EXPECT_EQ(request("POST", "/api/status").status, 404);
+  EXPECT_EQ(request("GET", "/api/lens/").status, 404);
+  EXPECT_EQ(request("GET", "/").content_type, "text/html; charset=utf-8");
+
+  const ApiResponse set = request("POST", "/api/lens", R"({"fstop": 4, "method": "gather"})");
+  ASSERT_EQ(set.status, 200) << set.body;
+  EXPECT_DOUBLE_EQ(session.lens().fstop, 4.0);
+  EXPECT_EQ(json::parse(set.body).at("method").get<std::string>(), "gather");
+}
+
+// Before the first inputs: images are 503, pixels 400, both with a message.
+TEST_F(ViewApiTest, NothingToShowBeforeTheFirstInputs) {
+  ApiRequest image;
+  image.method = "GET";
+  image.path = "/api/image";
+  image.token_header = kToken;
+  image.params = {{"kind", "preview"}, {"format", "raw"}};
+  EXPECT_EQ(api.handle(image).status, 503);
+  ApiRequest depth = image;
+  depth.path = "/api/depth";
+  depth.params = {{"x", "1"}, {"y", "1"}};
+  const ApiResponse d = api.handle(depth);
+  EXPECT_EQ(d.status, 400);
+  EXPECT_EQ(error_of(d), "no pinhole inputs yet");
+  EXPECT_EQ(request("POST", "/api/focus", R"({"x": 1, "y": 1})").status, 400);
+}
+
+// Error answers are valid JSON of one line whatever the request quotes.
+TEST_F(ViewApiTest, ErrorAnswersAreOneLineOfValidJson) {
+  const std::string key = std::string(63, 'k') + "\xC3\xA9";  // cut at 64 bytes inside the é
+  const ApiResponse cut = request("POST", "/api/lens", "{\"" + key + "\": 1}");
+  EXPECT_EQ(cut.status, 400);
+  EXPECT_EQ(error_of(cut), "unknown key '" + std::string(63, 'k') + "\xEF\xBF\xBD'");
+  const ApiResponse lines = request("POST", "/api/lens", R"({"method": "a\nb"})");
+  EXPECT_EQ(lines.status, 400);
+  EXPECT_EQ(error_of(lines).find('\n'), std::string::npos);
+  EXPECT_EQ(error_of(ViewApi::error(400, "x\xFF")), "x\xEF\xBF\xBD");
+}
+
+}  // namespace
+}  // namespace dofcache::view
