@@ -211,7 +211,7 @@ TEST_F(ViewServerTest, ErrorsQuotingTextThatIsNotUtf8OrOneLineAreAnswered) {
   ASSERT_TRUE(bad_format);
   EXPECT_EQ(bad_format->status, 400);
   const std::string message = json::parse(bad_format->body).at("error").get<std::string>();
-  EXPECT_NE(message.find("format must be png or raw"), std::string::npos) << message;
+  EXPECT_NE(message.find("format must be png, exr or raw"), std::string::npos) << message;
   EXPECT_NE(message.find("\xEF\xBF\xBD"), std::string::npos) << message;  // U+FFFD for 0xFF
 
   auto cut_key = post("/api/lens", "{\"" + std::string(63, 'k') + "\xC3\xA9\": 1}");
