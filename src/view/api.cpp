@@ -86,7 +86,9 @@ json status_json(const ViewStatus& s) {
            {{"spp", s.reference_spp},
             {"version", s.reference_version},
             {"seconds", s.reference_seconds},
-            {"done", s.reference_done}}},
+            {"done", s.reference_done},
+            {"cache_samples", s.reference_cache_samples},
+            {"reuse_rate", s.reference_reuse_rate}}},
           {"memory_bytes", resident_memory_bytes()},
           {"error", s.error}};
 }

@@ -21,6 +21,7 @@
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
+#include "dofcache/sequence/persistent_cache.h"
 
 namespace dofcache::view {
 namespace {
@@ -30,6 +31,9 @@ using clock = std::chrono::steady_clock;
 double ms_since(clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
 }
+
+// The reference's radiance cache is capped (least recently used samples go first).
+constexpr std::size_t kReferenceCacheBytes = std::size_t{1} << 30;
 
 // Background work (the refined inputs, the reference) leaves one core to the post-process, so a
 // click is answered while they run.
@@ -112,6 +116,8 @@ struct ViewSession::State {
   std::uint64_t reference_version = 0;
   double reference_seconds = 0;
   bool reference_done = false;
+  std::size_t reference_cache_samples = 0;
+  double reference_reuse_rate = 0;
 
   std::string error;
   bool stop = false;
@@ -235,7 +241,14 @@ bool ViewSession::render_inputs(InputStage stage, std::uint64_t camera_version) 
 }
 
 void ViewSession::refine_reference(std::uint64_t camera_version) {
-  std::unique_ptr<cache::RadianceCache> radiance_cache;
+  // One cache for every lens and camera of the session: each pass is a frame of the persistent
+  // cache, whose reuse rule gives every sample the radius the current lens and camera allow
+  // (sequence/persistent_cache.h), so a lens change keeps the samples that stay valid.
+  cache::RadiusSettings radius;
+  radius.min_factor = cache::kSingleImageMinFactor;  // as `render` uses
+  if (!persistent_ && settings_.cache != "none")
+    persistent_ = std::make_unique<sequence::PersistentCache>(
+        settings_.cache, sequence::ReusePolicy{0, kReferenceCacheBytes}, radius);
   image::Image sum;
   int spp = 0;
   std::uint64_t pass = 0, lens_version = 0;
@@ -256,7 +269,6 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
         lens = state_->lens;
         spp = 0;
         sum = image::Image();
-        radiance_cache = cache::make_radiance_cache(settings_.cache);
         state_->reference.reset();
         state_->reference_lens_version = lens_version;
         state_->reference_seconds = 0;
@@ -274,12 +286,17 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
     s.shading = settings_.shading;
     s.lens = lens;
     s.progress = Progress::Display::Never;
-    s.cache.cache = radiance_cache.get();
-    s.cache.radius.min_factor = cache::kSingleImageMinFactor;  // as `render` uses
+    s.cache.radius = radius;
+    s.cache.frame = static_cast<std::uint32_t>(pass);
     // The cache outlives the passes, so its samples are shaded for the total, not one pass.
     s.cache.sample_quality = render::recommended_sample_quality(64, s.shading.gather_rays);
     const auto t0 = clock::now();
+    if (persistent_)
+      s.cache.cache = persistent_->begin_frame(static_cast<std::int32_t>(pass),
+                                               render::make_camera(camera, s));
     render::RenderOutput out = render::render(*scene_, render_->accel, camera, s);
+    sequence::FrameCacheStats cache_stats;
+    if (persistent_) cache_stats = persistent_->end_frame();
     const double seconds = ms_since(t0) * 1e-3;
 
     if (sum.empty()) sum = image::Image(out.color.width(), out.color.height(), 3, 0.0f);
@@ -293,6 +310,8 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (state_->lens_version != lens_version) continue;  // the lens changed meanwhile: discard
     state_->reference = ViewImage{std::move(mean), lens_version, 0, 0, spp};
+    state_->reference_cache_samples = cache_stats.samples_at_end;
+    state_->reference_reuse_rate = cache_stats.reuse_rate();
     state_->reference_seconds += seconds;
     state_->reference_done = spp >= settings_.reference_max_spp;
     ++state_->reference_version;
@@ -321,6 +340,8 @@ ViewStatus ViewSession::status() const {
   s.reference_version = st.reference_version;
   s.reference_seconds = current ? st.reference_seconds : 0;
   s.reference_done = current && st.reference_done;
+  s.reference_cache_samples = st.reference_cache_samples;
+  s.reference_reuse_rate = st.reference_reuse_rate;
   s.error = st.error;
   return s;
 }

@@ -456,7 +456,7 @@ class ViewReferenceTest : public ViewServerTest {
 };
 
 // The reference refines pass by pass up to its limit, is compared with the preview, and starts
-// again when the lens changes.
+// again when the lens changes, keeping its radiance cache.
 TEST_F(ViewReferenceTest, RefinesComparesAndRestartsOnALensChange) {
   ASSERT_TRUE(wait_for_reference(4));
   auto ref = client->Get("/api/image?kind=reference&format=raw", auth());
@@ -484,6 +484,46 @@ TEST_F(ViewReferenceTest, RefinesComparesAndRestartsOnALensChange) {
   EXPECT_EQ(again->get_header_value("X-Reference-Spp"), "4");
   ASSERT_EQ(again->body.size(), ref->body.size());
   EXPECT_NE(again->body, ref->body);  // rendered through the new lens
+}
+
+// A lens change keeps the reference's radiance cache: on lit diffuse planes, the first pass
+// through the new lens is served partly by samples made for the old one (the persistent cache's
+// reuse rule gives them the radius the new lens allows).
+TEST(ViewSessionCache, ALensChangeReusesTheReferencesCacheSamples) {
+  scene::Scene s;
+  s.materials.push_back(testing::diffuse_material({0.7f, 0.7f, 0.7f}));
+  s.materials.push_back(testing::emissive_material({20.0f, 20.0f, 20.0f}));
+  testing::add_quad_z(s, -5.0f, 0.0f, -5.0f, 5.0f, -kNear, 0, 0);
+  testing::add_quad_z(s, -20.0f, 20.0f, -20.0f, 20.0f, -kFar, 0, 1);
+  testing::add_light_facing_away(s, 1.0f, 2.0f, -0.5f, 1, 2);
+  testing::build_emitters(s);
+  s.cameras.push_back(testing::origin_camera(0.8f));
+  ViewSettings settings = small_settings(/*reference=*/true);
+  settings.shading.gather_rays = 4;
+  // One pass per lens: what that pass reuses was made for the other lens.
+  settings.reference_pass_spp = settings.reference_max_spp = 2;
+  ViewSession session(std::move(s), wide_open(), settings);
+  session.start();
+  auto converged = [&] {
+    for (int i = 0; i < 600; ++i) {
+      const ViewStatus st = session.status();
+      if (st.reference_done) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return false;
+  };
+  ASSERT_TRUE(converged());
+  const ViewStatus first = session.status();
+  EXPECT_GT(first.reference_cache_samples, 0u);
+  lens::ThinLens lens = session.lens();
+  lens.fstop = 2.0;
+  session.set_lens(lens);
+  ASSERT_TRUE(converged());
+  const ViewStatus second = session.status();
+  EXPECT_EQ(second.lens_version, first.lens_version + 1);
+  EXPECT_GE(second.reference_cache_samples, first.reference_cache_samples);
+  EXPECT_GT(second.reference_reuse_rate, 0.0);
+  session.stop();
 }
 
 }  // namespace

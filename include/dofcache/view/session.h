@@ -13,8 +13,10 @@
 //   3. refined   the inputs at ViewSettings::input_spp with full shading;
 //   4. reference distributed ray tracing with the radiance cache, in passes of
 //                ViewSettings::reference_pass_spp lens samples, accumulated, up to
-//                reference_max_spp. A lens change restarts it with an empty cache (the pass in
-//                flight finishes and is discarded).
+//                reference_max_spp. A lens change restarts the accumulation (the pass in flight
+//                finishes and is discarded) but keeps the radiance cache: every pass is a frame
+//                of a sequence::PersistentCache, whose reuse rule keeps the samples that stay
+//                valid for the new lens (or camera), with the radius it allows them.
 // A camera move (move_camera) starts again from 1. Every preview is the post-process rerun on the latest inputs for the current lens
 // (preview::refocus_inputs, preview::render_preview): the inputs do not depend on the lens.
 //
@@ -35,6 +37,10 @@
 #include "dofcache/render/setup.h"
 #include "dofcache/render/shading.h"
 #include "dofcache/scene/scene.h"
+
+namespace dofcache::sequence {
+class PersistentCache;
+}
 
 namespace dofcache::view {
 
@@ -77,6 +83,10 @@ struct ViewStatus {
   std::uint64_t reference_version = 0;  // raised by every accumulated pass and every restart
   double reference_seconds = 0;       // rendering time spent on the current reference
   bool reference_done = false;
+  // The reference's radiance cache after its last pass: samples, and the fraction of that pass's
+  // lookups served by samples of earlier passes (after a lens change: of the earlier lens).
+  std::size_t reference_cache_samples = 0;
+  double reference_reuse_rate = 0;
   std::string error;                  // a background render's failure, if any
 };
 
@@ -154,6 +164,8 @@ class ViewSession {
   std::unique_ptr<scene::Scene> scene_;
   struct Render;
   std::unique_ptr<Render> render_;  // accel and camera
+  // The reference's radiance cache (worker thread only), kept across lens changes and moves.
+  std::unique_ptr<sequence::PersistentCache> persistent_;
   ViewSettings settings_;
   int width_ = 0, height_ = 0;
   preview::PreviewOptions options_;
