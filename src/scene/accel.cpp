@@ -3,14 +3,41 @@
 
 #include <embree3/rtcore.h>
 
+#include <glm/geometric.hpp>
+
+#include <cstring>
 #include <mutex>
 #include <string>
 #include <vector>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/rng.h"
 
 namespace dofcache::scene {
 namespace {
+
+// What a triangle's filter must check (Accel::Impl::filter_flags).
+constexpr std::uint8_t kSingleSided = 1, kMask = 2, kBlend = 4;
+
+// The query's context: Embree hands it to the filter function (it must start with Embree's own).
+struct QueryContext {
+  RTCIntersectContext embree;
+  bool cull_back_faces = false;
+  std::uint64_t ray_key = 0;  // the ray's seed, origin and direction hashed: BLEND draws
+};
+
+std::uint32_t bits(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+std::uint64_t ray_key(const Ray& ray) {
+  std::uint64_t h = hash_combine(0x626c656e64ULL, ray.seed);  // "blend"
+  h = hash_combine(h, (std::uint64_t{bits(ray.origin.x)} << 32) | bits(ray.origin.y));
+  h = hash_combine(h, (std::uint64_t{bits(ray.origin.z)} << 32) | bits(ray.direction.x));
+  return hash_combine(h, (std::uint64_t{bits(ray.direction.y)} << 32) | bits(ray.direction.z));
+}
 
 const char* error_name(RTCError code) {
   switch (code) {
@@ -36,6 +63,8 @@ const char* error_name(RTCError code) {
 struct Accel::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  const Scene* source = nullptr;
+  std::vector<std::uint8_t> filter_flags;  // per triangle: kSingleSided | kMask | kBlend
   std::vector<float> padded_positions;  // only when Scene::mesh.positions cannot be shared
 
   // Embree reports errors through a C callback. Throwing through Embree's C API is not safe, so
@@ -60,6 +89,44 @@ struct Accel::Impl {
     RTCError code = device ? rtcGetDeviceError(device) : rtcGetDeviceError(nullptr);
     if (message.empty() && code != RTC_ERROR_NONE) message = error_name(code);
     if (!message.empty()) throw Error(std::string("Embree: ") + what + ": " + message);
+  }
+
+  // Embree's filter function (intersection and occlusion alike): rejects a candidate hit on the
+  // back of a single-sided triangle when the query culls, where a MASK material is cut out, and
+  // where a BLEND material lets the ray through (probability 1 - alpha, drawn from the ray's key
+  // and the triangle, so the same ray always gets the same answer).
+  static void filter(const RTCFilterFunctionNArguments* args) {
+    const auto* im = static_cast<const Impl*>(args->geometryUserPtr);
+    const auto* context = reinterpret_cast<const QueryContext*>(args->context);
+    const Scene& s = *im->source;
+    for (unsigned i = 0; i < args->N; ++i) {
+      if (args->valid[i] != -1) continue;
+      const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+      const std::uint8_t flags = im->filter_flags[prim];
+      if (flags & kSingleSided && context->cull_back_faces) {
+        const glm::uvec3& t = s.mesh.triangles[prim];
+        const glm::vec3 &p0 = s.mesh.positions[t.x], &p1 = s.mesh.positions[t.y],
+                        &p2 = s.mesh.positions[t.z];
+        glm::vec3 n = glm::cross(p1 - p0, p2 - p0);  // counter-clockwise: the front
+        glm::vec3 d(RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+                    RTCRayN_dir_z(args->ray, args->N, i));
+        if (glm::dot(n, d) > 0.0f) {
+          args->valid[i] = 0;
+          continue;
+        }
+      }
+      if (!(flags & (kMask | kBlend))) continue;
+      const float alpha = s.alpha_at(prim, RTCHitN_u(args->hit, args->N, i),
+                                     RTCHitN_v(args->hit, args->N, i));
+      const Material& m = s.materials[s.mesh.triangle_material[prim]];
+      if (flags & kMask) {
+        if (!(alpha >= m.alpha_cutoff)) args->valid[i] = 0;
+      } else {
+        const std::uint64_t h = hash_combine(context->ray_key, prim);
+        const float u = static_cast<float>(h >> 40) * 0x1p-24f;  // uniform in [0, 1)
+        if (!(u < alpha)) args->valid[i] = 0;
+      }
+    }
   }
 
   ~Impl() {
@@ -98,6 +165,30 @@ Accel::Accel(const Scene& s) : impl_(std::make_unique<Impl>()) {
     rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                mesh.triangles.data(), 0, 3 * sizeof(std::uint32_t),
                                mesh.triangles.size());
+    // The filter runs only where a material needs it (a scene of opaque double-sided materials
+    // is traced without it).
+    im.source = &s;
+    im.filter_flags.assign(mesh.triangles.size(), 0);
+    bool any = false;
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const std::uint32_t material =
+          t < mesh.triangle_material.size() ? mesh.triangle_material[t] : 0;
+      if (material >= s.materials.size()) continue;
+      const Material& m = s.materials[material];
+      std::uint8_t f = (m.double_sided ? 0 : kSingleSided) |
+                       (m.alpha_mode == AlphaMode::Mask    ? kMask
+                        : m.alpha_mode == AlphaMode::Blend ? kBlend
+                                                           : 0);
+      im.filter_flags[t] = f;
+      any = any || f != 0;
+    }
+    if (any) {
+      rtcSetGeometryUserData(geom, &im);
+      rtcSetGeometryIntersectFilterFunction(geom, &Impl::filter);
+      rtcSetGeometryOccludedFilterFunction(geom, &Impl::filter);
+    } else {
+      im.filter_flags.clear();
+    }
     rtcCommitGeometry(geom);
     rtcAttachGeometryByID(im.scene, geom, 0);
     rtcReleaseGeometry(geom);  // the scene holds it now
@@ -110,8 +201,10 @@ Accel::Accel(const Scene& s) : impl_(std::make_unique<Impl>()) {
 Accel::~Accel() = default;
 
 Hit Accel::intersect(const Ray& ray) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+  QueryContext context;
+  rtcInitIntersectContext(&context.embree);
+  context.cull_back_faces = ray.cull_back_faces;
+  if (!impl_->filter_flags.empty()) context.ray_key = ray_key(ray);
   RTCRayHit rh;
   rh.ray.org_x = ray.origin.x;
   rh.ray.org_y = ray.origin.y;
@@ -127,7 +220,7 @@ Hit Accel::intersect(const Ray& ray) const {
   rh.ray.flags = 0;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &context, &rh);
+  rtcIntersect1(impl_->scene, &context.embree, &rh);
 
   Hit hit;
   if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
@@ -140,8 +233,10 @@ Hit Accel::intersect(const Ray& ray) const {
 }
 
 bool Accel::occluded(const Ray& ray) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+  QueryContext context;
+  rtcInitIntersectContext(&context.embree);
+  context.cull_back_faces = ray.cull_back_faces;
+  if (!impl_->filter_flags.empty()) context.ray_key = ray_key(ray);
   RTCRay r;
   r.org_x = ray.origin.x;
   r.org_y = ray.origin.y;
@@ -155,7 +250,7 @@ bool Accel::occluded(const Ray& ray) const {
   r.mask = 0xffffffffu;
   r.id = 0;
   r.flags = 0;
-  rtcOccluded1(impl_->scene, &context, &r);
+  rtcOccluded1(impl_->scene, &context.embree, &r);
   return r.tfar == -std::numeric_limits<float>::infinity();  // Embree's "blocked" mark
 }
 

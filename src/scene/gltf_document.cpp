@@ -211,7 +211,6 @@ std::string Document::mesh_label(int mesh) const {
 AccessorView Document::accessor(int index, int expected_type, const std::string& user) const {
   const tinygltf::Accessor& acc = at(model_.accessors, index, "accessor", user);
   std::string label = "accessor " + std::to_string(index) + quoted(acc.name) + " (" + user + ")";
-  if (acc.sparse.isSparse) fail(label, "sparse accessors are not supported");
   int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(acc.componentType));
   int components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(acc.type));
   if (size <= 0 || acc.componentType == TINYGLTF_COMPONENT_TYPE_DOUBLE)
@@ -228,6 +227,7 @@ AccessorView Document::accessor(int index, int expected_type, const std::string&
     // Nothing bounds the count by real bytes here; refuse absurd ones before allocating.
     if (acc.count > (std::size_t{1} << 24))
       fail(label, "has no bufferView and an implausible count " + std::to_string(acc.count));
+    if (acc.sparse.isSparse) make_dense(acc, label, element, view);
     return view;
   }
 
@@ -255,7 +255,71 @@ AccessorView Document::accessor(int index, int expected_type, const std::string&
                       std::to_string(bv.byteLength) + " bytes)");
   }
   view.data = buffer.data.data() + bv.byteOffset + acc.byteOffset;
+  if (acc.sparse.isSparse) make_dense(acc, label, element, view);
   return view;
+}
+
+const unsigned char* Document::view_bytes(int view, std::size_t offset, std::size_t bytes,
+                                          const std::string& user) const {
+  const tinygltf::BufferView& bv = at(model_.bufferViews, view, "bufferView", user);
+  std::string bv_label = "bufferView " + std::to_string(view);
+  const tinygltf::Buffer& buffer = at(model_.buffers, bv.buffer, "buffer", bv_label);
+  if (bv.byteOffset > buffer.data.size() || bv.byteLength > buffer.data.size() - bv.byteOffset)
+    fail(bv_label, "byte range " + std::to_string(bv.byteOffset) + "+" +
+                       std::to_string(bv.byteLength) + " exceeds buffer " +
+                       std::to_string(bv.buffer) + " (" + std::to_string(buffer.data.size()) +
+                       " bytes)");
+  if (offset > bv.byteLength || bytes > bv.byteLength - offset)
+    fail(user, "byteOffset " + std::to_string(offset) + " + " + std::to_string(bytes) +
+                   " bytes exceed " + bv_label + " (" + std::to_string(bv.byteLength) + " bytes)");
+  return buffer.data.data() + bv.byteOffset + offset;
+}
+
+void Document::make_dense(const tinygltf::Accessor& acc, const std::string& label,
+                          std::size_t element, AccessorView& view) const {
+  const auto& sparse = acc.sparse;
+  const auto count = static_cast<std::size_t>(std::max(sparse.count, 0));
+  if (sparse.count < 1 || count > acc.count)
+    fail(label, "sparse count " + std::to_string(sparse.count) + " must be in [1, " +
+                    std::to_string(acc.count) + "] (the accessor's count)");
+  const int index_type = sparse.indices.componentType;
+  if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+    fail(label, "sparse indices componentType must be an unsigned integer type");
+  if (sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0)
+    fail(label, "sparse byteOffset must not be negative");
+  AccessorView indices;
+  indices.component_type = index_type;
+  indices.stride = static_cast<std::size_t>(
+      tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(index_type)));
+  indices.count = count;
+  indices.data = view_bytes(sparse.indices.bufferView,
+                            static_cast<std::size_t>(sparse.indices.byteOffset),
+                            count * indices.stride, label + " sparse indices");
+  const unsigned char* values =
+      view_bytes(sparse.values.bufferView, static_cast<std::size_t>(sparse.values.byteOffset),
+                 count * element, label + " sparse values");
+
+  auto dense = std::make_shared<std::vector<unsigned char>>(acc.count * element, 0);
+  if (view.data)
+    for (std::size_t i = 0; i < acc.count; ++i)
+      std::memcpy(dense->data() + i * element, view.data + i * view.stride, element);
+  std::uint32_t previous = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t i = indices.index(k);
+    if (i >= acc.count)
+      fail(label, "sparse index " + std::to_string(i) + " at position " + std::to_string(k) +
+                      " is out of range (" + std::to_string(acc.count) + " elements)");
+    if (k > 0 && i <= previous)
+      fail(label, "sparse indices must strictly increase (" + std::to_string(i) + " after " +
+                      std::to_string(previous) + " at position " + std::to_string(k) + ")");
+    previous = i;
+    std::memcpy(dense->data() + std::size_t{i} * element, values + k * element, element);
+  }
+  view.data = dense->data();
+  view.stride = element;
+  view.dense = std::move(dense);
 }
 
 NodeTransform Document::node_transform(int n) const {

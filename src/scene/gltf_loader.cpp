@@ -17,6 +17,7 @@
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
 #include "dofcache/scene/gltf_document.h"
+#include "dofcache/scene/tangents.h"
 #include "dofcache/scene/transform.h"
 
 namespace dofcache::scene {
@@ -27,11 +28,14 @@ using gltf::quoted;
 
 constexpr const char* kLightsExt = "KHR_lights_punctual";
 constexpr const char* kEmissiveStrengthExt = "KHR_materials_emissive_strength";
+constexpr const char* kTextureTransformExt = "KHR_texture_transform";
+constexpr const char* kDracoExt = "KHR_draco_mesh_compression";
 
 // Extensions the loader implements; a file that requires any other one is rejected rather than
 // rendered wrongly.
 bool understood_extension(const std::string& name) {
-  return name == kLightsExt || name == kEmissiveStrengthExt || name == "KHR_mesh_quantization";
+  return name == kLightsExt || name == kEmissiveStrengthExt || name == kTextureTransformExt ||
+         name == "KHR_mesh_quantization";
 }
 
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -74,6 +78,31 @@ std::uint64_t content_hash(const Scene& s) {
       h.add((static_cast<std::uint64_t>(static_cast<std::uint32_t>(r->index)) << 8) |
             static_cast<std::uint64_t>(r->texcoord));
     h.add(static_cast<std::uint64_t>(m.double_sided));
+  }
+  // What later glTF features added is hashed only where a scene uses it, so that scenes without
+  // them keep the identity their cache files were written under.
+  for (const Material& m : s.materials) {
+    bool plain = m.alpha_mode == AlphaMode::Opaque && m.normal_texture.index < 0;
+    for (const TextureRef* r : {&m.base_color_texture, &m.metallic_roughness_texture,
+                                &m.emissive_texture, &m.normal_texture})
+      plain = plain && !r->has_transform();
+    if (plain) continue;
+    h.add(static_cast<std::uint64_t>(m.alpha_mode));
+    add(h, m.alpha_cutoff), add(h, m.normal_scale);
+    for (const TextureRef* r : {&m.base_color_texture, &m.metallic_roughness_texture,
+                                &m.emissive_texture, &m.normal_texture}) {
+      h.add((static_cast<std::uint64_t>(static_cast<std::uint32_t>(r->index)) << 8) |
+            static_cast<std::uint64_t>(r->texcoord));
+      add(h, r->offset), add(h, r->scale), add(h, r->rotation);
+    }
+  }
+  if (!s.mesh.colors.empty()) {
+    h.add(std::string("COLOR_0"));
+    for (glm::vec4 c : s.mesh.colors) add(h, c);
+  }
+  if (!s.mesh.tangents.empty()) {
+    h.add(std::string("TANGENT"));
+    for (glm::vec4 t : s.mesh.tangents) add(h, t);
   }
   h.add(static_cast<std::uint64_t>(s.textures.size()));
   for (const Texture& t : s.textures) {
@@ -127,9 +156,6 @@ class Loader : gltf::Document {
   void check_extensions() {
     for (const std::string& ext : model_.extensionsRequired)
       if (!understood_extension(ext)) fail("extensionsRequired", "unsupported extension " + ext);
-    for (const std::string& ext : model_.extensionsUsed)
-      if (ext == "KHR_texture_transform")
-        warn("extensionsUsed", "KHR_texture_transform is ignored (texture coordinates used as is)");
   }
 
   // Root nodes of the chosen scene: LoadOptions::scene_index, else the file's default scene,
@@ -257,6 +283,13 @@ class Loader : gltf::Document {
     };
     int pos_acc = attribute("POSITION");
     if (pos_acc < 0) fail(label, "has no POSITION attribute");
+    // Draco (extensionsUsed only; a file requiring it was refused): the uncompressed attributes
+    // are the fallback, which a file need not have.
+    if (prim.extensions.count(kDracoExt) && model_.accessors.size() > std::size_t(pos_acc) &&
+        model_.accessors[std::size_t(pos_acc)].bufferView == -1 &&
+        !model_.accessors[std::size_t(pos_acc)].sparse.isSparse)
+      fail(label, std::string("is compressed with ") + kDracoExt +
+                      ", which is not supported, and has no uncompressed fallback");
     AccessorView pos = accessor(pos_acc, TINYGLTF_TYPE_VEC3, label + " POSITION");
     std::size_t vertex_count = pos.count;
     std::optional<AccessorView> nrm, uv[2];
@@ -266,7 +299,30 @@ class Loader : gltf::Document {
       uv[0] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_0");
     if (int a = attribute("TEXCOORD_1"); a >= 0)
       uv[1] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_1");
-    for (const auto* v : {&nrm, &uv[0], &uv[1]})
+    VertexAttributes extra;
+    extra.linear = glm::dmat3(world);
+    extra.mirrored = mirrored;
+    if (int a = attribute("COLOR_0"); a >= 0) {
+      const std::string user = label + " COLOR_0";
+      int type = accessor_type(a, user);
+      extra.color = accessor(a, type == TINYGLTF_TYPE_VEC3 ? type : TINYGLTF_TYPE_VEC4, user);
+      int ct = extra.color->component_type;
+      if (!(ct == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+            (extra.color->normalized && (ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                         ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT))))
+        fail(user, "must be FLOAT or normalized UNSIGNED_BYTE or UNSIGNED_SHORT");
+    }
+    std::uint32_t material = material_index(prim.material, label);
+    const Material& mat = scene_.materials[material];
+    const bool wants_tangents = mat.normal_texture.index >= 0;
+    if (int a = attribute("TANGENT"); a >= 0) {
+      const std::string user = label + " TANGENT";
+      AccessorView t = accessor(a, TINYGLTF_TYPE_VEC4, user);
+      if (t.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !t.normalized)
+        fail(user, "must be FLOAT or normalized BYTE or SHORT");
+      if (wants_tangents) extra.tangent = t;
+    }
+    for (const auto* v : {&nrm, &uv[0], &uv[1], &extra.color, &extra.tangent})
       if (*v && (*v)->count != vertex_count)
         fail(label, "attribute counts differ (" + std::to_string((*v)->count) + " vs " +
                         std::to_string(vertex_count) + " positions)");
@@ -338,12 +394,12 @@ class Loader : gltf::Document {
     }
 
     // Validate triangles (world space) and append.
-    std::uint32_t material = material_index(prim.material, label);
     bool strip_or_fan = mode != TINYGLTF_MODE_TRIANGLES;
     Mesh& out = scene_.mesh;
     auto base = static_cast<std::uint32_t>(out.positions.size());
     std::vector<glm::uvec3> kept;
     kept.reserve(tris.size());
+    const std::size_t first_triangle = out.triangles.size();
     for (std::size_t t = 0; t < tris.size(); ++t) {
       glm::uvec3 tri = tris[t];
       if (mirrored) std::swap(tri.y, tri.z);
@@ -371,6 +427,7 @@ class Loader : gltf::Document {
         out.positions.push_back(positions[i]);
         out.normals.push_back(normals[i]);
         push_uvs(uv, i);
+        push_attributes(extra, i);
       }
       for (glm::uvec3 tri : kept) push_triangle(tri + glm::uvec3(base), material, node);
     } else {
@@ -383,10 +440,63 @@ class Loader : gltf::Document {
           out.positions.push_back(positions[v]);
           out.normals.push_back(face);
           push_uvs(uv, v);
+          push_attributes(extra, v);
         }
         push_triangle(glm::uvec3(first, first + 1, first + 2), material, node);
       }
     }
+    if (wants_tangents && !extra.tangent) {
+      const int set = mat.normal_texture.texcoord;
+      if (!uv[set]) {
+        warn(label, "the normal texture needs TEXCOORD_" + std::to_string(set) +
+                        ", which the primitive lacks; normal texture ignored");
+      } else {
+        std::vector<glm::vec4> t =
+            generate_tangents(out.positions, out.normals, set == 0 ? out.uv0 : out.uv1,
+                              out.triangles, base, first_triangle);
+        std::copy(t.begin(), t.end(), out.tangents.end() - static_cast<std::ptrdiff_t>(t.size()));
+        has_tangents_ = true;
+      }
+    }
+  }
+
+  // A primitive's optional per-vertex attributes besides normals and texture coordinates.
+  struct VertexAttributes {
+    std::optional<AccessorView> color, tangent;
+    glm::dmat3 linear{1.0};  // the node's: tangents are directions on the surface
+    bool mirrored = false;   // a mirroring transform flips the bitangent: w changes sign
+  };
+
+  // Appends vertex v's COLOR_0 and TANGENT (zero where the primitive has none; finish_mesh drops
+  // the arrays if no primitive has any).
+  void push_attributes(const VertexAttributes& a, std::size_t v) {
+    Mesh& m = scene_.mesh;
+    glm::vec4 color(1.0f);
+    if (a.color) {
+      has_colors_ = true;
+      for (int c = 0; c < a.color->components; ++c) color[c] = a.color->component<float>(v, c);
+      if (!(color.r >= 0.0f && color.g >= 0.0f && color.b >= 0.0f && color.a >= 0.0f) ||
+          !finite(glm::vec3(color)) || !std::isfinite(color.a))
+        color = glm::clamp(glm::vec4(std::isfinite(color.r) ? color.r : 0.0f,
+                                     std::isfinite(color.g) ? color.g : 0.0f,
+                                     std::isfinite(color.b) ? color.b : 0.0f,
+                                     std::isfinite(color.a) ? color.a : 1.0f),
+                           0.0f, 1e30f);
+    }
+    m.colors.push_back(color);
+    glm::vec4 tangent(0.0f);
+    if (a.tangent) {
+      has_tangents_ = true;
+      glm::dvec3 t = a.linear * glm::dvec3(a.tangent->component<double>(v, 0),
+                                           a.tangent->component<double>(v, 1),
+                                           a.tangent->component<double>(v, 2));
+      double len = glm::length(t);
+      float w = a.tangent->component<float>(v, 3) < 0.0f ? -1.0f : 1.0f;
+      if (a.mirrored) w = -w;
+      // A zero or broken tangent leaves the point without a normal texture frame.
+      if (len > 0.0 && std::isfinite(len)) tangent = glm::vec4(glm::vec3(t / len), w);
+    }
+    m.tangents.push_back(tangent);
   }
 
   // Counts a primitive's vertices and triangles (at most: before degenerate ones are dropped)
@@ -436,6 +546,8 @@ class Loader : gltf::Document {
       m.normals[v] = glm::length(sum) > 0.0f ? glm::normalize(sum) : glm::vec3(0, 0, 1);
     if (!has_uv_[0]) m.uv0.clear();
     if (!has_uv_[1]) m.uv1.clear();
+    if (!has_colors_) m.colors.clear();
+    if (!has_tangents_) m.tangents.clear();
     for (glm::vec3 p : m.positions) scene_.bounds.extend(p);
     // Embree reads vertex buffers with 16-byte loads: keep (initialised) room for one more float
     // after the last vertex so the accelerator can share this buffer (see accel.cpp).
@@ -490,33 +602,84 @@ class Loader : gltf::Document {
     if (!finite(glm::vec3(m.base_color)) || !std::isfinite(m.metallic) ||
         !std::isfinite(m.roughness) || !finite(m.emissive))
       fail(label, "has a non-finite factor");
-    m.base_color_texture = texture_ref(pbr.baseColorTexture, label + " baseColorTexture");
+    const auto& bct = pbr.baseColorTexture;
+    m.base_color_texture =
+        texture_ref(bct.index, bct.texCoord, bct.extensions, label + " baseColorTexture");
+    const auto& mrt = pbr.metallicRoughnessTexture;
     m.metallic_roughness_texture =
-        texture_ref(pbr.metallicRoughnessTexture, label + " metallicRoughnessTexture");
-    m.emissive_texture = texture_ref(gm.emissiveTexture, label + " emissiveTexture");
+        texture_ref(mrt.index, mrt.texCoord, mrt.extensions, label + " metallicRoughnessTexture");
+    const auto& et = gm.emissiveTexture;
+    m.emissive_texture =
+        texture_ref(et.index, et.texCoord, et.extensions, label + " emissiveTexture");
+    const auto& nt = gm.normalTexture;
+    m.normal_texture = texture_ref(nt.index, nt.texCoord, nt.extensions, label + " normalTexture");
+    m.normal_scale = static_cast<float>(nt.scale);
+    if (!std::isfinite(m.normal_scale)) fail(label, "normalTexture.scale is not finite");
     m.double_sided = gm.doubleSided;
-    if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
-      warn(label, "alphaMode " + gm.alphaMode + " is rendered as OPAQUE");
+    if (gm.alphaMode == "MASK") {
+      m.alpha_mode = AlphaMode::Mask;
+      m.alpha_cutoff = static_cast<float>(gm.alphaCutoff);
+      if (!(m.alpha_cutoff >= 0.0f) || !std::isfinite(m.alpha_cutoff))
+        fail(label, "alphaCutoff must be a number >= 0");
+    } else if (gm.alphaMode == "BLEND") {
+      m.alpha_mode = AlphaMode::Blend;
+    } else if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty()) {
+      fail(label, "unknown alphaMode '" + gm.alphaMode + "' (OPAQUE, MASK or BLEND)");
+    }
+    if (!std::isfinite(m.base_color.a)) fail(label, "has a non-finite factor");
     return m;
   }
 
-  TextureRef texture_ref(const tinygltf::TextureInfo& info, const std::string& user) {
+  // A textureInfo (or normalTextureInfo): texture, TEXCOORD set and KHR_texture_transform.
+  TextureRef texture_ref(int index, int texcoord, const tinygltf::ExtensionMap& extensions,
+                         const std::string& user) {
     TextureRef ref;
-    if (info.index == -1) return ref;
-    at(model_.textures, info.index, "texture", user);
-    ref.texcoord = info.texCoord;
-    if (info.texCoord != 0 && info.texCoord != 1) {
-      warn(user,
-           "texCoord " + std::to_string(info.texCoord) + " is not supported; TEXCOORD_0 used");
+    if (index == -1) return ref;
+    at(model_.textures, index, "texture", user);
+    auto transform = extensions.find(kTextureTransformExt);
+    if (transform != extensions.end())
+      read_texture_transform(transform->second, user + " " + kTextureTransformExt, ref, texcoord);
+    ref.texcoord = texcoord;
+    if (texcoord != 0 && texcoord != 1) {
+      warn(user, "texCoord " + std::to_string(texcoord) + " is not supported; TEXCOORD_0 used");
       ref.texcoord = 0;
     }
-    auto it = texture_map_.find(info.index);
+    auto it = texture_map_.find(index);
     if (it == texture_map_.end()) {
-      it = texture_map_.emplace(info.index, static_cast<int>(scene_.textures.size())).first;
-      scene_.textures.push_back(convert_texture(info.index));
+      it = texture_map_.emplace(index, static_cast<int>(scene_.textures.size())).first;
+      scene_.textures.push_back(convert_texture(index));
     }
     ref.index = it->second;
     return ref;
+  }
+
+  // KHR_texture_transform's offset (2 numbers), rotation (radians), scale (2 numbers) and texCoord
+  // (overriding the textureInfo's). Every number must be finite and at most 1e6 in magnitude
+  // (beyond that, float texture coordinates have no precision left), and texCoord 0 or more.
+  void read_texture_transform(const tinygltf::Value& ext, const std::string& label,
+                              TextureRef& ref, int& texcoord) const {
+    if (!ext.IsObject()) fail(label, "must be an object");
+    constexpr double kLimit = 1e6;
+    auto number = [&](const tinygltf::Value& v, const std::string& key) {
+      double d = v.IsNumber() ? v.GetNumberAsDouble() : std::nan("");
+      if (!std::isfinite(d) || std::abs(d) > kLimit)
+        fail(label, key + " must be a finite number of magnitude at most 1e6");
+      return static_cast<float>(d);
+    };
+    auto pair = [&](const char* key, glm::vec2& out) {
+      if (!ext.Has(key)) return;
+      const tinygltf::Value& v = ext.Get(key);
+      if (!v.IsArray() || v.ArrayLen() != 2) fail(label, std::string(key) + " must have 2 numbers");
+      out = glm::vec2(number(v.Get(0), key), number(v.Get(1), key));
+    };
+    pair("offset", ref.offset);
+    pair("scale", ref.scale);
+    if (ext.Has("rotation")) ref.rotation = number(ext.Get("rotation"), "rotation");
+    if (ext.Has("texCoord")) {
+      const tinygltf::Value& v = ext.Get("texCoord");
+      if (!v.IsInt() || v.Get<int>() < 0) fail(label, "texCoord must be an integer >= 0");
+      texcoord = v.Get<int>();
+    }
   }
 
   Texture convert_texture(int index) {
@@ -727,6 +890,7 @@ class Loader : gltf::Document {
   std::string scene_label_ = "scene";
   int default_material_ = -1;
   bool has_uv_[2] = {false, false};
+  bool has_colors_ = false, has_tangents_ = false;
   std::map<int, int> texture_map_;  // glTF texture -> Scene::textures
   std::vector<bool> reached_;       // nodes visited so far
   std::vector<int> parent_;         // the parent each was reached from (-1: a root)

@@ -1,5 +1,8 @@
 #pragma once
 // Embree 3 BVH over Scene::mesh. Queries are thread-safe.
+// Both queries skip, through Embree filter functions, what glTF says is not there: the back faces
+// of single-sided materials (when Ray::cull_back_faces), alphaMode MASK cut-outs (alpha < cutoff) and,
+// with probability 1 - alpha, BLEND surfaces. Shadows are cut out the same way.
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -15,6 +18,14 @@ struct Ray {
   glm::vec3 direction{0.0f, 0.0f, -1.0f};  // need not be unit; t is in units of |direction|
   float tnear = 0.0f;
   float tfar = std::numeric_limits<float>::infinity();
+  // Mixed into the per-hit random number of BLEND materials (stochastic transparency): rays of
+  // different samples should carry different seeds; the same ray and seed give the same answer.
+  std::uint32_t seed = 0;
+  // glTF culls the back faces of single-sided materials: camera rays set this (render/camera.cpp).
+  // Rays of light transport (bounces, shadows) see both sides, so that single-sided geometry
+  // neither leaks light nor lets light and BSDF sampling disagree about what blocks a path. The
+  // layered preview's clipped renders clear it to see into objects the near plane cuts open.
+  bool cull_back_faces = false;
 };
 
 struct Hit {
