@@ -7,6 +7,7 @@
 #include <iterator>
 
 #include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
 
 #include "dofcache/core/error.h"
 
@@ -82,6 +83,60 @@ bool load_image(tinygltf::Image* image, const int index, std::string* err, std::
                                  nullptr);
 }
 
+// tinygltf 2.7 refuses an indices accessor without a bufferView, which is how Draco-compressed
+// primitives are written (their indices are in the compressed data). The loader takes the indices
+// of such primitives from Draco, so their "indices" member is dropped before tinygltf parses the
+// JSON (of a .gltf, or of a .glb's JSON chunk). Anything unexpected leaves the bytes as they are
+// for tinygltf to judge.
+std::string without_draco_indices(const std::string& json_text, bool* changed) {
+  *changed = false;
+  if (json_text.find("KHR_draco_mesh_compression") == std::string::npos) return json_text;
+  nlohmann::json doc = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
+  if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array()) return json_text;
+  for (auto& mesh : doc["meshes"]) {
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
+      continue;
+    for (auto& prim : mesh["primitives"]) {
+      if (!prim.is_object() || !prim.contains("indices") || !prim.contains("extensions") ||
+          !prim["extensions"].is_object() ||
+          !prim["extensions"].contains("KHR_draco_mesh_compression"))
+        continue;
+      prim.erase("indices");
+      *changed = true;
+    }
+  }
+  return *changed ? doc.dump() : json_text;
+}
+
+std::string draco_ready(const std::string& data) {
+  bool changed = false;
+  if (!is_glb(data)) {
+    std::string out = without_draco_indices(data, &changed);
+    return changed ? out : data;
+  }
+  // GLB: 12-byte header, then chunks of (length, type, bytes); the JSON chunk comes first.
+  auto u32 = [&](std::size_t at) {
+    std::uint32_t v;
+    std::memcpy(&v, data.data() + at, 4);
+    return v;
+  };
+  if (data.size() < 20 || u32(16) != 0x4E4F534Au || u32(12) > data.size() - 20) return data;
+  const std::size_t json_length = u32(12);
+  std::string json = without_draco_indices(data.substr(20, json_length), &changed);
+  if (!changed) return data;
+  json.append((4 - json.size() % 4) % 4, ' ');
+  std::string rest = data.substr(20 + json_length);
+  std::string out = data.substr(0, 12);
+  auto put = [&](std::uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
+  put(static_cast<std::uint32_t>(json.size()));
+  put(0x4E4F534Au);
+  out += json;
+  out += rest;
+  const auto total = static_cast<std::uint32_t>(out.size());
+  std::memcpy(&out[8], &total, 4);
+  return out;
+}
+
 }  // namespace
 
 std::string read_file(const std::string& path) {
@@ -97,9 +152,10 @@ std::string base_dir_of(const std::string& path) {
   return base.empty() ? std::string(".") : base.string();
 }
 
-Parsed parse(const std::string& data, const std::string& name, const std::string& base_dir,
+Parsed parse(const std::string& original, const std::string& name, const std::string& base_dir,
              bool load_images, std::uint64_t max_image_pixels) {
-  if (data.size() > 0xffffffffu) throw Error(name + ": file is too large (over 4 GiB)");
+  if (original.size() > 0xffffffffu) throw Error(name + ": file is too large (over 4 GiB)");
+  const std::string data = draco_ready(original);
   tinygltf::TinyGLTF parser;
   Parsed parsed;
   ImageBudget budget{&parsed.model, max_image_pixels};

@@ -17,6 +17,8 @@
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
 #include "dofcache/scene/gltf_document.h"
+#include "dofcache/scene/gltf_draco.h"
+#include "dofcache/scene/gltf_materials.h"
 #include "dofcache/scene/tangents.h"
 #include "dofcache/scene/transform.h"
 
@@ -27,15 +29,15 @@ using gltf::AccessorView;
 using gltf::quoted;
 
 constexpr const char* kLightsExt = "KHR_lights_punctual";
-constexpr const char* kEmissiveStrengthExt = "KHR_materials_emissive_strength";
-constexpr const char* kTextureTransformExt = "KHR_texture_transform";
-constexpr const char* kDracoExt = "KHR_draco_mesh_compression";
+using gltf::kEmissiveStrengthExt;
+using gltf::kTextureTransformExt;
+using gltf::kDracoExtension;
 
 // Extensions the loader implements; a file that requires any other one is rejected rather than
 // rendered wrongly.
 bool understood_extension(const std::string& name) {
   return name == kLightsExt || name == kEmissiveStrengthExt || name == kTextureTransformExt ||
-         name == "KHR_mesh_quantization";
+         name == kDracoExtension || name == "KHR_mesh_quantization";
 }
 
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -136,7 +138,7 @@ class Loader : gltf::Document {
     // Every glTF material is converted (Scene::materials keeps the glTF indices); the default
     // material, if a primitive needs it, is appended after them.
     for (std::size_t i = 0; i < model_.materials.size(); ++i)
-      scene_.materials.push_back(convert_material(static_cast<int>(i)));
+      scene_.materials.push_back(materials_.material(static_cast<int>(i)));
     visit_nodes(roots);
     if (scene_.mesh.triangles.empty())
       throw Error(name_ + ": no triangle geometry in " + scene_label_ +
@@ -283,29 +285,47 @@ class Loader : gltf::Document {
     };
     int pos_acc = attribute("POSITION");
     if (pos_acc < 0) fail(label, "has no POSITION attribute");
-    // Draco (extensionsUsed only; a file requiring it was refused): the uncompressed attributes
-    // are the fallback, which a file need not have.
-    if (prim.extensions.count(kDracoExt) && model_.accessors.size() > std::size_t(pos_acc) &&
-        model_.accessors[std::size_t(pos_acc)].bufferView == -1 &&
-        !model_.accessors[std::size_t(pos_acc)].sparse.isSparse)
-      fail(label, std::string("is compressed with ") + kDracoExt +
-                      ", which is not supported, and has no uncompressed fallback");
-    AccessorView pos = accessor(pos_acc, TINYGLTF_TYPE_VEC3, label + " POSITION");
+    // A Draco-compressed primitive: the decoded attributes and indices stand in for the accessors
+    // (attributes it does not compress are read from theirs).
+    std::optional<gltf::DracoPrimitive> draco;
+    if (auto d = prim.extensions.find(kDracoExtension); d != prim.extensions.end()) {
+      // The declared vertex count against the limit before Draco allocates for it (the decoded
+      // count must equal it; reserve_budget counts it below).
+      std::uint64_t declared = model_.accessors.size() > std::size_t(pos_acc)
+                                   ? model_.accessors[std::size_t(pos_acc)].count
+                                   : 0;
+      if (declared > options_.limits.max_vertices)
+        fail(label, "the scene would exceed the vertex limit (" +
+                        std::to_string(options_.limits.max_vertices) +
+                        "; raise it with --max-vertices)");
+      draco = gltf::decode_draco(*this, model_, prim, d->second, label);
+    }
+    // The view of attribute `name` (accessor `a`) of type `type`.
+    auto view = [&](const char* name, int a, int type) {
+      if (draco)
+        if (auto it = draco->attributes.find(name); it != draco->attributes.end()) {
+          if (it->second.components != tinygltf::GetNumComponentsInType(type))
+            fail(label + " " + name, std::string("must be of type ") + gltf::type_name(type));
+          return it->second;
+        }
+      return accessor(a, type, label + " " + name);
+    };
+    AccessorView pos = view("POSITION", pos_acc, TINYGLTF_TYPE_VEC3);
     std::size_t vertex_count = pos.count;
     std::optional<AccessorView> nrm, uv[2];
-    if (int a = attribute("NORMAL"); a >= 0)
-      nrm = accessor(a, TINYGLTF_TYPE_VEC3, label + " NORMAL");
-    if (int a = attribute("TEXCOORD_0"); a >= 0)
-      uv[0] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_0");
-    if (int a = attribute("TEXCOORD_1"); a >= 0)
-      uv[1] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_1");
+    if (int a = attribute("NORMAL"); a >= 0) nrm = view("NORMAL", a, TINYGLTF_TYPE_VEC3);
+    if (int a = attribute("TEXCOORD_0"); a >= 0) uv[0] = view("TEXCOORD_0", a, TINYGLTF_TYPE_VEC2);
+    if (int a = attribute("TEXCOORD_1"); a >= 0) uv[1] = view("TEXCOORD_1", a, TINYGLTF_TYPE_VEC2);
     VertexAttributes extra;
     extra.linear = glm::dmat3(world);
     extra.mirrored = mirrored;
     if (int a = attribute("COLOR_0"); a >= 0) {
       const std::string user = label + " COLOR_0";
-      int type = accessor_type(a, user);
-      extra.color = accessor(a, type == TINYGLTF_TYPE_VEC3 ? type : TINYGLTF_TYPE_VEC4, user);
+      int type = draco && draco->attributes.count("COLOR_0")
+                     ? (draco->attributes["COLOR_0"].components == 3 ? TINYGLTF_TYPE_VEC3
+                                                                      : TINYGLTF_TYPE_VEC4)
+                     : accessor_type(a, user);
+      extra.color = view("COLOR_0", a, type == TINYGLTF_TYPE_VEC3 ? type : TINYGLTF_TYPE_VEC4);
       int ct = extra.color->component_type;
       if (!(ct == TINYGLTF_COMPONENT_TYPE_FLOAT ||
             (extra.color->normalized && (ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
@@ -317,7 +337,7 @@ class Loader : gltf::Document {
     const bool wants_tangents = mat.normal_texture.index >= 0;
     if (int a = attribute("TANGENT"); a >= 0) {
       const std::string user = label + " TANGENT";
-      AccessorView t = accessor(a, TINYGLTF_TYPE_VEC4, user);
+      AccessorView t = view("TANGENT", a, TINYGLTF_TYPE_VEC4);
       if (t.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !t.normalized)
         fail(user, "must be FLOAT or normalized BYTE or SHORT");
       if (wants_tangents) extra.tangent = t;
@@ -329,7 +349,9 @@ class Loader : gltf::Document {
 
     // Vertex indices of the primitive, as triangles in the primitive's own numbering.
     std::optional<AccessorView> idx;
-    if (prim.indices != -1) {
+    if (draco) {
+      idx = draco->indices;
+    } else if (prim.indices != -1) {
       idx = accessor(prim.indices, TINYGLTF_TYPE_SCALAR, label + " indices");
       if (idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
           idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
@@ -572,181 +594,6 @@ class Loader : gltf::Document {
     return static_cast<std::uint32_t>(index);
   }
 
-  Material convert_material(int index) {
-    const tinygltf::Material& gm = model_.materials[static_cast<std::size_t>(index)];
-    std::string label = "material" + quoted(gm.name) + " (" + std::to_string(index) + ")";
-    Material m;
-    m.name = gm.name.empty() ? "material" + std::to_string(index) : gm.name;
-    const auto& pbr = gm.pbrMetallicRoughness;
-    if (pbr.baseColorFactor.size() == 4)
-      m.base_color = glm::vec4(pbr.baseColorFactor[0], pbr.baseColorFactor[1],
-                               pbr.baseColorFactor[2], pbr.baseColorFactor[3]);
-    else if (!pbr.baseColorFactor.empty())
-      fail(label, "baseColorFactor must have 4 numbers");
-    m.metallic = static_cast<float>(pbr.metallicFactor);
-    m.roughness = static_cast<float>(pbr.roughnessFactor);
-    if (gm.emissiveFactor.size() == 3)
-      m.emissive = glm::vec3(gm.emissiveFactor[0], gm.emissiveFactor[1], gm.emissiveFactor[2]);
-    else if (!gm.emissiveFactor.empty())
-      fail(label, "emissiveFactor must have 3 numbers");
-    auto strength = gm.extensions.find(kEmissiveStrengthExt);
-    if (strength != gm.extensions.end()) {
-      const tinygltf::Value& s = strength->second.Get("emissiveStrength");
-      if (s.IsNumber()) {
-        double v = s.GetNumberAsDouble();
-        if (!(v >= 0.0) || !std::isfinite(v))
-          fail(label, std::string(kEmissiveStrengthExt) + ".emissiveStrength must be >= 0");
-        m.emissive *= static_cast<float>(v);
-      }
-    }
-    if (!finite(glm::vec3(m.base_color)) || !std::isfinite(m.metallic) ||
-        !std::isfinite(m.roughness) || !finite(m.emissive))
-      fail(label, "has a non-finite factor");
-    const auto& bct = pbr.baseColorTexture;
-    m.base_color_texture =
-        texture_ref(bct.index, bct.texCoord, bct.extensions, label + " baseColorTexture");
-    const auto& mrt = pbr.metallicRoughnessTexture;
-    m.metallic_roughness_texture =
-        texture_ref(mrt.index, mrt.texCoord, mrt.extensions, label + " metallicRoughnessTexture");
-    const auto& et = gm.emissiveTexture;
-    m.emissive_texture =
-        texture_ref(et.index, et.texCoord, et.extensions, label + " emissiveTexture");
-    const auto& nt = gm.normalTexture;
-    m.normal_texture = texture_ref(nt.index, nt.texCoord, nt.extensions, label + " normalTexture");
-    m.normal_scale = static_cast<float>(nt.scale);
-    if (!std::isfinite(m.normal_scale)) fail(label, "normalTexture.scale is not finite");
-    m.double_sided = gm.doubleSided;
-    if (gm.alphaMode == "MASK") {
-      m.alpha_mode = AlphaMode::Mask;
-      m.alpha_cutoff = static_cast<float>(gm.alphaCutoff);
-      if (!(m.alpha_cutoff >= 0.0f) || !std::isfinite(m.alpha_cutoff))
-        fail(label, "alphaCutoff must be a number >= 0");
-    } else if (gm.alphaMode == "BLEND") {
-      m.alpha_mode = AlphaMode::Blend;
-    } else if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty()) {
-      fail(label, "unknown alphaMode '" + gm.alphaMode + "' (OPAQUE, MASK or BLEND)");
-    }
-    if (!std::isfinite(m.base_color.a)) fail(label, "has a non-finite factor");
-    return m;
-  }
-
-  // A textureInfo (or normalTextureInfo): texture, TEXCOORD set and KHR_texture_transform.
-  TextureRef texture_ref(int index, int texcoord, const tinygltf::ExtensionMap& extensions,
-                         const std::string& user) {
-    TextureRef ref;
-    if (index == -1) return ref;
-    at(model_.textures, index, "texture", user);
-    auto transform = extensions.find(kTextureTransformExt);
-    if (transform != extensions.end())
-      read_texture_transform(transform->second, user + " " + kTextureTransformExt, ref, texcoord);
-    ref.texcoord = texcoord;
-    if (texcoord != 0 && texcoord != 1) {
-      warn(user, "texCoord " + std::to_string(texcoord) + " is not supported; TEXCOORD_0 used");
-      ref.texcoord = 0;
-    }
-    auto it = texture_map_.find(index);
-    if (it == texture_map_.end()) {
-      it = texture_map_.emplace(index, static_cast<int>(scene_.textures.size())).first;
-      scene_.textures.push_back(convert_texture(index));
-    }
-    ref.index = it->second;
-    return ref;
-  }
-
-  // KHR_texture_transform's offset (2 numbers), rotation (radians), scale (2 numbers) and texCoord
-  // (overriding the textureInfo's). Every number must be finite and at most 1e6 in magnitude
-  // (beyond that, float texture coordinates have no precision left), and texCoord 0 or more.
-  void read_texture_transform(const tinygltf::Value& ext, const std::string& label,
-                              TextureRef& ref, int& texcoord) const {
-    if (!ext.IsObject()) fail(label, "must be an object");
-    constexpr double kLimit = 1e6;
-    auto number = [&](const tinygltf::Value& v, const std::string& key) {
-      double d = v.IsNumber() ? v.GetNumberAsDouble() : std::nan("");
-      if (!std::isfinite(d) || std::abs(d) > kLimit)
-        fail(label, key + " must be a finite number of magnitude at most 1e6");
-      return static_cast<float>(d);
-    };
-    auto pair = [&](const char* key, glm::vec2& out) {
-      if (!ext.Has(key)) return;
-      const tinygltf::Value& v = ext.Get(key);
-      if (!v.IsArray() || v.ArrayLen() != 2) fail(label, std::string(key) + " must have 2 numbers");
-      out = glm::vec2(number(v.Get(0), key), number(v.Get(1), key));
-    };
-    pair("offset", ref.offset);
-    pair("scale", ref.scale);
-    if (ext.Has("rotation")) ref.rotation = number(ext.Get("rotation"), "rotation");
-    if (ext.Has("texCoord")) {
-      const tinygltf::Value& v = ext.Get("texCoord");
-      if (!v.IsInt() || v.Get<int>() < 0) fail(label, "texCoord must be an integer >= 0");
-      texcoord = v.Get<int>();
-    }
-  }
-
-  Texture convert_texture(int index) {
-    const tinygltf::Texture& gt = model_.textures[static_cast<std::size_t>(index)];
-    std::string label = "texture" + quoted(gt.name) + " (" + std::to_string(index) + ")";
-    if (gt.source == -1)
-      fail(label, "has no image source (only PNG and JPEG images are supported)");
-    const tinygltf::Image& image = at(model_.images, gt.source, "image", label);
-    std::string image_label = "image" + quoted(image.name) + " (" + std::to_string(gt.source) + ")";
-    int channels = image.component, bytes = image.bits / 8;
-    std::size_t needed = static_cast<std::size_t>(std::max(image.width, 0)) *
-                         static_cast<std::size_t>(std::max(image.height, 0)) *
-                         static_cast<std::size_t>(std::max(channels, 0)) *
-                         static_cast<std::size_t>(std::max(bytes, 0));
-    if (image.width <= 0 || image.height <= 0 || channels < 1 || channels > 4 ||
-        (bytes != 1 && bytes != 2) || image.image.size() < needed)
-      fail(image_label, "has no decoded pixels (unsupported or broken image)");
-
-    Texture tex;
-    tex.width = image.width;
-    tex.height = image.height;
-    tex.texels.resize(static_cast<std::size_t>(tex.width) * static_cast<std::size_t>(tex.height));
-    const unsigned char* src = image.image.data();
-    auto channel = [&](std::size_t i) -> float {
-      if (bytes == 1) return src[i] / 255.0f;
-      std::uint16_t v;
-      std::memcpy(&v, src + 2 * i, 2);
-      return v / 65535.0f;
-    };
-    for (std::size_t p = 0; p < tex.texels.size(); ++p) {
-      std::size_t i = p * static_cast<std::size_t>(channels);
-      glm::vec4& t = tex.texels[p];
-      switch (channels) {
-        case 1:
-          t = glm::vec4(glm::vec3(channel(i)), 1.0f);
-          break;
-        case 2:
-          t = glm::vec4(glm::vec3(channel(i)), channel(i + 1));
-          break;
-        case 3:
-          t = glm::vec4(channel(i), channel(i + 1), channel(i + 2), 1.0f);
-          break;
-        default:
-          t = glm::vec4(channel(i), channel(i + 1), channel(i + 2), channel(i + 3));
-          break;
-      }
-    }
-    if (gt.sampler != -1) {
-      const tinygltf::Sampler& s = at(model_.samplers, gt.sampler, "sampler", label);
-      tex.wrap_s = wrap_mode(s.wrapS);
-      tex.wrap_t = wrap_mode(s.wrapT);
-      tex.nearest = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
-    }
-    return tex;
-  }
-
-  static Wrap wrap_mode(int gl) {
-    switch (gl) {
-      case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
-        return Wrap::ClampToEdge;
-      case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
-        return Wrap::MirroredRepeat;
-      default:
-        return Wrap::Repeat;
-    }
-  }
-
   // -- lights and cameras
 
   void add_light(int n, const tinygltf::Value& ext, const glm::dmat4& world) {
@@ -887,11 +734,11 @@ class Loader : gltf::Document {
 
   LoadOptions options_;
   Scene scene_;
+  gltf::MaterialReader materials_{model_, name_, scene_.textures, scene_.warnings};
   std::string scene_label_ = "scene";
   int default_material_ = -1;
   bool has_uv_[2] = {false, false};
   bool has_colors_ = false, has_tangents_ = false;
-  std::map<int, int> texture_map_;  // glTF texture -> Scene::textures
   std::vector<bool> reached_;       // nodes visited so far
   std::vector<int> parent_;         // the parent each was reached from (-1: a root)
   std::uint64_t vertices_ = 0, triangles_ = 0;  // counted against LoadLimits

@@ -1,11 +1,12 @@
 // glTF 2.0 features beyond plain geometry, each on a small file built here with the expected
 // values computed by hand in the comments: sparse accessors, KHR_mesh_quantization, COLOR_0,
-// KHR_texture_transform, normal textures and tangents, alpha modes, doubleSided and the Draco
-// fallback; and the one-line refusal of each kind of bad input they bring.
+// KHR_texture_transform, normal textures and tangents, alpha modes, doubleSided and
+// KHR_draco_mesh_compression (data made with Draco's own encoder); and the one-line refusal of each kind of bad input they bring.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -14,6 +15,10 @@
 
 #include <unistd.h>
 #include <glm/geometric.hpp>
+
+#include <draco/compression/decode.h>
+#include <draco/compression/encode.h>
+#include <draco/mesh/triangle_soup_mesh_builder.h>
 
 #include "dofcache/core/error.h"
 #include "dofcache/scene/accel.h"
@@ -423,6 +428,85 @@ TEST(Tangents, AreOrthogonalToTheNormalWithHandednessFromTheBitangent) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// JPEG, emissive textures, TEXCOORD_1
+
+// A 4 x 4 baseline JPEG (oiiotool --pattern checker:width=2:height=2 4x4 3): 2 x 2 blocks of
+// black and white, black at the top left; decoded, black is 0 and white 255 (to 1 unit).
+const char* kCheckerJpeg =
+    "/9j/4AAQSkZJRgABAQAAAQABAAD/4QESRXhpZgAASUkqALYAAABvaWlvdG9vbCAtLXBhdHRlcm4gY2hlY2tlcjp3aWR0"
+    "aD0yOmhlaWdodD0yIDR4NCAzIC1vIC90bXAvdG1wbmk2dnlrdmYvdC5qcGcAT3BlbkltYWdlSU8gMi40LjcuMSA6IG9p"
+    "aW90b29sIC0tcGF0dGVybiBjaGVja2VyOndpZHRoPTI6aGVpZ2h0PTIgNHg0IDMgLW8gL3RtcC90bXBuaTZ2eWt2Zi90"
+    "LmpwZwACADEBAgBiAAAAVAAAAGmHBAABAAAA1AAAAAAAAAAEAACQBwAEAAAAMDIzMAGRBwAEAAAAAQIDABOSAgBMAAAA"
+    "CAAAAACgBwAEAAAAMDEwMAAAAAD/7QCCUGhvdG9zaG9wIDMuMAA4QklNBAQAAAAAAGYcAkEAYU9wZW5JbWFnZUlPIDIu"
+    "NC43LjEgOiBvaWlvdG9vbCAtLXBhdHRlcm4gY2hlY2tlcjp3aWR0aD0yOmhlaWdodD0yIDR4NCAzIC1vIC90bXAvdG1w"
+    "bmk2dnlrdmYvdC5qcGf/2wBDAAEBAQEBAQEBAQEBAQEBAQIBAQEBAQIBAQECAgICAgICAgIDAwQDAwMDAwICAwQDAwQE"
+    "BAQEAgMFBQQEBQQEBAT/2wBDAQEBAQEBAQIBAQIEAwIDBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQEBAQE"
+    "BAQEBAQEBAQEBAQEBAT/wAARCAAEAAQDASIAAhEBAxEB/8QAHwAAAQUBAQEBAQEAAAAAAAAAAAECAwQFBgcICQoL/8QA"
+    "tRAAAgEDAwIEAwUFBAQAAAF9AQIDAAQRBRIhMUEGE1FhByJxFDKBkaEII0KxwRVS0fAkM2JyggkKFhcYGRolJicoKSo0"
+    "NTY3ODk6Q0RFRkdISUpTVFVWV1hZWmNkZWZnaGlqc3R1dnd4eXqDhIWGh4iJipKTlJWWl5iZmqKjpKWmp6ipqrKztLW2"
+    "t7i5usLDxMXGx8jJytLT1NXW19jZ2uHi4+Tl5ufo6erx8vP09fb3+Pn6/8QAHwEAAwEBAQEBAQEBAQAAAAAAAAECAwQF"
+    "BgcICQoL/8QAtREAAgECBAQDBAcFBAQAAQJ3AAECAxEEBSExBhJBUQdhcRMiMoEIFEKRobHBCSMzUvAVYnLRChYkNOEl"
+    "8RcYGRomJygpKjU2Nzg5OkNERUZHSElKU1RVVldYWVpjZGVmZ2hpanN0dXZ3eHl6goOEhYaHiImKkpOUlZaXmJmaoqOk"
+    "paanqKmqsrO0tba3uLm6wsPExcbHyMnK0tPU1dbX2Nna4uPk5ebn6Onq8vP09fb3+Pn6/9oADAMBAAIRAxEAPwD8/P8A"
+    "gqP/AMFR/wBuz/gi5+3Z8c/+CaP/AATR+Of/AAzZ+xL+zZ/wjP8AwpX4K/8ACsvB3xi/4Qv/AITHwd4e8f8AiP8A4qPx"
+    "VpOq69efbNe8Va9f/wCn38/k/b/Jh8qCKGGMoooA/9k=";
+
+std::string unbase64(const std::string& in) {
+  std::string out;
+  int bits = 0;
+  std::uint32_t acc = 0;
+  for (char c : in) {
+    const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    const char* at = c ? std::strchr(alphabet, c) : nullptr;
+    if (!at) continue;  // '=' padding
+    acc = acc << 6 | static_cast<std::uint32_t>(at - alphabet);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out += static_cast<char>((acc >> bits) & 0xff);
+    }
+  }
+  return out;
+}
+
+TEST_F(GltfFeaturesTest, EmissiveJpegTextureFromAFileOnTheSecondTexcoordSet) {
+  const std::string jpeg = unbase64(kCheckerJpeg);
+  write("checker.jpg", jpeg);
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  // TEXCOORD_1 (0.125, 0.125) on the first primitive (texel (0, 0): black), (0.625, 0.125) on
+  // the second (texel (2, 0): white); TEXCOORD_0 points elsewhere (the other colour) and must
+  // not be used.
+  int uv0a = g.add_floats({0.625f, 0.125f, 0.625f, 0.125f, 0.625f, 0.125f}, "VEC2");
+  int uv1a = g.add_floats({0.125f, 0.125f, 0.125f, 0.125f, 0.125f, 0.125f}, "VEC2");
+  int uv0b = g.add_floats({0.125f, 0.125f, 0.125f, 0.125f, 0.125f, 0.125f}, "VEC2");
+  int uv1b = g.add_floats({0.625f, 0.125f, 0.625f, 0.125f, 0.625f, 0.125f}, "VEC2");
+  auto mesh = [&](int uv0, int uv1) {
+    return "{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(pos) +
+           attr("TEXCOORD_0", uv0) + attr("TEXCOORD_1", uv1) + "},\"material\":0}]}";
+  };
+  std::string file = g.json("\"nodes\":[{\"mesh\":0},{\"mesh\":1}],\"meshes\":[" +
+                            mesh(uv0a, uv1a) + "," + mesh(uv0b, uv1b) +
+                            "],\"materials\":[{\"emissiveFactor\":[2,2,2],\"emissiveTexture\":"
+                            "{\"index\":0,\"texCoord\":1}}],\"images\":[{\"uri\":"
+                            "\"checker.jpg\"}],\"samplers\":[{\"magFilter\":9728}],"
+                            "\"textures\":[{\"source\":0,\"sampler\":0}]");
+  Scene s = load("emissive_jpeg.gltf", file);
+  ASSERT_EQ(s.mesh.triangles.size(), 2u);
+  // Emission = factor 2 times the sRGB-decoded texel: 0 and 2 (255 -> 1; 254 -> 0.991).
+  EXPECT_LT(s.material_at(s.surface_point(0, 0.3f, 0.3f)).emission.r, 0.01f);
+  EXPECT_GT(s.material_at(s.surface_point(1, 0.3f, 0.3f)).emission.g, 1.98f);
+  // Only the white triangle emits, with its mean radiance.
+  ASSERT_EQ(s.emitters.size(), 1u);
+  EXPECT_EQ(s.emitters[0].triangle, 1u);
+
+  // The same JPEG cut in half: refused in one line, nothing half-decoded.
+  write("checker.jpg", jpeg.substr(0, jpeg.size() / 2));
+  std::string truncated = write("truncated_jpeg.gltf", file);
+  expect_error([&] { load_gltf(truncated); }, {truncated});
+}
+
+// ---------------------------------------------------------------------------------------------
 // Alpha modes and doubleSided in the intersector
 
 // Two unit squares facing +z, in z = -1 (material 0) and z = -2 (material 1, opaque,
@@ -532,30 +616,112 @@ TEST(AlphaAndSides, SingleSidedBackFacesAreCulledForCameraRaysOnly) {
 // ---------------------------------------------------------------------------------------------
 // Draco
 
-TEST_F(GltfFeaturesTest, DracoOnlyUsedFallsBackToTheUncompressedAttributes) {
-  const std::string draco =
-      ",\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":0,\"attributes\":"
-      "{\"POSITION\":0}}}";
+// The square (0,0,0) (2,0,0) (2,2,0) (0,2,0) as two triangles, compressed with Draco's encoder:
+// TEXCOORD_0 = xy / 2 (floats) and COLOR_0 with red = 255 x / 2 (normalised bytes).
+std::string draco_square() {
+  draco::TriangleSoupMeshBuilder builder;
+  builder.Start(2);
+  int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+  int uv = builder.AddAttribute(draco::GeometryAttribute::TEX_COORD, 2, draco::DT_FLOAT32);
+  int color = builder.AddAttribute(draco::GeometryAttribute::COLOR, 4, draco::DT_UINT8, true);
+  const glm::vec3 corners[2][3] = {{{0, 0, 0}, {2, 0, 0}, {2, 2, 0}},
+                                   {{0, 0, 0}, {2, 2, 0}, {0, 2, 0}}};
+  for (std::uint32_t f = 0; f < 2; ++f) {
+    glm::vec2 uvs[3];
+    std::uint8_t rgba[3][4];
+    for (int c = 0; c < 3; ++c) {
+      uvs[c] = glm::vec2(corners[f][c]) / 2.0f;
+      rgba[c][0] = static_cast<std::uint8_t>(255 * corners[f][c].x / 2), rgba[c][1] = 0;
+      rgba[c][2] = 0, rgba[c][3] = 255;
+    }
+    builder.SetAttributeValuesForFace(pos, draco::FaceIndex(f), &corners[f][0], &corners[f][1],
+                                      &corners[f][2]);
+    builder.SetAttributeValuesForFace(uv, draco::FaceIndex(f), &uvs[0], &uvs[1], &uvs[2]);
+    builder.SetAttributeValuesForFace(color, draco::FaceIndex(f), rgba[0], rgba[1], rgba[2]);
+  }
+  std::unique_ptr<draco::Mesh> mesh = builder.Finalize();
+  draco::Encoder encoder;
+  draco::EncoderBuffer buffer;
+  EXPECT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &buffer).ok());
+  return std::string(buffer.data(), buffer.size());
+}
+
+// A glTF whose one primitive is `compressed` (Draco bytes), its accessors without bufferViews
+// (no uncompressed fallback) declaring `points` vertices.
+std::string draco_file(const std::string& compressed, std::size_t points, std::size_t indices,
+                       bool required = true) {
   Gltf g;
-  int pos = g.add_floats({0, 0, 0, 2, 0, 0, 0, 2, 0}, "VEC3");
-  Scene s = load("draco_fallback.gltf",
-                 g.json("\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"nodes\":[{\"mesh\":"
-                        "0}],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":" +
-                        std::to_string(pos) + "}" + draco + "}]}]"));
-  ASSERT_EQ(s.mesh.positions.size(), 3u);
-  expect_vec3(s.mesh.positions[1], {2, 0, 0});
-  // Without the fallback (POSITION has no bufferView): refused, naming the extension.
-  Gltf h;
-  const float compressed[1] = {0};  // stands for the Draco data (tinygltf needs a buffer)
-  h.add_view(compressed, 4);
-  int none = h.add_accessor_json(
-      "{\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"max\":[1,1,0],\"min\":[0,0,0]}");
-  std::string file = write(
-      "draco_only.gltf",
-      h.json("\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"nodes\":[{\"mesh\":0}],"
-             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":" +
-             std::to_string(none) + "}" + draco + "}]}]"));
-  expect_error([&] { load_gltf(file); }, {file, "KHR_draco_mesh_compression", "fallback"});
+  g.add_view(compressed.data(), compressed.size());
+  auto acc = [&](const char* type, int component, std::size_t count) {
+    return g.add_accessor_json("{\"componentType\":" + std::to_string(component) +
+                               ",\"count\":" + std::to_string(count) + ",\"type\":\"" + type +
+                               "\"" + (component == 5121 ? ",\"normalized\":true" : "") + "}");
+  };
+  int pos = acc("VEC3", 5126, points), uv = acc("VEC2", 5126, points);
+  int color = acc("VEC4", 5121, points), idx = acc("SCALAR", 5125, indices);
+  // Draco numbers the attributes in the order they were added: 0, 1, 2.
+  std::string ext = required ? "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]," : "";
+  return g.json(ext +
+                "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"nodes\":[{\"mesh\":0}],"
+                "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":" +
+                std::to_string(pos) + attr("TEXCOORD_0", uv) + attr("COLOR_0", color) +
+                "},\"indices\":" + std::to_string(idx) +
+                ",\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":0,"
+                "\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1,\"COLOR_0\":2}}}}]}]");
+}
+
+TEST_F(GltfFeaturesTest, DracoCompressedMeshIsDecoded) {
+  const std::string compressed = draco_square();
+  // The vertex count the accessors must declare: what the encoder kept (corners may be merged).
+  draco::DecoderBuffer in;
+  in.Init(compressed.data(), compressed.size());
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&in);
+  ASSERT_TRUE(decoded.ok());
+  const std::size_t points = decoded.value()->num_points();
+
+  Scene s = load("draco.gltf", draco_file(compressed, points, 6));
+  ASSERT_EQ(s.mesh.triangles.size(), 2u);
+  float area = 0.0f;
+  for (std::uint32_t t = 0; t < 2; ++t) {
+    const glm::uvec3 tri = s.mesh.triangles[t];
+    const glm::vec3 p0 = s.mesh.positions[tri.x], p1 = s.mesh.positions[tri.y],
+                    p2 = s.mesh.positions[tri.z];
+    glm::vec3 n = glm::cross(p1 - p0, p2 - p0);
+    area += 0.5f * n.z;  // counter-clockwise seen from +z: positive
+    for (std::uint32_t v : {tri.x, tri.y, tri.z}) {
+      const glm::vec3 p = s.mesh.positions[v];
+      EXPECT_TRUE((p.x == 0 || p.x == 2) && (p.y == 0 || p.y == 2) && p.z == 0);
+      EXPECT_NEAR(s.mesh.uv0[v].x, p.x / 2, 1e-6);
+      EXPECT_NEAR(s.mesh.uv0[v].y, p.y / 2, 1e-6);
+      EXPECT_NEAR(s.mesh.colors[v].r, p.x / 2, 1e-6);  // 255 / 255 or 0
+      EXPECT_NEAR(s.mesh.colors[v].a, 1.0f, 1e-6);
+    }
+  }
+  EXPECT_NEAR(area, 4.0f, 1e-5);  // the whole square, both triangles facing +z
+
+  // The same as a .glb (JSON chunk only, the buffer stays a data URI).
+  {
+    std::string json = draco_file(compressed, points, 6);
+    json.append((4 - json.size() % 4) % 4, ' ');
+    std::string glb = "glTF";
+    auto put = [&](std::uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+    put(2), put(static_cast<std::uint32_t>(20 + json.size()));
+    put(static_cast<std::uint32_t>(json.size())), put(0x4E4F534Au);  // "JSON"
+    glb += json;
+    EXPECT_EQ(load("draco.glb", glb).mesh.triangles.size(), 2u);
+  }
+  // Only in extensionsUsed: decoded the same way (this file has no fallback to use instead).
+  EXPECT_EQ(load("draco_used.gltf", draco_file(compressed, points, 6, false)).mesh.triangles.size(),
+            2u);
+  // Counts that disagree with the decoded mesh, and bytes that are not Draco: one line each.
+  std::string wrong = write("draco_count.gltf", draco_file(compressed, points + 5, 6));
+  expect_error([&] { load_gltf(wrong); },
+               {wrong, "KHR_draco_mesh_compression", "the POSITION accessor says"});
+  std::string garbage = write("draco_garbage.gltf",
+                              draco_file(std::string(64, 'x'), points, 6));
+  expect_error([&] { load_gltf(garbage); },
+               {garbage, "KHR_draco_mesh_compression", "cannot decode"});
 }
 
 TEST_F(GltfFeaturesTest, AlphaModesAreReadAndAnUnknownOneRefused) {

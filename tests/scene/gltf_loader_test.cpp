@@ -584,10 +584,10 @@ TEST_F(GltfLoaderTest, BadReferencesAndNoGeometry) {
                                   triangle_mesh(pos, "", -1, -1, ",\"mode\":0") + "]"));
   expect_error([&] { load_gltf(points); }, {points, "no triangle geometry"});
   std::string extension =
-      write("extension.gltf", g.json("\"extensionsRequired\":[\"KHR_draco_mesh_compression\"],"
+      write("extension.gltf", g.json("\"extensionsRequired\":[\"EXT_meshopt_compression\"],"
                                      "\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
                                      triangle_mesh(pos) + "]"));
-  expect_error([&] { load_gltf(extension); }, {extension, "KHR_draco_mesh_compression"});
+  expect_error([&] { load_gltf(extension); }, {extension, "EXT_meshopt_compression"});
   expect_error([&] { load_gltf_from_memory("", "empty input"); }, {"empty input"});
 }
 

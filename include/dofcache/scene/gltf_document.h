@@ -140,6 +140,9 @@ class Document {
   // accessor is returned dense, after checking that its indices strictly increase and stay below
   // its count and that its index and value arrays lie inside their buffer views.
   AccessorView accessor(int index, int expected_type, const std::string& user) const;
+  // `bytes` bytes at `offset` into bufferView `view`, checked against the view and its buffer.
+  const unsigned char* view_bytes(int view, std::size_t offset, std::size_t bytes,
+                                  const std::string& user) const;
   // The type (TINYGLTF_TYPE_*) accessor `index` declares, for attributes that allow several.
   int accessor_type(int index, const std::string& user) const {
     return at(model_.accessors, index, "accessor", user).type;
@@ -150,9 +153,6 @@ class Document {
   NodeTransform node_transform(int node) const;
 
  protected:
-  // `bytes` bytes at `offset` into bufferView `view`, checked against the view and its buffer.
-  const unsigned char* view_bytes(int view, std::size_t offset, std::size_t bytes,
-                                  const std::string& user) const;
   // Copies the accessor into a dense array and applies its sparse substitutions.
   void make_dense(const tinygltf::Accessor& acc, const std::string& label, std::size_t element,
                   AccessorView& view) const;
