@@ -5,7 +5,6 @@ find_package(embree 3.13 CONFIG REQUIRED)
 find_package(OpenImageIO 2.4 CONFIG REQUIRED)
 find_package(glm CONFIG REQUIRED)
 find_package(TinyGLTF CONFIG REQUIRED)
-find_package(draco 1.5 CONFIG REQUIRED)         # draco::draco: KHR_draco_mesh_compression
 find_package(nlohmann_json 3 CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(fmt CONFIG REQUIRED)

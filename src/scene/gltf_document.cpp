@@ -84,23 +84,30 @@ bool load_image(tinygltf::Image* image, const int index, std::string* err, std::
 }
 
 // tinygltf 2.7 refuses an indices accessor without a bufferView, which is how Draco-compressed
-// primitives are written (their indices are in the compressed data). The loader takes the indices
-// of such primitives from Draco, so their "indices" member is dropped before tinygltf parses the
-// JSON (of a .gltf, or of a .glb's JSON chunk). Anything unexpected leaves the bytes as they are
-// for tinygltf to judge.
+// primitives without an uncompressed fallback are written (their indices are in the compressed
+// data), with a message that does not say why. Such "indices" members are dropped before tinygltf
+// parses the JSON (of a .gltf, or of a .glb's JSON chunk), so that the loader can refuse the
+// primitive naming the extension. Anything unexpected leaves the bytes as they are for tinygltf.
 std::string without_draco_indices(const std::string& json_text, bool* changed) {
   *changed = false;
   if (json_text.find("KHR_draco_mesh_compression") == std::string::npos) return json_text;
   nlohmann::json doc = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
-  if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array()) return json_text;
+  if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array() ||
+      !doc.contains("accessors") || !doc["accessors"].is_array())
+    return json_text;
+  const nlohmann::json& accessors = doc["accessors"];
   for (auto& mesh : doc["meshes"]) {
     if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
       continue;
     for (auto& prim : mesh["primitives"]) {
-      if (!prim.is_object() || !prim.contains("indices") || !prim.contains("extensions") ||
-          !prim["extensions"].is_object() ||
+      if (!prim.is_object() || !prim.contains("indices") || !prim["indices"].is_number_unsigned() ||
+          !prim.contains("extensions") || !prim["extensions"].is_object() ||
           !prim["extensions"].contains("KHR_draco_mesh_compression"))
         continue;
+      const auto index = prim["indices"].get<std::size_t>();
+      if (index >= accessors.size() || !accessors[index].is_object() ||
+          accessors[index].contains("bufferView") || accessors[index].contains("sparse"))
+        continue;  // an uncompressed fallback, or not ours to judge
       prim.erase("indices");
       *changed = true;
     }

@@ -17,7 +17,6 @@
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
 #include "dofcache/scene/gltf_document.h"
-#include "dofcache/scene/gltf_draco.h"
 #include "dofcache/scene/gltf_materials.h"
 #include "dofcache/scene/tangents.h"
 #include "dofcache/scene/transform.h"
@@ -31,13 +30,13 @@ using gltf::quoted;
 constexpr const char* kLightsExt = "KHR_lights_punctual";
 using gltf::kEmissiveStrengthExt;
 using gltf::kTextureTransformExt;
-using gltf::kDracoExtension;
+constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
 
 // Extensions the loader implements; a file that requires any other one is rejected rather than
 // rendered wrongly.
 bool understood_extension(const std::string& name) {
   return name == kLightsExt || name == kEmissiveStrengthExt || name == kTextureTransformExt ||
-         name == kDracoExtension || name == "KHR_mesh_quantization";
+         name == "KHR_mesh_quantization";
 }
 
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -285,29 +284,15 @@ class Loader : gltf::Document {
     };
     int pos_acc = attribute("POSITION");
     if (pos_acc < 0) fail(label, "has no POSITION attribute");
-    // A Draco-compressed primitive: the decoded attributes and indices stand in for the accessors
-    // (attributes it does not compress are read from theirs).
-    std::optional<gltf::DracoPrimitive> draco;
-    if (auto d = prim.extensions.find(kDracoExtension); d != prim.extensions.end()) {
-      // The declared vertex count against the limit before Draco allocates for it (the decoded
-      // count must equal it; reserve_budget counts it below).
-      std::uint64_t declared = model_.accessors.size() > std::size_t(pos_acc)
-                                   ? model_.accessors[std::size_t(pos_acc)].count
-                                   : 0;
-      if (declared > options_.limits.max_vertices)
-        fail(label, "the scene would exceed the vertex limit (" +
-                        std::to_string(options_.limits.max_vertices) +
-                        "; raise it with --max-vertices)");
-      draco = gltf::decode_draco(*this, model_, prim, d->second, label);
-    }
-    // The view of attribute `name` (accessor `a`) of type `type`.
+    // Draco (extensionsUsed only; a file requiring it was refused): the uncompressed attributes
+    // are the fallback, which a file need not have. Debian's Draco library is not used to decode:
+    // it carries its own copy of tinygltf, whose symbols clash with tinygltf's (docs/scenes.md).
+    if (prim.extensions.count(kDracoExtension) && model_.accessors.size() > std::size_t(pos_acc) &&
+        model_.accessors[std::size_t(pos_acc)].bufferView == -1 &&
+        !model_.accessors[std::size_t(pos_acc)].sparse.isSparse)
+      fail(label, std::string("is compressed with ") + kDracoExtension +
+                      ", which is not supported, and has no uncompressed fallback");
     auto view = [&](const char* name, int a, int type) {
-      if (draco)
-        if (auto it = draco->attributes.find(name); it != draco->attributes.end()) {
-          if (it->second.components != tinygltf::GetNumComponentsInType(type))
-            fail(label + " " + name, std::string("must be of type ") + gltf::type_name(type));
-          return it->second;
-        }
       return accessor(a, type, label + " " + name);
     };
     AccessorView pos = view("POSITION", pos_acc, TINYGLTF_TYPE_VEC3);
@@ -321,10 +306,7 @@ class Loader : gltf::Document {
     extra.mirrored = mirrored;
     if (int a = attribute("COLOR_0"); a >= 0) {
       const std::string user = label + " COLOR_0";
-      int type = draco && draco->attributes.count("COLOR_0")
-                     ? (draco->attributes["COLOR_0"].components == 3 ? TINYGLTF_TYPE_VEC3
-                                                                      : TINYGLTF_TYPE_VEC4)
-                     : accessor_type(a, user);
+      int type = accessor_type(a, user);
       extra.color = view("COLOR_0", a, type == TINYGLTF_TYPE_VEC3 ? type : TINYGLTF_TYPE_VEC4);
       int ct = extra.color->component_type;
       if (!(ct == TINYGLTF_COMPONENT_TYPE_FLOAT ||
@@ -349,9 +331,7 @@ class Loader : gltf::Document {
 
     // Vertex indices of the primitive, as triangles in the primitive's own numbering.
     std::optional<AccessorView> idx;
-    if (draco) {
-      idx = draco->indices;
-    } else if (prim.indices != -1) {
+    if (prim.indices != -1) {
       idx = accessor(prim.indices, TINYGLTF_TYPE_SCALAR, label + " indices");
       if (idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
           idx->component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&

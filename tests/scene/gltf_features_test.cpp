@@ -1,7 +1,7 @@
 // glTF 2.0 features beyond plain geometry, each on a small file built here with the expected
 // values computed by hand in the comments: sparse accessors, KHR_mesh_quantization, COLOR_0,
-// KHR_texture_transform, normal textures and tangents, alpha modes, doubleSided and
-// KHR_draco_mesh_compression (data made with Draco's own encoder); and the one-line refusal of each kind of bad input they bring.
+// KHR_texture_transform, normal textures and tangents, alpha modes, doubleSided and the
+// KHR_draco_mesh_compression fallback; and the one-line refusal of each kind of bad input.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,10 +15,6 @@
 
 #include <unistd.h>
 #include <glm/geometric.hpp>
-
-#include <draco/compression/decode.h>
-#include <draco/compression/encode.h>
-#include <draco/mesh/triangle_soup_mesh_builder.h>
 
 #include "dofcache/core/error.h"
 #include "dofcache/scene/accel.h"
@@ -616,112 +612,59 @@ TEST(AlphaAndSides, SingleSidedBackFacesAreCulledForCameraRaysOnly) {
 // ---------------------------------------------------------------------------------------------
 // Draco
 
-// The square (0,0,0) (2,0,0) (2,2,0) (0,2,0) as two triangles, compressed with Draco's encoder:
-// TEXCOORD_0 = xy / 2 (floats) and COLOR_0 with red = 255 x / 2 (normalised bytes).
-std::string draco_square() {
-  draco::TriangleSoupMeshBuilder builder;
-  builder.Start(2);
-  int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-  int uv = builder.AddAttribute(draco::GeometryAttribute::TEX_COORD, 2, draco::DT_FLOAT32);
-  int color = builder.AddAttribute(draco::GeometryAttribute::COLOR, 4, draco::DT_UINT8, true);
-  const glm::vec3 corners[2][3] = {{{0, 0, 0}, {2, 0, 0}, {2, 2, 0}},
-                                   {{0, 0, 0}, {2, 2, 0}, {0, 2, 0}}};
-  for (std::uint32_t f = 0; f < 2; ++f) {
-    glm::vec2 uvs[3];
-    std::uint8_t rgba[3][4];
-    for (int c = 0; c < 3; ++c) {
-      uvs[c] = glm::vec2(corners[f][c]) / 2.0f;
-      rgba[c][0] = static_cast<std::uint8_t>(255 * corners[f][c].x / 2), rgba[c][1] = 0;
-      rgba[c][2] = 0, rgba[c][3] = 255;
-    }
-    builder.SetAttributeValuesForFace(pos, draco::FaceIndex(f), &corners[f][0], &corners[f][1],
-                                      &corners[f][2]);
-    builder.SetAttributeValuesForFace(uv, draco::FaceIndex(f), &uvs[0], &uvs[1], &uvs[2]);
-    builder.SetAttributeValuesForFace(color, draco::FaceIndex(f), rgba[0], rgba[1], rgba[2]);
-  }
-  std::unique_ptr<draco::Mesh> mesh = builder.Finalize();
-  draco::Encoder encoder;
-  draco::EncoderBuffer buffer;
-  EXPECT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &buffer).ok());
-  return std::string(buffer.data(), buffer.size());
-}
-
-// A glTF whose one primitive is `compressed` (Draco bytes), its accessors without bufferViews
-// (no uncompressed fallback) declaring `points` vertices.
-std::string draco_file(const std::string& compressed, std::size_t points, std::size_t indices,
-                       bool required = true) {
+// A Draco-compressed primitive as encoders write it: the extension points at the compressed
+// bytes, the accessors describe the decoded data but have no bufferView (no uncompressed
+// fallback), the indices accessor included. `extensions` holds extensionsUsed/Required.
+std::string draco_without_fallback(const std::string& extensions) {
   Gltf g;
-  g.add_view(compressed.data(), compressed.size());
-  auto acc = [&](const char* type, int component, std::size_t count) {
-    return g.add_accessor_json("{\"componentType\":" + std::to_string(component) +
-                               ",\"count\":" + std::to_string(count) + ",\"type\":\"" + type +
-                               "\"" + (component == 5121 ? ",\"normalized\":true" : "") + "}");
-  };
-  int pos = acc("VEC3", 5126, points), uv = acc("VEC2", 5126, points);
-  int color = acc("VEC4", 5121, points), idx = acc("SCALAR", 5125, indices);
-  // Draco numbers the attributes in the order they were added: 0, 1, 2.
-  std::string ext = required ? "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]," : "";
-  return g.json(ext +
-                "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"nodes\":[{\"mesh\":0}],"
-                "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":" +
-                std::to_string(pos) + attr("TEXCOORD_0", uv) + attr("COLOR_0", color) +
-                "},\"indices\":" + std::to_string(idx) +
+  const float compressed[4] = {1, 2, 3, 4};  // stands for the Draco bytes
+  g.add_view(compressed, sizeof compressed);
+  int pos = g.add_accessor_json(
+      "{\"componentType\":5126,\"count\":4,\"type\":\"VEC3\",\"max\":[1,1,0],\"min\":[0,0,0]}");
+  int idx = g.add_accessor_json("{\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"}");
+  return g.json(extensions +
+                "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                "{\"POSITION\":" + std::to_string(pos) + "},\"indices\":" + std::to_string(idx) +
                 ",\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":0,"
-                "\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1,\"COLOR_0\":2}}}}]}]");
+                "\"attributes\":{\"POSITION\":0}}}}]}]");
 }
 
-TEST_F(GltfFeaturesTest, DracoCompressedMeshIsDecoded) {
-  const std::string compressed = draco_square();
-  // The vertex count the accessors must declare: what the encoder kept (corners may be merged).
-  draco::DecoderBuffer in;
-  in.Init(compressed.data(), compressed.size());
-  draco::Decoder decoder;
-  auto decoded = decoder.DecodeMeshFromBuffer(&in);
-  ASSERT_TRUE(decoded.ok());
-  const std::size_t points = decoded.value()->num_points();
-
-  Scene s = load("draco.gltf", draco_file(compressed, points, 6));
-  ASSERT_EQ(s.mesh.triangles.size(), 2u);
-  float area = 0.0f;
-  for (std::uint32_t t = 0; t < 2; ++t) {
-    const glm::uvec3 tri = s.mesh.triangles[t];
-    const glm::vec3 p0 = s.mesh.positions[tri.x], p1 = s.mesh.positions[tri.y],
-                    p2 = s.mesh.positions[tri.z];
-    glm::vec3 n = glm::cross(p1 - p0, p2 - p0);
-    area += 0.5f * n.z;  // counter-clockwise seen from +z: positive
-    for (std::uint32_t v : {tri.x, tri.y, tri.z}) {
-      const glm::vec3 p = s.mesh.positions[v];
-      EXPECT_TRUE((p.x == 0 || p.x == 2) && (p.y == 0 || p.y == 2) && p.z == 0);
-      EXPECT_NEAR(s.mesh.uv0[v].x, p.x / 2, 1e-6);
-      EXPECT_NEAR(s.mesh.uv0[v].y, p.y / 2, 1e-6);
-      EXPECT_NEAR(s.mesh.colors[v].r, p.x / 2, 1e-6);  // 255 / 255 or 0
-      EXPECT_NEAR(s.mesh.colors[v].a, 1.0f, 1e-6);
-    }
-  }
-  EXPECT_NEAR(area, 4.0f, 1e-5);  // the whole square, both triangles facing +z
-
-  // The same as a .glb (JSON chunk only, the buffer stays a data URI).
+TEST_F(GltfFeaturesTest, DracoIsRefusedNamingTheExtensionUnlessThereIsAFallback) {
+  const std::string used = "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],";
+  const std::string required =
+      used + "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"],";
+  // Only used, with the uncompressed fallback: the fallback is what is loaded.
   {
-    std::string json = draco_file(compressed, points, 6);
-    json.append((4 - json.size() % 4) % 4, ' ');
-    std::string glb = "glTF";
-    auto put = [&](std::uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
-    put(2), put(static_cast<std::uint32_t>(20 + json.size()));
-    put(static_cast<std::uint32_t>(json.size())), put(0x4E4F534Au);  // "JSON"
-    glb += json;
-    EXPECT_EQ(load("draco.glb", glb).mesh.triangles.size(), 2u);
+    Gltf g;
+    int pos = g.add_floats({0, 0, 0, 2, 0, 0, 0, 2, 0}, "VEC3");
+    int idx = g.add_u16({0, 1, 2}, "SCALAR");
+    Scene s = load("draco_fallback.gltf",
+                   g.json(used + "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{"
+                                 "\"attributes\":{\"POSITION\":" + std::to_string(pos) +
+                          "},\"indices\":" + std::to_string(idx) +
+                          ",\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":0,"
+                          "\"attributes\":{\"POSITION\":0}}}}]}]"));
+    ASSERT_EQ(s.mesh.positions.size(), 3u);
+    expect_vec3(s.mesh.positions[1], {2, 0, 0});
   }
-  // Only in extensionsUsed: decoded the same way (this file has no fallback to use instead).
-  EXPECT_EQ(load("draco_used.gltf", draco_file(compressed, points, 6, false)).mesh.triangles.size(),
-            2u);
-  // Counts that disagree with the decoded mesh, and bytes that are not Draco: one line each.
-  std::string wrong = write("draco_count.gltf", draco_file(compressed, points + 5, 6));
-  expect_error([&] { load_gltf(wrong); },
-               {wrong, "KHR_draco_mesh_compression", "the POSITION accessor says"});
-  std::string garbage = write("draco_garbage.gltf",
-                              draco_file(std::string(64, 'x'), points, 6));
-  expect_error([&] { load_gltf(garbage); },
-               {garbage, "KHR_draco_mesh_compression", "cannot decode"});
+  // Only used, without a fallback: refused in one line naming the extension.
+  std::string no_fallback = write("draco_used.gltf", draco_without_fallback(used));
+  expect_error([&] { load_gltf(no_fallback); },
+               {no_fallback, "KHR_draco_mesh_compression", "no uncompressed fallback"});
+  // Required: refused as an unsupported extension, as .gltf and as .glb (JSON chunk only).
+  std::string json = draco_without_fallback(required);
+  std::string file = write("draco_required.gltf", json);
+  expect_error([&] { load_gltf(file); },
+               {file, "unsupported extension KHR_draco_mesh_compression"});
+  json.append((4 - json.size() % 4) % 4, ' ');
+  std::string glb = "glTF";
+  auto put = [&](std::uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+  put(2), put(static_cast<std::uint32_t>(20 + json.size()));
+  put(static_cast<std::uint32_t>(json.size())), put(0x4E4F534Au);  // "JSON"
+  glb += json;
+  std::string binary = write("draco_required.glb", glb);
+  expect_error([&] { load_gltf(binary); },
+               {binary, "unsupported extension KHR_draco_mesh_compression"});
 }
 
 TEST_F(GltfFeaturesTest, AlphaModesAreReadAndAnUnknownOneRefused) {
