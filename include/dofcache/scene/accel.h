@@ -1,8 +1,9 @@
 #pragma once
 // Embree 3 BVH over Scene::mesh. Queries are thread-safe.
-// Both queries skip, through Embree filter functions, what glTF says is not there: the back faces
-// of single-sided materials (when Ray::cull_back_faces), alphaMode MASK cut-outs (alpha < cutoff) and,
-// with probability 1 - alpha, BLEND surfaces. Shadows are cut out the same way.
+// Both queries skip what glTF says is not there: alphaMode MASK cut-outs (alpha < cutoff) and,
+// with probability 1 - alpha, BLEND surfaces (Embree filter functions on a geometry of their
+// own), so shadows are cut out too; intersect() also skips the back faces of single-sided
+// materials when Ray::cull_back_faces.
 #include <cstdint>
 #include <limits>
 #include <memory>
