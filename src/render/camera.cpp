@@ -27,6 +27,7 @@ scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
   scene::Ray ray;
   ray.origin = position_;
   ray.direction = glm::normalize(direction_to_film(film));
+  ray.cull_back_faces = true;  // glTF: single-sided surfaces are invisible from behind
   return ray;
 }
 
@@ -38,6 +39,7 @@ scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u) const 
   scene::Ray ray;
   ray.origin = position_ + disk.x * right_ + disk.y * up_;
   ray.direction = glm::normalize(focus_point - ray.origin);
+  ray.cull_back_faces = true;  // glTF: single-sided surfaces are invisible from behind
   return ray;
 }
 

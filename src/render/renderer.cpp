@@ -74,7 +74,12 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 }
 
 scene::Ray clipped(const Context& c, scene::Ray ray) {
-  if (c.settings.near_depth > 0.0f) ray.tnear = c.camera.t_at_depth(ray, c.settings.near_depth);
+  if (c.settings.near_depth > 0.0f) {
+    ray.tnear = c.camera.t_at_depth(ray, c.settings.near_depth);
+    // The inside of an object the plane cuts open is what a clipped render is for: the back
+    // faces glTF would cull stay visible (and are marked kInsideId in the ids).
+    ray.cull_back_faces = false;
+  }
   return ray;
 }
 
@@ -197,6 +202,7 @@ std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, 
         sample_point(c, x, y, s, &film, &lens_u);
         scene::Ray ray = clipped(c, c.camera.generate_ray(film, lens_u));
         std::uint64_t key = hash_combine(pixel, s);
+        ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
         Rng rng(key, s);
         glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
         if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);

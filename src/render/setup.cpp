@@ -36,6 +36,7 @@ ResolvedLens resolve_lens(const scene::Scene& scene, const scene::Accel& accel,
   scene::Ray ray;
   ray.origin = origin;
   ray.direction = forward;
+  ray.cull_back_faces = true;  // what the camera sees (glTF culls single-sided back faces)
   scene::Hit hit = accel.intersect(ray);
   double depth = hit.valid() ? hit.t : glm::dot(scene.bounds.center() - origin, forward);
   l.focus_distance = std::max(depth, 2.0 * l.focal_length);

@@ -239,8 +239,10 @@ ShadingPoint Shader::prepare(const scene::Ray& ray, const scene::Hit& hit) const
   p.wo = -glm::normalize(ray.direction);
   p.front_face = glm::dot(p.surface.geometric_normal, p.wo) >= 0.0f;
   p.ng = p.front_face ? p.surface.geometric_normal : -p.surface.geometric_normal;
-  p.n = p.surface.shading_normal;
-  if (glm::dot(p.n, p.ng) < 0.0f) p.n = -p.n;
+  // A double-sided surface seen from behind shades with its normals flipped (glTF 3.9.5); the
+  // normal texture's perturbation is flipped with them.
+  p.n = p.material.normal;
+  if (glm::dot(p.surface.shading_normal, p.ng) < 0.0f) p.n = -p.n;
   return p;
 }
 

@@ -3,14 +3,44 @@
 
 #include <embree3/rtcore.h>
 
+#include <glm/geometric.hpp>
+
+#include <cmath>
+#include <cstring>
 #include <mutex>
 #include <string>
 #include <vector>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/rng.h"
 
 namespace dofcache::scene {
 namespace {
+
+// Triangles whose material is alpha-tested (MASK or BLEND) go into a second Embree geometry that
+// has the filter function; the rest (nearly always all) into one without, which Embree traces at
+// full speed. Culling the back faces of single-sided materials, which only camera rays do, is a
+// re-trace past the culled hit (Accel::intersect), not a filter on every triangle.
+constexpr unsigned kPlainGeometry = 0, kAlphaGeometry = 1;
+
+// The query's context: Embree hands it to the filter function (it must start with Embree's own).
+struct QueryContext {
+  RTCIntersectContext embree;
+  std::uint64_t ray_key = 0;  // the ray's seed, origin and direction hashed: BLEND draws
+};
+
+std::uint32_t bits(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+std::uint64_t ray_key(const Ray& ray) {
+  std::uint64_t h = hash_combine(0x626c656e64ULL, ray.seed);  // "blend"
+  h = hash_combine(h, (std::uint64_t{bits(ray.origin.x)} << 32) | bits(ray.origin.y));
+  h = hash_combine(h, (std::uint64_t{bits(ray.origin.z)} << 32) | bits(ray.direction.x));
+  return hash_combine(h, (std::uint64_t{bits(ray.direction.y)} << 32) | bits(ray.direction.z));
+}
 
 const char* error_name(RTCError code) {
   switch (code) {
@@ -36,7 +66,17 @@ const char* error_name(RTCError code) {
 struct Accel::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  const Scene* source = nullptr;
   std::vector<float> padded_positions;  // only when Scene::mesh.positions cannot be shared
+  std::vector<std::uint8_t> single_sided;  // per scene triangle: culled from behind by camera rays
+  // With alpha-tested triangles: each geometry's index buffer and its primitives' scene triangles
+  // (empty when there are none: the plain geometry is then Scene::mesh.triangles itself).
+  std::vector<glm::uvec3> indices[2];
+  std::vector<std::uint32_t> triangle_of[2];
+
+  std::uint32_t scene_triangle(unsigned geometry, unsigned prim) const {
+    return triangle_of[geometry].empty() ? prim : triangle_of[geometry][prim];
+  }
 
   // Embree reports errors through a C callback. Throwing through Embree's C API is not safe, so
   // the callback records the first message and check() turns it into a dofcache::Error.
@@ -62,6 +102,31 @@ struct Accel::Impl {
     if (!message.empty()) throw Error(std::string("Embree: ") + what + ": " + message);
   }
 
+  // Embree's filter function of the alpha-tested geometry (intersection and occlusion alike):
+  // rejects a candidate hit where a MASK material is cut out, and where a BLEND material lets the
+  // ray through (probability 1 - alpha, drawn from the ray's key and the triangle, so the same
+  // ray always gets the same answer).
+  static void filter(const RTCFilterFunctionNArguments* args) {
+    const auto* im = static_cast<const Impl*>(args->geometryUserPtr);
+    const auto* context = reinterpret_cast<const QueryContext*>(args->context);
+    const Scene& s = *im->source;
+    for (unsigned i = 0; i < args->N; ++i) {
+      if (args->valid[i] != -1) continue;
+      const std::uint32_t t =
+          im->scene_triangle(kAlphaGeometry, RTCHitN_primID(args->hit, args->N, i));
+      const float alpha =
+          s.alpha_at(t, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
+      const Material& m = s.materials[s.mesh.triangle_material[t]];
+      if (m.alpha_mode == AlphaMode::Mask) {
+        if (!(alpha >= m.alpha_cutoff)) args->valid[i] = 0;
+      } else {
+        const std::uint64_t h = hash_combine(context->ray_key, t);
+        const float u = static_cast<float>(h >> 40) * 0x1p-24f;  // uniform in [0, 1)
+        if (!(u < alpha)) args->valid[i] = 0;
+      }
+    }
+  }
+
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
     if (device) rtcReleaseDevice(device);
@@ -80,9 +145,28 @@ Accel::Accel(const Scene& s) : impl_(std::make_unique<Impl>()) {
   im.check("creating the scene");
 
   const Mesh& mesh = s.mesh;
+  im.source = &s;
+  im.single_sided.assign(mesh.triangles.size(), 0);
+  std::size_t alpha_tested = 0;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const std::uint32_t material = t < mesh.triangle_material.size() ? mesh.triangle_material[t] : 0;
+    if (material >= s.materials.size()) continue;
+    const Material& m = s.materials[material];
+    im.single_sided[t] = !m.double_sided;
+    alpha_tested += m.alpha_mode != AlphaMode::Opaque;
+  }
+  if (alpha_tested > 0) {
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const std::uint32_t material =
+          t < mesh.triangle_material.size() ? mesh.triangle_material[t] : 0;
+      const bool alpha =
+          material < s.materials.size() && s.materials[material].alpha_mode != AlphaMode::Opaque;
+      const unsigned g = alpha ? kAlphaGeometry : kPlainGeometry;
+      im.indices[g].push_back(mesh.triangles[t]);
+      im.triangle_of[g].push_back(static_cast<std::uint32_t>(t));
+    }
+  }
   if (!mesh.triangles.empty()) {
-    RTCGeometry geom = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
     // Embree reads the last vertex with a 16-byte load, so the vertex buffer needs 4 bytes of
     // readable memory after it. The glTF loader leaves that room in the vector's capacity; a mesh
     // built some other way is copied into a padded buffer instead.
@@ -93,14 +177,27 @@ Accel::Accel(const Scene& s) : impl_(std::make_unique<Impl>()) {
         for (int c = 0; c < 3; ++c) im.padded_positions[3 * i + c] = mesh.positions[i][c];
       vertices = im.padded_positions.data();
     }
-    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0,
-                               3 * sizeof(float), mesh.positions.size());
-    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                               mesh.triangles.data(), 0, 3 * sizeof(std::uint32_t),
-                               mesh.triangles.size());
-    rtcCommitGeometry(geom);
-    rtcAttachGeometryByID(im.scene, geom, 0);
-    rtcReleaseGeometry(geom);  // the scene holds it now
+    for (unsigned g : {kPlainGeometry, kAlphaGeometry}) {
+      const glm::uvec3* index = alpha_tested ? im.indices[g].data() : mesh.triangles.data();
+      const std::size_t count = alpha_tested ? im.indices[g].size()
+                                : g == kPlainGeometry ? mesh.triangles.size()
+                                                      : 0;
+      if (count == 0) continue;
+      RTCGeometry geom = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+      rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
+      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0,
+                                 3 * sizeof(float), mesh.positions.size());
+      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, index, 0,
+                                 3 * sizeof(std::uint32_t), count);
+      if (g == kAlphaGeometry) {
+        rtcSetGeometryUserData(geom, &im);
+        rtcSetGeometryIntersectFilterFunction(geom, &Impl::filter);
+        rtcSetGeometryOccludedFilterFunction(geom, &Impl::filter);
+      }
+      rtcCommitGeometry(geom);
+      rtcAttachGeometryByID(im.scene, geom, g);
+      rtcReleaseGeometry(geom);  // the scene holds it now
+    }
     im.check("setting up the triangle geometry");
   }
   rtcCommitScene(im.scene);
@@ -110,38 +207,52 @@ Accel::Accel(const Scene& s) : impl_(std::make_unique<Impl>()) {
 Accel::~Accel() = default;
 
 Hit Accel::intersect(const Ray& ray) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  RTCRayHit rh;
-  rh.ray.org_x = ray.origin.x;
-  rh.ray.org_y = ray.origin.y;
-  rh.ray.org_z = ray.origin.z;
-  rh.ray.tnear = ray.tnear;
-  rh.ray.dir_x = ray.direction.x;
-  rh.ray.dir_y = ray.direction.y;
-  rh.ray.dir_z = ray.direction.z;
-  rh.ray.time = 0.0f;
-  rh.ray.tfar = ray.tfar;
-  rh.ray.mask = 0xffffffffu;
-  rh.ray.id = 0;
-  rh.ray.flags = 0;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &context, &rh);
+  const Impl& im = *impl_;
+  QueryContext context;
+  rtcInitIntersectContext(&context.embree);
+  if (!im.triangle_of[kAlphaGeometry].empty()) context.ray_key = ray_key(ray);
+  float tnear = ray.tnear;
+  // Camera rays skip the backs of single-sided triangles: trace again past each one met (a few
+  // at most in real scenes; the bound only guards against pathological stacks of them).
+  for (int attempt = 0; attempt < 256; ++attempt) {
+    RTCRayHit rh;
+    rh.ray.org_x = ray.origin.x;
+    rh.ray.org_y = ray.origin.y;
+    rh.ray.org_z = ray.origin.z;
+    rh.ray.tnear = tnear;
+    rh.ray.dir_x = ray.direction.x;
+    rh.ray.dir_y = ray.direction.y;
+    rh.ray.dir_z = ray.direction.z;
+    rh.ray.time = 0.0f;
+    rh.ray.tfar = ray.tfar;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(im.scene, &context.embree, &rh);
 
-  Hit hit;
-  if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+    Hit hit;
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
     hit.t = rh.ray.tfar;
-    hit.triangle = rh.hit.primID;
+    hit.triangle = im.scene_triangle(rh.hit.geomID, rh.hit.primID);
     hit.u = rh.hit.u;
     hit.v = rh.hit.v;
+    if (!ray.cull_back_faces || !im.single_sided[hit.triangle]) return hit;
+    const glm::uvec3& t = im.source->mesh.triangles[hit.triangle];
+    const auto& p = im.source->mesh.positions;
+    if (glm::dot(glm::cross(p[t.y] - p[t.x], p[t.z] - p[t.x]), ray.direction) <= 0.0f)
+      return hit;  // the front (counter-clockwise) face
+    tnear = std::nextafter(hit.t, std::numeric_limits<float>::infinity());
   }
-  return hit;
+  return Hit{};
 }
 
 bool Accel::occluded(const Ray& ray) const {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+  if (ray.cull_back_faces) return intersect(ray).valid();  // needs the hits to cull
+  QueryContext context;
+  rtcInitIntersectContext(&context.embree);
+  if (!impl_->triangle_of[kAlphaGeometry].empty()) context.ray_key = ray_key(ray);
   RTCRay r;
   r.org_x = ray.origin.x;
   r.org_y = ray.origin.y;
@@ -155,7 +266,7 @@ bool Accel::occluded(const Ray& ray) const {
   r.mask = 0xffffffffu;
   r.id = 0;
   r.flags = 0;
-  rtcOccluded1(impl_->scene, &context, &r);
+  rtcOccluded1(impl_->scene, &context.embree, &r);
   return r.tfar == -std::numeric_limits<float>::infinity();  // Embree's "blocked" mark
 }
 

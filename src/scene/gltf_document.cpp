@@ -7,6 +7,7 @@
 #include <iterator>
 
 #include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
 
 #include "dofcache/core/error.h"
 
@@ -82,6 +83,67 @@ bool load_image(tinygltf::Image* image, const int index, std::string* err, std::
                                  nullptr);
 }
 
+// tinygltf 2.7 refuses an indices accessor without a bufferView, which is how Draco-compressed
+// primitives without an uncompressed fallback are written (their indices are in the compressed
+// data), with a message that does not say why. Such "indices" members are dropped before tinygltf
+// parses the JSON (of a .gltf, or of a .glb's JSON chunk), so that the loader can refuse the
+// primitive naming the extension. Anything unexpected leaves the bytes as they are for tinygltf.
+std::string without_draco_indices(const std::string& json_text, bool* changed) {
+  *changed = false;
+  if (json_text.find("KHR_draco_mesh_compression") == std::string::npos) return json_text;
+  nlohmann::json doc = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
+  if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array() ||
+      !doc.contains("accessors") || !doc["accessors"].is_array())
+    return json_text;
+  const nlohmann::json& accessors = doc["accessors"];
+  for (auto& mesh : doc["meshes"]) {
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
+      continue;
+    for (auto& prim : mesh["primitives"]) {
+      if (!prim.is_object() || !prim.contains("indices") || !prim["indices"].is_number_unsigned() ||
+          !prim.contains("extensions") || !prim["extensions"].is_object() ||
+          !prim["extensions"].contains("KHR_draco_mesh_compression"))
+        continue;
+      const auto index = prim["indices"].get<std::size_t>();
+      if (index >= accessors.size() || !accessors[index].is_object() ||
+          accessors[index].contains("bufferView") || accessors[index].contains("sparse"))
+        continue;  // an uncompressed fallback, or not ours to judge
+      prim.erase("indices");
+      *changed = true;
+    }
+  }
+  return *changed ? doc.dump() : json_text;
+}
+
+std::string draco_ready(const std::string& data) {
+  bool changed = false;
+  if (!is_glb(data)) {
+    std::string out = without_draco_indices(data, &changed);
+    return changed ? out : data;
+  }
+  // GLB: 12-byte header, then chunks of (length, type, bytes); the JSON chunk comes first.
+  auto u32 = [&](std::size_t at) {
+    std::uint32_t v;
+    std::memcpy(&v, data.data() + at, 4);
+    return v;
+  };
+  if (data.size() < 20 || u32(16) != 0x4E4F534Au || u32(12) > data.size() - 20) return data;
+  const std::size_t json_length = u32(12);
+  std::string json = without_draco_indices(data.substr(20, json_length), &changed);
+  if (!changed) return data;
+  json.append((4 - json.size() % 4) % 4, ' ');
+  std::string rest = data.substr(20 + json_length);
+  std::string out = data.substr(0, 12);
+  auto put = [&](std::uint32_t v) { out.append(reinterpret_cast<const char*>(&v), 4); };
+  put(static_cast<std::uint32_t>(json.size()));
+  put(0x4E4F534Au);
+  out += json;
+  out += rest;
+  const auto total = static_cast<std::uint32_t>(out.size());
+  std::memcpy(&out[8], &total, 4);
+  return out;
+}
+
 }  // namespace
 
 std::string read_file(const std::string& path) {
@@ -97,9 +159,10 @@ std::string base_dir_of(const std::string& path) {
   return base.empty() ? std::string(".") : base.string();
 }
 
-Parsed parse(const std::string& data, const std::string& name, const std::string& base_dir,
+Parsed parse(const std::string& original, const std::string& name, const std::string& base_dir,
              bool load_images, std::uint64_t max_image_pixels) {
-  if (data.size() > 0xffffffffu) throw Error(name + ": file is too large (over 4 GiB)");
+  if (original.size() > 0xffffffffu) throw Error(name + ": file is too large (over 4 GiB)");
+  const std::string data = draco_ready(original);
   tinygltf::TinyGLTF parser;
   Parsed parsed;
   ImageBudget budget{&parsed.model, max_image_pixels};
@@ -211,7 +274,6 @@ std::string Document::mesh_label(int mesh) const {
 AccessorView Document::accessor(int index, int expected_type, const std::string& user) const {
   const tinygltf::Accessor& acc = at(model_.accessors, index, "accessor", user);
   std::string label = "accessor " + std::to_string(index) + quoted(acc.name) + " (" + user + ")";
-  if (acc.sparse.isSparse) fail(label, "sparse accessors are not supported");
   int size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(acc.componentType));
   int components = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(acc.type));
   if (size <= 0 || acc.componentType == TINYGLTF_COMPONENT_TYPE_DOUBLE)
@@ -228,6 +290,7 @@ AccessorView Document::accessor(int index, int expected_type, const std::string&
     // Nothing bounds the count by real bytes here; refuse absurd ones before allocating.
     if (acc.count > (std::size_t{1} << 24))
       fail(label, "has no bufferView and an implausible count " + std::to_string(acc.count));
+    if (acc.sparse.isSparse) make_dense(acc, label, element, view);
     return view;
   }
 
@@ -255,7 +318,71 @@ AccessorView Document::accessor(int index, int expected_type, const std::string&
                       std::to_string(bv.byteLength) + " bytes)");
   }
   view.data = buffer.data.data() + bv.byteOffset + acc.byteOffset;
+  if (acc.sparse.isSparse) make_dense(acc, label, element, view);
   return view;
+}
+
+const unsigned char* Document::view_bytes(int view, std::size_t offset, std::size_t bytes,
+                                          const std::string& user) const {
+  const tinygltf::BufferView& bv = at(model_.bufferViews, view, "bufferView", user);
+  std::string bv_label = "bufferView " + std::to_string(view);
+  const tinygltf::Buffer& buffer = at(model_.buffers, bv.buffer, "buffer", bv_label);
+  if (bv.byteOffset > buffer.data.size() || bv.byteLength > buffer.data.size() - bv.byteOffset)
+    fail(bv_label, "byte range " + std::to_string(bv.byteOffset) + "+" +
+                       std::to_string(bv.byteLength) + " exceeds buffer " +
+                       std::to_string(bv.buffer) + " (" + std::to_string(buffer.data.size()) +
+                       " bytes)");
+  if (offset > bv.byteLength || bytes > bv.byteLength - offset)
+    fail(user, "byteOffset " + std::to_string(offset) + " + " + std::to_string(bytes) +
+                   " bytes exceed " + bv_label + " (" + std::to_string(bv.byteLength) + " bytes)");
+  return buffer.data.data() + bv.byteOffset + offset;
+}
+
+void Document::make_dense(const tinygltf::Accessor& acc, const std::string& label,
+                          std::size_t element, AccessorView& view) const {
+  const auto& sparse = acc.sparse;
+  const auto count = static_cast<std::size_t>(std::max(sparse.count, 0));
+  if (sparse.count < 1 || count > acc.count)
+    fail(label, "sparse count " + std::to_string(sparse.count) + " must be in [1, " +
+                    std::to_string(acc.count) + "] (the accessor's count)");
+  const int index_type = sparse.indices.componentType;
+  if (index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+      index_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+    fail(label, "sparse indices componentType must be an unsigned integer type");
+  if (sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0)
+    fail(label, "sparse byteOffset must not be negative");
+  AccessorView indices;
+  indices.component_type = index_type;
+  indices.stride = static_cast<std::size_t>(
+      tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(index_type)));
+  indices.count = count;
+  indices.data = view_bytes(sparse.indices.bufferView,
+                            static_cast<std::size_t>(sparse.indices.byteOffset),
+                            count * indices.stride, label + " sparse indices");
+  const unsigned char* values =
+      view_bytes(sparse.values.bufferView, static_cast<std::size_t>(sparse.values.byteOffset),
+                 count * element, label + " sparse values");
+
+  auto dense = std::make_shared<std::vector<unsigned char>>(acc.count * element, 0);
+  if (view.data)
+    for (std::size_t i = 0; i < acc.count; ++i)
+      std::memcpy(dense->data() + i * element, view.data + i * view.stride, element);
+  std::uint32_t previous = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t i = indices.index(k);
+    if (i >= acc.count)
+      fail(label, "sparse index " + std::to_string(i) + " at position " + std::to_string(k) +
+                      " is out of range (" + std::to_string(acc.count) + " elements)");
+    if (k > 0 && i <= previous)
+      fail(label, "sparse indices must strictly increase (" + std::to_string(i) + " after " +
+                      std::to_string(previous) + " at position " + std::to_string(k) + ")");
+    previous = i;
+    std::memcpy(dense->data() + std::size_t{i} * element, values + k * element, element);
+  }
+  view.data = dense->data();
+  view.stride = element;
+  view.dense = std::move(dense);
 }
 
 NodeTransform Document::node_transform(int n) const {

@@ -17,6 +17,8 @@
 #include "dofcache/core/error.h"
 #include "dofcache/core/rng.h"
 #include "dofcache/scene/gltf_document.h"
+#include "dofcache/scene/gltf_materials.h"
+#include "dofcache/scene/tangents.h"
 #include "dofcache/scene/transform.h"
 
 namespace dofcache::scene {
@@ -26,12 +28,15 @@ using gltf::AccessorView;
 using gltf::quoted;
 
 constexpr const char* kLightsExt = "KHR_lights_punctual";
-constexpr const char* kEmissiveStrengthExt = "KHR_materials_emissive_strength";
+using gltf::kEmissiveStrengthExt;
+using gltf::kTextureTransformExt;
+constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
 
 // Extensions the loader implements; a file that requires any other one is rejected rather than
 // rendered wrongly.
 bool understood_extension(const std::string& name) {
-  return name == kLightsExt || name == kEmissiveStrengthExt || name == "KHR_mesh_quantization";
+  return name == kLightsExt || name == kEmissiveStrengthExt || name == kTextureTransformExt ||
+         name == "KHR_mesh_quantization";
 }
 
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -75,6 +80,31 @@ std::uint64_t content_hash(const Scene& s) {
             static_cast<std::uint64_t>(r->texcoord));
     h.add(static_cast<std::uint64_t>(m.double_sided));
   }
+  // What later glTF features added is hashed only where a scene uses it, so that scenes without
+  // them keep the identity their cache files were written under.
+  for (const Material& m : s.materials) {
+    bool plain = m.alpha_mode == AlphaMode::Opaque && m.normal_texture.index < 0;
+    for (const TextureRef* r : {&m.base_color_texture, &m.metallic_roughness_texture,
+                                &m.emissive_texture, &m.normal_texture})
+      plain = plain && !r->has_transform();
+    if (plain) continue;
+    h.add(static_cast<std::uint64_t>(m.alpha_mode));
+    add(h, m.alpha_cutoff), add(h, m.normal_scale);
+    for (const TextureRef* r : {&m.base_color_texture, &m.metallic_roughness_texture,
+                                &m.emissive_texture, &m.normal_texture}) {
+      h.add((static_cast<std::uint64_t>(static_cast<std::uint32_t>(r->index)) << 8) |
+            static_cast<std::uint64_t>(r->texcoord));
+      add(h, r->offset), add(h, r->scale), add(h, r->rotation);
+    }
+  }
+  if (!s.mesh.colors.empty()) {
+    h.add(std::string("COLOR_0"));
+    for (glm::vec4 c : s.mesh.colors) add(h, c);
+  }
+  if (!s.mesh.tangents.empty()) {
+    h.add(std::string("TANGENT"));
+    for (glm::vec4 t : s.mesh.tangents) add(h, t);
+  }
   h.add(static_cast<std::uint64_t>(s.textures.size()));
   for (const Texture& t : s.textures) {
     h.add((static_cast<std::uint64_t>(t.width) << 32) | static_cast<std::uint32_t>(t.height));
@@ -107,7 +137,7 @@ class Loader : gltf::Document {
     // Every glTF material is converted (Scene::materials keeps the glTF indices); the default
     // material, if a primitive needs it, is appended after them.
     for (std::size_t i = 0; i < model_.materials.size(); ++i)
-      scene_.materials.push_back(convert_material(static_cast<int>(i)));
+      scene_.materials.push_back(materials_.material(static_cast<int>(i)));
     visit_nodes(roots);
     if (scene_.mesh.triangles.empty())
       throw Error(name_ + ": no triangle geometry in " + scene_label_ +
@@ -127,9 +157,6 @@ class Loader : gltf::Document {
   void check_extensions() {
     for (const std::string& ext : model_.extensionsRequired)
       if (!understood_extension(ext)) fail("extensionsRequired", "unsupported extension " + ext);
-    for (const std::string& ext : model_.extensionsUsed)
-      if (ext == "KHR_texture_transform")
-        warn("extensionsUsed", "KHR_texture_transform is ignored (texture coordinates used as is)");
   }
 
   // Root nodes of the chosen scene: LoadOptions::scene_index, else the file's default scene,
@@ -257,16 +284,47 @@ class Loader : gltf::Document {
     };
     int pos_acc = attribute("POSITION");
     if (pos_acc < 0) fail(label, "has no POSITION attribute");
-    AccessorView pos = accessor(pos_acc, TINYGLTF_TYPE_VEC3, label + " POSITION");
+    // Draco (extensionsUsed only; a file requiring it was refused): the uncompressed attributes
+    // are the fallback, which a file need not have. Debian's Draco library is not used to decode:
+    // it carries its own copy of tinygltf, whose symbols clash with tinygltf's (docs/scenes.md).
+    if (prim.extensions.count(kDracoExtension) && model_.accessors.size() > std::size_t(pos_acc) &&
+        model_.accessors[std::size_t(pos_acc)].bufferView == -1 &&
+        !model_.accessors[std::size_t(pos_acc)].sparse.isSparse)
+      fail(label, std::string("is compressed with ") + kDracoExtension +
+                      ", which is not supported, and has no uncompressed fallback");
+    auto view = [&](const char* name, int a, int type) {
+      return accessor(a, type, label + " " + name);
+    };
+    AccessorView pos = view("POSITION", pos_acc, TINYGLTF_TYPE_VEC3);
     std::size_t vertex_count = pos.count;
     std::optional<AccessorView> nrm, uv[2];
-    if (int a = attribute("NORMAL"); a >= 0)
-      nrm = accessor(a, TINYGLTF_TYPE_VEC3, label + " NORMAL");
-    if (int a = attribute("TEXCOORD_0"); a >= 0)
-      uv[0] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_0");
-    if (int a = attribute("TEXCOORD_1"); a >= 0)
-      uv[1] = accessor(a, TINYGLTF_TYPE_VEC2, label + " TEXCOORD_1");
-    for (const auto* v : {&nrm, &uv[0], &uv[1]})
+    if (int a = attribute("NORMAL"); a >= 0) nrm = view("NORMAL", a, TINYGLTF_TYPE_VEC3);
+    if (int a = attribute("TEXCOORD_0"); a >= 0) uv[0] = view("TEXCOORD_0", a, TINYGLTF_TYPE_VEC2);
+    if (int a = attribute("TEXCOORD_1"); a >= 0) uv[1] = view("TEXCOORD_1", a, TINYGLTF_TYPE_VEC2);
+    VertexAttributes extra;
+    extra.linear = glm::dmat3(world);
+    extra.mirrored = mirrored;
+    if (int a = attribute("COLOR_0"); a >= 0) {
+      const std::string user = label + " COLOR_0";
+      int type = accessor_type(a, user);
+      extra.color = view("COLOR_0", a, type == TINYGLTF_TYPE_VEC3 ? type : TINYGLTF_TYPE_VEC4);
+      int ct = extra.color->component_type;
+      if (!(ct == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+            (extra.color->normalized && (ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                         ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT))))
+        fail(user, "must be FLOAT or normalized UNSIGNED_BYTE or UNSIGNED_SHORT");
+    }
+    std::uint32_t material = material_index(prim.material, label);
+    const Material& mat = scene_.materials[material];
+    const bool wants_tangents = mat.normal_texture.index >= 0;
+    if (int a = attribute("TANGENT"); a >= 0) {
+      const std::string user = label + " TANGENT";
+      AccessorView t = view("TANGENT", a, TINYGLTF_TYPE_VEC4);
+      if (t.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !t.normalized)
+        fail(user, "must be FLOAT or normalized BYTE or SHORT");
+      if (wants_tangents) extra.tangent = t;
+    }
+    for (const auto* v : {&nrm, &uv[0], &uv[1], &extra.color, &extra.tangent})
       if (*v && (*v)->count != vertex_count)
         fail(label, "attribute counts differ (" + std::to_string((*v)->count) + " vs " +
                         std::to_string(vertex_count) + " positions)");
@@ -338,12 +396,12 @@ class Loader : gltf::Document {
     }
 
     // Validate triangles (world space) and append.
-    std::uint32_t material = material_index(prim.material, label);
     bool strip_or_fan = mode != TINYGLTF_MODE_TRIANGLES;
     Mesh& out = scene_.mesh;
     auto base = static_cast<std::uint32_t>(out.positions.size());
     std::vector<glm::uvec3> kept;
     kept.reserve(tris.size());
+    const std::size_t first_triangle = out.triangles.size();
     for (std::size_t t = 0; t < tris.size(); ++t) {
       glm::uvec3 tri = tris[t];
       if (mirrored) std::swap(tri.y, tri.z);
@@ -371,6 +429,7 @@ class Loader : gltf::Document {
         out.positions.push_back(positions[i]);
         out.normals.push_back(normals[i]);
         push_uvs(uv, i);
+        push_attributes(extra, i);
       }
       for (glm::uvec3 tri : kept) push_triangle(tri + glm::uvec3(base), material, node);
     } else {
@@ -383,10 +442,63 @@ class Loader : gltf::Document {
           out.positions.push_back(positions[v]);
           out.normals.push_back(face);
           push_uvs(uv, v);
+          push_attributes(extra, v);
         }
         push_triangle(glm::uvec3(first, first + 1, first + 2), material, node);
       }
     }
+    if (wants_tangents && !extra.tangent) {
+      const int set = mat.normal_texture.texcoord;
+      if (!uv[set]) {
+        warn(label, "the normal texture needs TEXCOORD_" + std::to_string(set) +
+                        ", which the primitive lacks; normal texture ignored");
+      } else {
+        std::vector<glm::vec4> t =
+            generate_tangents(out.positions, out.normals, set == 0 ? out.uv0 : out.uv1,
+                              out.triangles, base, first_triangle);
+        std::copy(t.begin(), t.end(), out.tangents.end() - static_cast<std::ptrdiff_t>(t.size()));
+        has_tangents_ = true;
+      }
+    }
+  }
+
+  // A primitive's optional per-vertex attributes besides normals and texture coordinates.
+  struct VertexAttributes {
+    std::optional<AccessorView> color, tangent;
+    glm::dmat3 linear{1.0};  // the node's: tangents are directions on the surface
+    bool mirrored = false;   // a mirroring transform flips the bitangent: w changes sign
+  };
+
+  // Appends vertex v's COLOR_0 and TANGENT (zero where the primitive has none; finish_mesh drops
+  // the arrays if no primitive has any).
+  void push_attributes(const VertexAttributes& a, std::size_t v) {
+    Mesh& m = scene_.mesh;
+    glm::vec4 color(1.0f);
+    if (a.color) {
+      has_colors_ = true;
+      for (int c = 0; c < a.color->components; ++c) color[c] = a.color->component<float>(v, c);
+      if (!(color.r >= 0.0f && color.g >= 0.0f && color.b >= 0.0f && color.a >= 0.0f) ||
+          !finite(glm::vec3(color)) || !std::isfinite(color.a))
+        color = glm::clamp(glm::vec4(std::isfinite(color.r) ? color.r : 0.0f,
+                                     std::isfinite(color.g) ? color.g : 0.0f,
+                                     std::isfinite(color.b) ? color.b : 0.0f,
+                                     std::isfinite(color.a) ? color.a : 1.0f),
+                           0.0f, 1e30f);
+    }
+    m.colors.push_back(color);
+    glm::vec4 tangent(0.0f);
+    if (a.tangent) {
+      has_tangents_ = true;
+      glm::dvec3 t = a.linear * glm::dvec3(a.tangent->component<double>(v, 0),
+                                           a.tangent->component<double>(v, 1),
+                                           a.tangent->component<double>(v, 2));
+      double len = glm::length(t);
+      float w = a.tangent->component<float>(v, 3) < 0.0f ? -1.0f : 1.0f;
+      if (a.mirrored) w = -w;
+      // A zero or broken tangent leaves the point without a normal texture frame.
+      if (len > 0.0 && std::isfinite(len)) tangent = glm::vec4(glm::vec3(t / len), w);
+    }
+    m.tangents.push_back(tangent);
   }
 
   // Counts a primitive's vertices and triangles (at most: before degenerate ones are dropped)
@@ -436,6 +548,8 @@ class Loader : gltf::Document {
       m.normals[v] = glm::length(sum) > 0.0f ? glm::normalize(sum) : glm::vec3(0, 0, 1);
     if (!has_uv_[0]) m.uv0.clear();
     if (!has_uv_[1]) m.uv1.clear();
+    if (!has_colors_) m.colors.clear();
+    if (!has_tangents_) m.tangents.clear();
     for (glm::vec3 p : m.positions) scene_.bounds.extend(p);
     // Embree reads vertex buffers with 16-byte loads: keep (initialised) room for one more float
     // after the last vertex so the accelerator can share this buffer (see accel.cpp).
@@ -458,130 +572,6 @@ class Loader : gltf::Document {
     }
     at(model_.materials, index, "material", user);
     return static_cast<std::uint32_t>(index);
-  }
-
-  Material convert_material(int index) {
-    const tinygltf::Material& gm = model_.materials[static_cast<std::size_t>(index)];
-    std::string label = "material" + quoted(gm.name) + " (" + std::to_string(index) + ")";
-    Material m;
-    m.name = gm.name.empty() ? "material" + std::to_string(index) : gm.name;
-    const auto& pbr = gm.pbrMetallicRoughness;
-    if (pbr.baseColorFactor.size() == 4)
-      m.base_color = glm::vec4(pbr.baseColorFactor[0], pbr.baseColorFactor[1],
-                               pbr.baseColorFactor[2], pbr.baseColorFactor[3]);
-    else if (!pbr.baseColorFactor.empty())
-      fail(label, "baseColorFactor must have 4 numbers");
-    m.metallic = static_cast<float>(pbr.metallicFactor);
-    m.roughness = static_cast<float>(pbr.roughnessFactor);
-    if (gm.emissiveFactor.size() == 3)
-      m.emissive = glm::vec3(gm.emissiveFactor[0], gm.emissiveFactor[1], gm.emissiveFactor[2]);
-    else if (!gm.emissiveFactor.empty())
-      fail(label, "emissiveFactor must have 3 numbers");
-    auto strength = gm.extensions.find(kEmissiveStrengthExt);
-    if (strength != gm.extensions.end()) {
-      const tinygltf::Value& s = strength->second.Get("emissiveStrength");
-      if (s.IsNumber()) {
-        double v = s.GetNumberAsDouble();
-        if (!(v >= 0.0) || !std::isfinite(v))
-          fail(label, std::string(kEmissiveStrengthExt) + ".emissiveStrength must be >= 0");
-        m.emissive *= static_cast<float>(v);
-      }
-    }
-    if (!finite(glm::vec3(m.base_color)) || !std::isfinite(m.metallic) ||
-        !std::isfinite(m.roughness) || !finite(m.emissive))
-      fail(label, "has a non-finite factor");
-    m.base_color_texture = texture_ref(pbr.baseColorTexture, label + " baseColorTexture");
-    m.metallic_roughness_texture =
-        texture_ref(pbr.metallicRoughnessTexture, label + " metallicRoughnessTexture");
-    m.emissive_texture = texture_ref(gm.emissiveTexture, label + " emissiveTexture");
-    m.double_sided = gm.doubleSided;
-    if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty())
-      warn(label, "alphaMode " + gm.alphaMode + " is rendered as OPAQUE");
-    return m;
-  }
-
-  TextureRef texture_ref(const tinygltf::TextureInfo& info, const std::string& user) {
-    TextureRef ref;
-    if (info.index == -1) return ref;
-    at(model_.textures, info.index, "texture", user);
-    ref.texcoord = info.texCoord;
-    if (info.texCoord != 0 && info.texCoord != 1) {
-      warn(user,
-           "texCoord " + std::to_string(info.texCoord) + " is not supported; TEXCOORD_0 used");
-      ref.texcoord = 0;
-    }
-    auto it = texture_map_.find(info.index);
-    if (it == texture_map_.end()) {
-      it = texture_map_.emplace(info.index, static_cast<int>(scene_.textures.size())).first;
-      scene_.textures.push_back(convert_texture(info.index));
-    }
-    ref.index = it->second;
-    return ref;
-  }
-
-  Texture convert_texture(int index) {
-    const tinygltf::Texture& gt = model_.textures[static_cast<std::size_t>(index)];
-    std::string label = "texture" + quoted(gt.name) + " (" + std::to_string(index) + ")";
-    if (gt.source == -1)
-      fail(label, "has no image source (only PNG and JPEG images are supported)");
-    const tinygltf::Image& image = at(model_.images, gt.source, "image", label);
-    std::string image_label = "image" + quoted(image.name) + " (" + std::to_string(gt.source) + ")";
-    int channels = image.component, bytes = image.bits / 8;
-    std::size_t needed = static_cast<std::size_t>(std::max(image.width, 0)) *
-                         static_cast<std::size_t>(std::max(image.height, 0)) *
-                         static_cast<std::size_t>(std::max(channels, 0)) *
-                         static_cast<std::size_t>(std::max(bytes, 0));
-    if (image.width <= 0 || image.height <= 0 || channels < 1 || channels > 4 ||
-        (bytes != 1 && bytes != 2) || image.image.size() < needed)
-      fail(image_label, "has no decoded pixels (unsupported or broken image)");
-
-    Texture tex;
-    tex.width = image.width;
-    tex.height = image.height;
-    tex.texels.resize(static_cast<std::size_t>(tex.width) * static_cast<std::size_t>(tex.height));
-    const unsigned char* src = image.image.data();
-    auto channel = [&](std::size_t i) -> float {
-      if (bytes == 1) return src[i] / 255.0f;
-      std::uint16_t v;
-      std::memcpy(&v, src + 2 * i, 2);
-      return v / 65535.0f;
-    };
-    for (std::size_t p = 0; p < tex.texels.size(); ++p) {
-      std::size_t i = p * static_cast<std::size_t>(channels);
-      glm::vec4& t = tex.texels[p];
-      switch (channels) {
-        case 1:
-          t = glm::vec4(glm::vec3(channel(i)), 1.0f);
-          break;
-        case 2:
-          t = glm::vec4(glm::vec3(channel(i)), channel(i + 1));
-          break;
-        case 3:
-          t = glm::vec4(channel(i), channel(i + 1), channel(i + 2), 1.0f);
-          break;
-        default:
-          t = glm::vec4(channel(i), channel(i + 1), channel(i + 2), channel(i + 3));
-          break;
-      }
-    }
-    if (gt.sampler != -1) {
-      const tinygltf::Sampler& s = at(model_.samplers, gt.sampler, "sampler", label);
-      tex.wrap_s = wrap_mode(s.wrapS);
-      tex.wrap_t = wrap_mode(s.wrapT);
-      tex.nearest = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
-    }
-    return tex;
-  }
-
-  static Wrap wrap_mode(int gl) {
-    switch (gl) {
-      case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
-        return Wrap::ClampToEdge;
-      case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
-        return Wrap::MirroredRepeat;
-      default:
-        return Wrap::Repeat;
-    }
   }
 
   // -- lights and cameras
@@ -724,10 +714,11 @@ class Loader : gltf::Document {
 
   LoadOptions options_;
   Scene scene_;
+  gltf::MaterialReader materials_{model_, name_, scene_.textures, scene_.warnings};
   std::string scene_label_ = "scene";
   int default_material_ = -1;
   bool has_uv_[2] = {false, false};
-  std::map<int, int> texture_map_;  // glTF texture -> Scene::textures
+  bool has_colors_ = false, has_tangents_ = false;
   std::vector<bool> reached_;       // nodes visited so far
   std::vector<int> parent_;         // the parent each was reached from (-1: a root)
   std::uint64_t vertices_ = 0, triangles_ = 0;  // counted against LoadLimits

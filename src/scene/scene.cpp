@@ -73,6 +73,15 @@ glm::vec3 safe_normalize(glm::vec3 v, glm::vec3 fallback) {
 
 }  // namespace
 
+// KHR_texture_transform: scale, then rotate, then offset. The rotation is counter-clockwise as the
+// UV map is drawn (v down), i.e. the matrix [c s; -s c] that the extension's sample model and the
+// common viewers use (KhronosGroup/glTF#1563: the extension's GLSL listing has the transpose).
+glm::vec2 TextureRef::apply(glm::vec2 uv) const {
+  glm::vec2 s = scale * uv;
+  float c = std::cos(rotation), r = std::sin(rotation);
+  return offset + glm::vec2(c * s.x + r * s.y, -r * s.x + c * s.y);
+}
+
 glm::vec4 Texture::sample(glm::vec2 uv) const {
   return filtered(*this, uv, [](glm::vec4 t) { return t; });
 }
@@ -111,6 +120,10 @@ SurfacePoint Scene::surface_point(std::uint32_t triangle, float u, float v) cons
     sp.uv[0] = w * mesh.uv0[t.x] + u * mesh.uv0[t.y] + v * mesh.uv0[t.z];
   if (mesh.uv1.size() == mesh.positions.size())
     sp.uv[1] = w * mesh.uv1[t.x] + u * mesh.uv1[t.y] + v * mesh.uv1[t.z];
+  if (mesh.colors.size() == mesh.positions.size())
+    sp.color = w * mesh.colors[t.x] + u * mesh.colors[t.y] + v * mesh.colors[t.z];
+  if (mesh.tangents.size() == mesh.positions.size())
+    sp.tangent = w * mesh.tangents[t.x] + u * mesh.tangents[t.y] + v * mesh.tangents[t.z];
   return sp;
 }
 
@@ -122,10 +135,14 @@ MaterialPoint Scene::material_at(const SurfacePoint& sp) const {
                ? &textures[static_cast<std::size_t>(ref.index)]
                : nullptr;
   };
-  auto uv = [&](const TextureRef& ref) { return sp.uv[ref.texcoord == 1 ? 1 : 0]; };
+  auto uv = [&](const TextureRef& ref) {
+    glm::vec2 t = sp.uv[ref.texcoord == 1 ? 1 : 0];
+    return ref.has_transform() ? ref.apply(t) : t;
+  };
 
   MaterialPoint mp;
-  mp.base_color = glm::vec3(m.base_color);
+  mp.base_color = glm::vec3(m.base_color) * glm::vec3(sp.color);
+  mp.normal = sp.shading_normal;
   mp.metallic = m.metallic;
   mp.roughness = m.roughness;
   mp.emission = m.emissive;
@@ -138,9 +155,44 @@ MaterialPoint Scene::material_at(const SurfacePoint& sp) const {
   }
   if (const Texture* t = texture(m.emissive_texture))
     mp.emission *= glm::vec3(t->sample_srgb(uv(m.emissive_texture)));
+  const Texture* normal_map = texture(m.normal_texture);
+  if (normal_map && sp.tangent != glm::vec4(0.0f)) {
+    // Tangent frame at the point: the interpolated tangent made orthogonal to the shading
+    // normal (Gram-Schmidt), the bitangent from the handedness (glTF 3.7.2.1).
+    glm::vec3 n = sp.shading_normal;
+    glm::vec3 t = glm::vec3(sp.tangent) - glm::dot(glm::vec3(sp.tangent), n) * n;
+    float len = glm::length(t);
+    if (len > 1e-6f && std::isfinite(len)) {
+      t /= len;
+      glm::vec3 b = (sp.tangent.w < 0.0f ? -1.0f : 1.0f) * glm::cross(n, t);
+      glm::vec3 c = 2.0f * glm::vec3(normal_map->sample(uv(m.normal_texture))) - 1.0f;
+      c.x *= m.normal_scale;
+      c.y *= m.normal_scale;
+      mp.normal = safe_normalize(c.x * t + c.y * b + c.z * n, n);
+    }
+  }
   mp.metallic = std::clamp(mp.metallic, 0.0f, 1.0f);
   mp.roughness = std::clamp(mp.roughness, 0.0f, 1.0f);
   return mp;
+}
+
+float Scene::alpha_at(std::uint32_t triangle, float u, float v) const {
+  const Material& m = materials[mesh.triangle_material[triangle]];
+  if (m.alpha_mode == AlphaMode::Opaque) return 1.0f;
+  float alpha = m.base_color.a;
+  const bool textured = m.base_color_texture.index >= 0 &&
+                        static_cast<std::size_t>(m.base_color_texture.index) < textures.size();
+  if (!textured && mesh.colors.empty()) return alpha;
+  SurfacePoint sp = surface_point(triangle, u, v);
+  alpha *= sp.color.a;
+  if (textured) {
+    const TextureRef& ref = m.base_color_texture;
+    glm::vec2 t = sp.uv[ref.texcoord == 1 ? 1 : 0];
+    alpha *= textures[static_cast<std::size_t>(ref.index)]
+                 .sample(ref.has_transform() ? ref.apply(t) : t)
+                 .a;
+  }
+  return alpha;
 }
 
 std::size_t Scene::camera_index(const std::string& name) const {

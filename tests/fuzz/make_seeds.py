@@ -3,7 +3,8 @@
 use every feature the loader reads: indexed and unindexed triangles, strips and fans, normals,
 two texture coordinate sets, quantised attributes, PNG and JPEG textures from data URIs and
 buffer views, samplers, emissive strength, punctual lights, a camera with extras.lens, a node
-matrix, and animations of the camera node) and corpus/keyframe (keyframe files).
+matrix, animations of the camera node, sparse accessors, COLOR_0, TANGENT, normal textures,
+KHR_texture_transform and alpha modes) and corpus/keyframe (keyframe files).
 The shipped scenes are too large to seed with (they are mostly base64 vertex data).
 Usage: make_seeds.py <corpus directory>   (needs oiiotool for the JPEG)"""
 import base64
@@ -188,6 +189,60 @@ def unindexed_flat():
     return b
 
 
+def material_features():
+    """Sparse accessors (with and without a base view), COLOR_0, TANGENT, a normal texture,
+    KHR_texture_transform on two textures, alphaMode MASK and BLEND, single and double sides."""
+    b = Builder()
+    base = b.view(struct.pack("<12f", *[c for v in QUAD for c in v]))
+    sparse_idx = b.view(struct.pack("<2H", 1, 3))
+    sparse_val = b.view(struct.pack("<6f", 2, -1, 0, -2, 1, 0))
+    b.doc["accessors"].append({
+        "bufferView": base, "componentType": FLOAT, "count": 4, "type": "VEC3",
+        "sparse": {"count": 2, "indices": {"bufferView": sparse_idx, "componentType": U16},
+                   "values": {"bufferView": sparse_val}}})
+    pos = len(b.doc["accessors"]) - 1
+    zero_idx = b.view(struct.pack("<B", 2) + b"\0\0\0")
+    zero_val = b.view(struct.pack("<2f", 0.5, 0.5))
+    b.doc["accessors"].append({
+        "componentType": FLOAT, "count": 4, "type": "VEC2",
+        "sparse": {"count": 1, "indices": {"bufferView": zero_idx, "componentType": U8},
+                   "values": {"bufferView": zero_val}}})
+    uv1 = len(b.doc["accessors"]) - 1
+    uv0 = b.accessor("f", [(0, 0), (1, 0), (1, 1), (0, 1)], "VEC2", FLOAT)
+    nrm = b.accessor("f", [(0, 0, 1)] * 4, "VEC3", FLOAT)
+    tan = b.accessor("f", [(1, 0, 0, 1)] * 4, "VEC4", FLOAT)
+    col = b.accessor("B", [(255, 128, 0, 255), (0, 255, 0, 128), (0, 0, 255, 64),
+                           (255, 255, 255, 0)], "VEC4", U8, normalized=True)
+    col3 = b.accessor("f", [(1, 0.5, 0.25)] * 4, "VEC3", FLOAT)
+    idx = b.accessor("H", [0, 1, 2, 0, 2, 3], "SCALAR", U16)
+    transform = {"KHR_texture_transform": {"offset": [0.5, 0.25], "rotation": 0.3,
+                                           "scale": [2, 0.5], "texCoord": 1}}
+    b.doc.update({
+        "extensionsUsed": ["KHR_texture_transform"],
+        "extensionsRequired": ["KHR_texture_transform"],
+        "nodes": [{"mesh": 0}, {"mesh": 0, "translation": [0, 0, -1]}],
+        "meshes": [{"primitives": [
+            {"attributes": {"POSITION": pos, "NORMAL": nrm, "TEXCOORD_0": uv0,
+                            "TEXCOORD_1": uv1, "TANGENT": tan, "COLOR_0": col},
+             "indices": idx, "material": 0},
+            {"attributes": {"POSITION": pos, "TEXCOORD_0": uv0, "COLOR_0": col3},
+             "indices": idx, "material": 1}]}],
+        "materials": [
+            {"alphaMode": "MASK", "alphaCutoff": 0.4,
+             "pbrMetallicRoughness": {"baseColorTexture": {"index": 0,
+                                                           "extensions": transform}},
+             "normalTexture": {"index": 0, "scale": 0.5, "texCoord": 1,
+                               "extensions": {"KHR_texture_transform": {"offset": [0.1, 0]}}}},
+            {"alphaMode": "BLEND", "doubleSided": True,
+             "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.5]},
+             "normalTexture": {"index": 0}}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": "data:image/png;base64," +
+                    base64.b64encode(png(2, 2, [128, 128, 255, 200])).decode()}],
+    })
+    return b
+
+
 KEYFRAMES = {
     "focus_pull.json": None,  # scenes/paths/cornell_focus_pull.json
     "look_at.json": {"dofcache_camera_path": 1, "fps": 10, "up": [0, 1, 0], "keys": [
@@ -216,7 +271,8 @@ def main():
              "textured.glb": textured_scene(True).glb(),
              "strips_fans.gltf": strips_and_fans().gltf(),
              "strips_fans.glb": strips_and_fans().glb(),
-             "unindexed.gltf": unindexed_flat().gltf()}
+             "unindexed.gltf": unindexed_flat().gltf(),
+             "material_features.gltf": material_features().gltf()}
     for name, data in seeds.items():
         open(os.path.join(gltf_dir, name), "wb").write(data)
     for name, doc in KEYFRAMES.items():

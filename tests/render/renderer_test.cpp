@@ -143,7 +143,8 @@ TEST(Renderer, NearPlaneHidesNearerSurfaces) {
 
 TEST(Renderer, ClippedRenderMarksTheInsideOfObjects) {
   // Behind the near plane a ray that first meets the back of a one-sided surface is inside an
-  // object whose front the plane removed: no lens ray sees that surface.
+  // object whose front the plane removed: no lens ray sees that surface (clipped renders keep
+  // back faces, which camera rays otherwise cull).
   scene::Scene s;
   s.materials = {testing::diffuse_material(glm::vec3(0.5f)),
                  testing::diffuse_material(glm::vec3(0.5f))};
@@ -156,13 +157,62 @@ TEST(Renderer, ClippedRenderMarksTheInsideOfObjects) {
   scene::Accel accel(s);
   RenderSettings st = small_settings(2, 1);
   st.visibility_only = true;
-  EXPECT_EQ(render(s, accel, s.cameras[0], st).ids.at(20, 15, 0), 1.0f);  // no near plane
+  // No near plane: glTF culls the back of the one-sided quad, the camera sees the wall behind it.
+  EXPECT_EQ(render(s, accel, s.cameras[0], st).ids.at(20, 15, 0), 0.0f);
   st.near_depth = 1.0f;
   EXPECT_EQ(render(s, accel, s.cameras[0], st).ids.at(20, 15, 0), kInsideId);
   EXPECT_EQ(render(s, accel, s.cameras[0], st).ids.at(1, 1, 0), 0.0f);  // past the quad
   s.mesh.triangle_material[2] = s.mesh.triangle_material[3] = 1;  // double-sided: a real surface
   scene::Accel accel2(s);
   EXPECT_EQ(render(s, accel2, s.cameras[0], st).ids.at(20, 15, 0), 1.0f);
+}
+
+// glTF sides and cut-outs as the camera sees them. A diffuse quad (albedo 0.5) at z = -2 fills
+// the centre of a pinhole view; a directional light of 2 pi sqrt2 lux comes from the camera's
+// side at 45 degrees, so a lit Lambertian point shows 0.5 / pi * 2 pi sqrt2 * cos 45 = 1 (plus
+// a little of the glTF BRDF's specular lobe). Direct light only.
+TEST(Renderer, SidesAndCutOutShadowsAsGltfDefinesThem) {
+  auto scene = [](bool faces_camera, bool double_sided, int occluder_alpha_mode) {
+    scene::Scene s;
+    s.materials = {testing::diffuse_material(glm::vec3(0.5f)),
+                   testing::diffuse_material(glm::vec3(0.5f))};
+    s.materials[0].double_sided = double_sided;
+    if (faces_camera)
+      add_quad_z(s, -1, 1, -1, 1, -2.0f, 0, 0);
+    else
+      testing::add_quad(s, {glm::vec3(-1, -1, -2), glm::vec3(-1, 1, -2), glm::vec3(1, 1, -2),
+                            glm::vec3(1, -1, -2)},
+                        {0.0f, 0.0f, -1.0f}, 0, 0);
+    if (occluder_alpha_mode >= 0) {
+      // On the centre point's shadow ray (towards (-1, 0, 1)) at z = -1, off the view ray.
+      add_quad_z(s, -1.5f, -0.5f, -0.5f, 0.5f, -1.0f, 1, 1);
+      s.materials[1].alpha_mode = static_cast<scene::AlphaMode>(occluder_alpha_mode);
+      s.materials[1].base_color.a = 0.0f;  // a MASK cut-out everywhere
+    }
+    scene::PunctualLight sun;
+    sun.type = scene::PunctualLight::Type::Directional;
+    sun.direction = glm::normalize(glm::vec3(1, 0, -1));
+    sun.intensity = glm::vec3(2.0f * 3.14159265f * std::sqrt(2.0f));
+    s.lights.push_back(sun);
+    s.cameras.push_back(testing::origin_camera(0.3f));
+    return s;
+  };
+  auto centre = [](const scene::Scene& s) {
+    scene::Accel accel(s);
+    RenderSettings st = small_settings(1, 3);
+    st.mode = Mode::Pinhole;
+    st.shading.gather_rays = 0, st.shading.bounces = 0;
+    return render(s, accel, s.cameras[0], st).color.at(20, 15, 1);
+  };
+  const float front = centre(scene(true, false, -1));
+  EXPECT_NEAR(front, 1.0f, 0.1f);
+  // The back of a double-sided quad shades with the flipped normal: exactly like a front.
+  EXPECT_NEAR(centre(scene(false, true, -1)), front, 1e-5f);
+  // The back of a single-sided quad is not there for the camera: the black background.
+  EXPECT_EQ(centre(scene(false, false, -1)), 0.0f);
+  // An opaque occluder shadows the centre; a MASK one cut out everywhere does not.
+  EXPECT_EQ(centre(scene(true, false, static_cast<int>(scene::AlphaMode::Opaque))), 0.0f);
+  EXPECT_NEAR(centre(scene(true, false, static_cast<int>(scene::AlphaMode::Mask))), front, 1e-5f);
 }
 
 TEST(Renderer, MaskRestrictsRenderedPixels) {

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,9 @@ struct AccessorView {
   std::size_t count = 0, stride = 0;
   int components = 0, component_type = 0;
   bool normalized = false;
+  // A sparse accessor's elements, made dense (base values with the substitutions applied);
+  // `data` points into it.
+  std::shared_ptr<const std::vector<unsigned char>> dense;
 
   // Component c of an element as T (float or double); normalised integers map to [0,1] or
   // [-1,1] (glTF 3.11), computed in T.
@@ -131,15 +135,28 @@ class Document {
   std::string node_label(int node) const;  // "node 'name' (3)"
   std::string mesh_label(int mesh) const;
 
-  // Accessor `index` of type `expected_type` (TINYGLTF_TYPE_*), used by `user`: not sparse, a
-  // valid component type (not DOUBLE), and every element inside its buffer view and buffer.
+  // Accessor `index` of type `expected_type` (TINYGLTF_TYPE_*), used by `user`: a valid
+  // component type (not DOUBLE), and every element inside its buffer view and buffer. A sparse
+  // accessor is returned dense, after checking that its indices strictly increase and stay below
+  // its count and that its index and value arrays lie inside their buffer views.
   AccessorView accessor(int index, int expected_type, const std::string& user) const;
+  // `bytes` bytes at `offset` into bufferView `view`, checked against the view and its buffer.
+  const unsigned char* view_bytes(int view, std::size_t offset, std::size_t bytes,
+                                  const std::string& user) const;
+  // The type (TINYGLTF_TYPE_*) accessor `index` declares, for attributes that allow several.
+  int accessor_type(int index, const std::string& user) const {
+    return at(model_.accessors, index, "accessor", user).type;
+  }
 
   // The node's local transform: a matrix of 16 finite numbers, or translation (3 numbers),
   // rotation (4, a quaternion that is normalised) and scale (3) whose product is finite.
   NodeTransform node_transform(int node) const;
 
  protected:
+  // Copies the accessor into a dense array and applies its sparse substitutions.
+  void make_dense(const tinygltf::Accessor& acc, const std::string& label, std::size_t element,
+                  AccessorView& view) const;
+
   const tinygltf::Model& model_;
   std::string name_;
 };

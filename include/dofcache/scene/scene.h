@@ -30,8 +30,17 @@ struct Texture {
 
 struct TextureRef {
   int index = -1;    // into Scene::textures, -1 for none
-  int texcoord = 0;  // TEXCOORD_n set (0 or 1)
+  int texcoord = 0;  // TEXCOORD_n set (0 or 1), after KHR_texture_transform's override
+  // KHR_texture_transform: uv' = offset + R(rotation) (scale * uv), applied before sampling.
+  glm::vec2 offset{0.0f}, scale{1.0f};
+  float rotation = 0.0f;  // radians, counter-clockwise in UV space (v down), see apply()
+  bool has_transform() const {
+    return offset != glm::vec2(0.0f) || scale != glm::vec2(1.0f) || rotation != 0.0f;
+  }
+  glm::vec2 apply(glm::vec2 uv) const;
 };
+
+enum class AlphaMode { Opaque, Mask, Blend };
 
 struct Material {
   std::string name;
@@ -41,7 +50,14 @@ struct Material {
   TextureRef metallic_roughness_texture;  // B = metallic, G = roughness (linear)
   glm::vec3 emissive{0.0f};            // emissiveFactor * KHR_materials_emissive_strength
   TextureRef emissive_texture;         // sRGB
+  TextureRef normal_texture;           // tangent-space normals (linear), needs Mesh::tangents
+  float normal_scale = 1.0f;           // scales the map's x and y
+  // One-sided surfaces are invisible from behind (glTF culls their back faces): see accel.h.
   bool double_sided = false;
+  // MASK: cut out where alpha < alpha_cutoff; BLEND: stochastic, seen with probability alpha.
+  // Alpha = base_color.a * base colour texture alpha * COLOR_0 alpha (Scene::alpha_at).
+  AlphaMode alpha_mode = AlphaMode::Opaque;
+  float alpha_cutoff = 0.5f;
 };
 
 // A material evaluated at one surface point (textures applied).
@@ -50,6 +66,7 @@ struct MaterialPoint {
   float metallic = 0.0f;
   float roughness = 1.0f;
   glm::vec3 emission{0.0f};    // emitted radiance
+  glm::vec3 normal{0.0f, 0.0f, 1.0f};  // shading normal with the normal texture applied (unit)
   // Lambertian albedo of the glTF BRDF's diffuse lobe: base_color * (1 - metallic).
   glm::vec3 diffuse_albedo() const { return base_color * (1.0f - metallic); }
 };
@@ -59,6 +76,8 @@ struct SurfacePoint {
   glm::vec3 geometric_normal{0.0f, 0.0f, 1.0f};  // unit, from the winding order
   glm::vec3 shading_normal{0.0f, 0.0f, 1.0f};    // unit, interpolated vertex normal (or geometric)
   glm::vec2 uv[2]{};
+  glm::vec4 color{1.0f};    // interpolated COLOR_0 (1 without it)
+  glm::vec4 tangent{0.0f};  // interpolated TANGENT (xyz world space, w handedness); 0: none
   std::uint32_t triangle = 0;
   std::uint32_t material = 0;
 };
@@ -67,6 +86,10 @@ struct Mesh {
   std::vector<glm::vec3> positions;  // world space
   std::vector<glm::vec3> normals;    // world space, one per position (unit)
   std::vector<glm::vec2> uv0, uv1;   // one per position, or empty
+  std::vector<glm::vec4> colors;     // COLOR_0 (linear RGBA), one per position, or empty
+  // World-space tangents (xyz unit, w = +-1 handedness: bitangent = w cross(normal, tangent)),
+  // one per position, or empty; zero where a primitive has no normal texture.
+  std::vector<glm::vec4> tangents;
   std::vector<glm::uvec3> triangles;
   std::vector<std::uint32_t> triangle_material;  // index into Scene::materials
   std::vector<std::uint32_t> triangle_object;    // object id: index of the glTF node instance
@@ -133,6 +156,9 @@ struct Scene {
 
   SurfacePoint surface_point(std::uint32_t triangle, float u, float v) const;  // Embree barycentrics
   MaterialPoint material_at(const SurfacePoint& sp) const;
+  // Coverage of a triangle's material at Embree barycentrics (u, v): base colour alpha times
+  // its texture's alpha times COLOR_0's (1 for OPAQUE materials).
+  float alpha_at(std::uint32_t triangle, float u, float v) const;
   // Index into `cameras` by name; throws dofcache::Error listing the available names.
   std::size_t camera_index(const std::string& name) const;
   // The camera called `name`, or the first camera if `name` is empty (throws like camera_index).
