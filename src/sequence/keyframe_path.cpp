@@ -151,7 +151,8 @@ class KeyframeParser {
 
  private:
   [[noreturn]] void fail(const std::string& problem) const {
-    throw Error(name_ + ": " + (key_.empty() ? "" : key_ + ": ") + problem);
+    // one_line: a problem may quote the file's text (a member name may hold an escaped newline).
+    throw Error(one_line(name_ + ": " + (key_.empty() ? "" : key_ + ": ") + problem));
   }
 
   double number(const json& v, const char* what) const {

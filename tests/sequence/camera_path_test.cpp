@@ -348,6 +348,19 @@ TEST(KeyframePath, RefusesMistakes) {
 // Found by fuzzing (docs/reliability.md): a number beyond double's range made nlohmann::json
 // throw out_of_range, which escaped as another exception type than dofcache::Error. The input is
 // the one the fuzzer found, reduced to the number.
+// Found by fuzzing: a member name holding an escaped newline was quoted into a two-line error.
+TEST(KeyframePath, QuotedMemberNameWithANewlineIsAOneLineError) {
+  try {
+    parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [
+        {"time": 0, "focus_dist\nce": 3}]})", "newline.json", base_camera());
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    EXPECT_NE(what.find("unknown member 'focus_dist"), std::string::npos) << what;
+  }
+}
+
 TEST(KeyframePath, NumberBeyondDoubleRangeIsAOneLineError) {
   try {
     parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [
