@@ -296,12 +296,8 @@ AccessorView Document::accessor(int index, int expected_type, const std::string&
 
   const tinygltf::BufferView& bv = at(model_.bufferViews, acc.bufferView, "bufferView", label);
   std::string bv_label = "bufferView " + std::to_string(acc.bufferView);
-  const tinygltf::Buffer& buffer = at(model_.buffers, bv.buffer, "buffer", bv_label);
-  if (bv.byteOffset > buffer.data.size() || bv.byteLength > buffer.data.size() - bv.byteOffset)
-    fail(bv_label, "byte range " + std::to_string(bv.byteOffset) + "+" +
-                       std::to_string(bv.byteLength) + " exceeds buffer " +
-                       std::to_string(bv.buffer) + " (" + std::to_string(buffer.data.size()) +
-                       " bytes)");
+  // The whole view, checked against its buffer.
+  const unsigned char* start = view_bytes(acc.bufferView, 0, bv.byteLength, label);
   view.stride = bv.byteStride != 0 ? bv.byteStride : element;
   if (view.stride < element)
     fail(bv_label, "byteStride " + std::to_string(bv.byteStride) +
@@ -317,7 +313,7 @@ AccessorView Document::accessor(int index, int expected_type, const std::string&
                       std::to_string(view.stride) + " exceed " + bv_label + " (" +
                       std::to_string(bv.byteLength) + " bytes)");
   }
-  view.data = buffer.data.data() + bv.byteOffset + acc.byteOffset;
+  view.data = start + acc.byteOffset;
   if (acc.sparse.isSparse) make_dense(acc, label, element, view);
   return view;
 }

@@ -1,10 +1,15 @@
 #pragma once
 // Small glTF files built in tests: a base64 encoder, a buffer/accessor builder and a BMP writer
 // (stb decodes BMP like PNG, and it takes a few lines to write). Shared by the glTF loader tests.
+#include <gtest/gtest.h>
+
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <string>
 #include <vector>
+
+#include "dofcache/core/error.h"
 
 namespace dofcache::scene::test {
 
@@ -133,6 +138,19 @@ inline std::vector<unsigned char> bmp(int w, int h, const std::vector<std::uint8
       out[dst] = rgb[src + 2], out[dst + 1] = rgb[src + 1], out[dst + 2] = rgb[src];
     }
   return out;
+}
+
+// `load` throws one dofcache::Error, of one line, containing each of `parts`.
+inline void expect_error(const std::function<void()>& load, const std::vector<std::string>& parts) {
+  try {
+    load();
+    ADD_FAILURE() << "expected dofcache::Error";
+  } catch (const Error& e) {
+    std::string m = e.what();
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    for (const std::string& part : parts)
+      EXPECT_NE(m.find(part), std::string::npos) << "'" << part << "' not in: " << m;
+  }
 }
 
 }  // namespace dofcache::scene::test

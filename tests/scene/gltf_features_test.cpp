@@ -27,6 +27,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::base64;
+using test::expect_error;
 using test::bmp;
 using test::Gltf;
 
@@ -73,17 +74,6 @@ void expect_vec3(glm::vec3 actual, glm::vec3 expected, float tol = 1e-5f) {
   EXPECT_NEAR(actual.z, expected.z, tol);
 }
 
-void expect_error(const std::function<void()>& load, const std::vector<std::string>& parts) {
-  try {
-    load();
-    ADD_FAILURE() << "expected dofcache::Error";
-  } catch (const Error& e) {
-    std::string m = e.what();
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-    for (const std::string& part : parts)
-      EXPECT_NE(m.find(part), std::string::npos) << "'" << part << "' not in: " << m;
-  }
-}
 
 // A sparse accessor object: `count` substitutions, indices (UNSIGNED_SHORT) and values in the
 // given bufferViews.

@@ -25,6 +25,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::base64;
+using test::expect_error;
 using test::bmp;
 using test::Gltf;
 
@@ -465,18 +466,6 @@ TEST_F(GltfLoaderTest, MemoryLoadMatchesFileLoad) {
 
 // ---------------------------------------------------------------------------------------------
 // Bad input: one dofcache::Error, one line, naming the file and the problem.
-
-void expect_error(const std::function<void()>& load, const std::vector<std::string>& parts) {
-  try {
-    load();
-    ADD_FAILURE() << "expected dofcache::Error";
-  } catch (const Error& e) {
-    std::string m = e.what();
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-    for (const std::string& part : parts)
-      EXPECT_NE(m.find(part), std::string::npos) << "'" << part << "' not in: " << m;
-  }
-}
 
 TEST_F(GltfLoaderTest, MissingFile) {
   std::string path = (dir() / "does_not_exist.gltf").string();
