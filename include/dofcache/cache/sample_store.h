@@ -1,8 +1,6 @@
 #pragma once
-// Storage of cache samples laid out for the lookup loops. SampleStore: samples visited one by one
-// through index lists (the octree); the first test (distance against radius) reads only the
-// 16-byte `sphere` entry, and most candidates fail it. SampleColumns: contiguous ranges scanned
-// four at a time (the vdb backend, the tile buffer).
+// Storage of cache samples laid out for a lookup loop: SampleColumns, contiguous ranges scanned
+// four at a time (the tile buffer; the backends' blocks of eight are in src/cache/block_scan.h).
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -29,88 +27,9 @@ std::size_t heap_bytes(const std::vector<T>& v) {
   return n < 32 ? 32 : n;
 }
 
-class SampleStore {
- public:
-  std::size_t size() const { return sphere_.size(); }
-  bool empty() const { return sphere_.empty(); }
-
-  void push_back(const CacheSample& s) {
-    sphere_.emplace_back(s.position, s.radius);
-    normal_id_.push_back({s.normal, s.id});
-    payload_.push_back({s.value, s.frame});
-  }
-
-  CacheSample get(std::size_t i) const {
-    CacheSample s;
-    s.position = glm::vec3(sphere_[i]);
-    s.radius = sphere_[i].w;
-    s.normal = normal_id_[i].normal;
-    s.id = normal_id_[i].id;
-    s.value = payload_[i].value;
-    s.frame = payload_[i].frame;
-    return s;
-  }
-
-  std::uint32_t id(std::size_t i) const { return normal_id_[i].id; }
-  const glm::vec4& sphere(std::size_t i) const { return sphere_[i]; }
-
-  // Applies the acceptance test of weights.h to sample i and adds it to *sum if accepted.
-  void test(std::size_t i, const SampleTest& test, WeightedSum* sum) const {
-    const glm::vec4& s = sphere_[i];
-    float w = test.weight(glm::vec3(s), s.w, normal_id_[i].normal);
-    if (w > 0.0f) sum->add(normal_id_[i].id, w, payload_[i].value);
-  }
-
-  // Copies sample i of another store to the end of this one.
-  void append_from(const SampleStore& other, std::size_t i) {
-    sphere_.push_back(other.sphere_[i]);
-    normal_id_.push_back(other.normal_id_[i]);
-    payload_.push_back(other.payload_[i]);
-  }
-
-  void reserve(std::size_t n) {
-    sphere_.reserve(n);
-    normal_id_.reserve(n);
-    payload_.reserve(n);
-  }
-  void clear() {
-    sphere_.clear();
-    normal_id_.clear();
-    payload_.clear();
-  }
-  void release() {  // clear and free the buffers
-    std::vector<glm::vec4>().swap(sphere_);
-    std::vector<NormalId>().swap(normal_id_);
-    std::vector<Payload>().swap(payload_);
-  }
-  void swap(SampleStore& other) {
-    sphere_.swap(other.sphere_);
-    normal_id_.swap(other.normal_id_);
-    payload_.swap(other.payload_);
-  }
-
-  std::size_t memory_bytes() const {
-    return heap_bytes(sphere_) + heap_bytes(normal_id_) + heap_bytes(payload_);
-  }
-
- private:
-  struct NormalId {
-    glm::vec3 normal;
-    std::uint32_t id;
-  };
-  struct Payload {
-    glm::vec3 value;
-    std::uint32_t frame;
-  };
-  std::vector<glm::vec4> sphere_;  // position, radius
-  std::vector<NormalId> normal_id_;
-  std::vector<Payload> payload_;
-};
-
 // Samples as columns (structure of arrays), for scanning contiguous ranges: the distance
 // prefilter reads x, y, z, r four samples at a time (SSE2, part of the x86-64 baseline); normals,
-// ids and values are read only for samples in reach. The vdb backend keeps each level's samples
-// in one; the tile buffer scans all of its own.
+// ids and values are read only for samples in reach. The tile buffer scans all of its own.
 class SampleColumns {
  public:
   std::size_t size() const { return normal_id_.size(); }
