@@ -7,7 +7,7 @@
 #include <glm/common.hpp>
 #include <glm/vector_relational.hpp>
 
-#include "block_scan.h"
+#include "dofcache/cache/sample_blocks.h"
 #include "grid_math.h"
 
 namespace dofcache::cache {

@@ -15,9 +15,8 @@
 #include <immintrin.h>
 #endif
 
-#include "dofcache/cache/sample_store.h"
 #include "dofcache/core/error.h"
-#include "block_scan.h"
+#include "dofcache/cache/sample_blocks.h"
 #include "grid_math.h"
 
 namespace dofcache::cache {

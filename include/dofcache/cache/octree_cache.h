@@ -2,7 +2,7 @@
 // The paper's radiance-cache structure, built as pbrt-v2 builds its irradiance-cache octree: the
 // baseline the vdb backend is measured against. Only the structure differs between the two: both
 // keep their samples in the same blocks of eight and test them with the same kernel
-// (src/cache/block_scan.h), so a comparison measures octree against sparse grid, not tuning.
+// (dofcache/cache/sample_blocks.h), so a comparison measures octree against sparse grid, not tuning.
 //
 // A cubic root whose edge is a power of two grows by doubling towards new samples (re-rooting, the
 // old root becoming one of the new root's children) until it contains every sample's sphere. A

@@ -1,4 +1,4 @@
-#include "block_scan.h"
+#include "dofcache/cache/sample_blocks.h"
 
 #include <algorithm>
 

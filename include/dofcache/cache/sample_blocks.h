@@ -1,18 +1,29 @@
 #pragma once
-// The lookup kernel both radiance-cache backends share, so that octree and vdb are compared as
-// structures with the same sample layout and the same tests: samples in blocks of eight for a
-// SIMD distance prefilter, then the scalar SampleTest for the few in reach.
+// Cache samples laid out for lookups, and the one lookup kernel over them: samples in blocks of
+// eight for a SIMD distance prefilter, then the scalar SampleTest for the few in reach. Both
+// radiance-cache backends and the tile buffer use them, so octree and vdb are compared as
+// structures with the same sample layout and the same tests.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include <glm/vec3.hpp>
 
 #include "dofcache/cache/sample.h"
-#include "dofcache/cache/sample_store.h"
 #include "dofcache/cache/weights.h"
 
 namespace dofcache::cache {
+
+// Bytes a vector's buffer occupies on the heap: its capacity plus the allocator's chunk header
+// and rounding (glibc: 8-byte header, 16-byte granularity, 32-byte minimum).
+template <typename T>
+std::size_t heap_bytes(const std::vector<T>& v) {
+  if (v.capacity() == 0) return 0;
+  std::size_t n = v.capacity() * sizeof(T) + 8;
+  n = (n + 15) & ~std::size_t{15};
+  return n < 32 ? 32 : n;
+}
 
 // The distance prefilter's bound is r^2 kSlack, a hair above the test's r^2 (scan_ranges_baseline).
 constexpr float kSlack = 1.0f + 0x1p-20f;
@@ -38,6 +49,11 @@ class BlockSamples {
   std::size_t size() const { return records_.size(); }
   bool empty() const { return records_.empty(); }
 
+  void clear() {  // keeps the buffers
+    blocks_.clear();
+    records_.clear();
+    frames_.clear();
+  }
   void reserve(std::size_t n) {
     blocks_.reserve((n + kLanes - 1) / kLanes);
     records_.reserve(n);
