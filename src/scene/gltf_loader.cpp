@@ -453,9 +453,20 @@ class Loader : gltf::Document {
         warn(label, "the normal texture needs TEXCOORD_" + std::to_string(set) +
                         ", which the primitive lacks; normal texture ignored");
       } else {
-        std::vector<glm::vec4> t =
-            generate_tangents(out.positions, out.normals, set == 0 ? out.uv0 : out.uv1,
-                              out.triangles, base, first_triangle);
+        // The normal texture's x axis runs along its own u, the one KHR_texture_transform gives:
+        // tangents come from the transformed coordinates (a rotation turns them, a mirror flips
+        // the handedness), so a transformed map shades as it would baked without the transform.
+        const TextureRef& ref = mat.normal_texture;
+        std::vector<glm::vec2> transformed;
+        if (ref.has_transform()) {
+          transformed = set == 0 ? out.uv0 : out.uv1;
+          for (std::size_t i = base; i < transformed.size(); ++i)
+            transformed[i] = ref.apply(transformed[i]);
+        }
+        std::vector<glm::vec4> t = generate_tangents(
+            out.positions, out.normals,
+            ref.has_transform() ? transformed : set == 0 ? out.uv0 : out.uv1, out.triangles,
+            base, first_triangle);
         std::copy(t.begin(), t.end(), out.tangents.end() - static_cast<std::ptrdiff_t>(t.size()));
         has_tangents_ = true;
       }
