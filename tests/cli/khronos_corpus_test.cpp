@@ -152,8 +152,9 @@ class KhronosModels : public testing::CliTest {
 // "The color of each vertex is given by the RGB colors that are defined by the vertex
 // coordinates" (the model's README). The synthesised camera looks down -Z at the face z = 1,
 // whose colour at (x, y) is (x, y, 1): cyan at the top left, white at the top right, blue at
-// the bottom left, magenta at the bottom right. The sky tints the light, so the test compares
-// channel ratios between corners, which the tint cancels from.
+// the bottom left, magenta at the bottom right. Shading scales all three channels of a point
+// alike (white light, the default material's rough metal), so the test compares channel ratios
+// between corners, from which it cancels.
 TEST_F(KhronosModels, BoxVertexColorsShowTheirPositionsAsColours) {
   const Image img = render("BoxVertexColors.gltf");
   ASSERT_EQ(img.height(), 48);
