@@ -453,9 +453,20 @@ class Loader : gltf::Document {
         warn(label, "the normal texture needs TEXCOORD_" + std::to_string(set) +
                         ", which the primitive lacks; normal texture ignored");
       } else {
-        std::vector<glm::vec4> t =
-            generate_tangents(out.positions, out.normals, set == 0 ? out.uv0 : out.uv1,
-                              out.triangles, base, first_triangle);
+        // The normal texture's x axis runs along its own u, the one KHR_texture_transform gives:
+        // tangents come from the transformed coordinates (a rotation turns them, a mirror flips
+        // the handedness), so a transformed map shades as it would baked without the transform.
+        const TextureRef& ref = mat.normal_texture;
+        std::vector<glm::vec2> transformed;
+        if (ref.has_transform()) {
+          transformed = set == 0 ? out.uv0 : out.uv1;
+          for (std::size_t i = base; i < transformed.size(); ++i)
+            transformed[i] = ref.apply(transformed[i]);
+        }
+        std::vector<glm::vec4> t = generate_tangents(
+            out.positions, out.normals,
+            ref.has_transform() ? transformed : set == 0 ? out.uv0 : out.uv1, out.triangles,
+            base, first_triangle);
         std::copy(t.begin(), t.end(), out.tangents.end() - static_cast<std::ptrdiff_t>(t.size()));
         has_tangents_ = true;
       }
@@ -686,15 +697,20 @@ class Loader : gltf::Document {
       const Material& mat = scene_.materials[m.triangle_material[t]];
       if (mat.emissive == glm::vec3(0.0f)) continue;
       glm::vec3 radiance = mat.emissive;
-      if (mat.emissive_texture.index >= 0) {
+      // Light sampling uses the mean radiance over the triangle, so it must count only what rays
+      // can hit: where a MASK cuts the surface out nothing emits, and a BLEND surface is hit (and
+      // emits) with probability alpha. Opaque and untextured: the factor itself.
+      if (mat.emissive_texture.index >= 0 || mat.alpha_mode != AlphaMode::Opaque) {
         // Mean over the triangle: 10 points of a symmetric barycentric pattern.
         static constexpr float kPattern[10][2] = {
             {1 / 3.f, 1 / 3.f}, {1 / 6.f, 1 / 6.f}, {2 / 3.f, 1 / 6.f}, {1 / 6.f, 2 / 3.f},
             {0.05f, 0.05f},     {0.9f, 0.05f},      {0.05f, 0.9f},      {0.45f, 0.45f},
             {0.05f, 0.45f},     {0.45f, 0.05f}};
         glm::vec3 sum(0.0f);
-        for (const auto& b : kPattern)
-          sum += material_emission(static_cast<std::uint32_t>(t), b[0], b[1]);
+        for (const auto& b : kPattern) {
+          const auto tri = static_cast<std::uint32_t>(t);
+          sum += material_emission(tri, b[0], b[1]) * coverage(mat, tri, b[0], b[1]);
+        }
         radiance = sum / 10.0f;
       }
       const glm::uvec3& tri = m.triangles[t];
@@ -710,6 +726,14 @@ class Loader : gltf::Document {
 
   glm::vec3 material_emission(std::uint32_t triangle, float u, float v) const {
     return scene_.material_at(scene_.surface_point(triangle, u, v)).emission;
+  }
+
+  // The share of rays that hit the surface at (u, v), as the intersector's alpha test decides.
+  float coverage(const Material& mat, std::uint32_t triangle, float u, float v) const {
+    if (mat.alpha_mode == AlphaMode::Opaque) return 1.0f;
+    const float alpha = scene_.alpha_at(triangle, u, v);
+    if (mat.alpha_mode == AlphaMode::Mask) return alpha >= mat.alpha_cutoff ? 1.0f : 0.0f;
+    return std::clamp(alpha, 0.0f, 1.0f);
   }
 
   LoadOptions options_;
