@@ -525,7 +525,7 @@ def build(triangles, texture_size):
     pot_m = g.material("terracotta", color="terracotta_color", roughness=0.7)
     leaf_a_m = g.material("leaf_a", color="leaf_a", roughness=0.6, mask=True)
     leaf_b_m = g.material("leaf_b", color="leaf_b", roughness=0.6, mask=True)
-    sky_m = g.material("skylight", emission="skylight_emission", strength=8.0, roughness=1.0)
+    sky_m = g.material("skylight", emission="skylight_emission", strength=12.0, roughness=1.0)
 
     (segments, rings), (steps, subdivisions), leaves = budget(triangles)
 
