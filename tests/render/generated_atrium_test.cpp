@@ -81,6 +81,27 @@ TEST_F(GeneratedAtrium, LoadsAtTheRequestedSizeWithItsTexturesCutOutsAndLens) {
   EXPECT_NEAR(s.bounds.lower.z, -36.0f, 1e-4f);
 }
 
+// The loader keeps no memory it does not use: attributes no primitive has are freed, the others
+// hold little more than their elements (docs/scenes.md, "Scale"). Positions keep room for one
+// more vertex, which Embree's 16-byte loads read.
+TEST_F(GeneratedAtrium, MeshArraysHoldNoUnusedMemory) {
+  scene::Scene s = scene::load_gltf(file_);
+  const scene::Mesh& m = s.mesh;
+  EXPECT_EQ(m.uv1.capacity(), 0u);     // the file has no TEXCOORD_1
+  EXPECT_EQ(m.colors.capacity(), 0u);  // nor COLOR_0
+  auto tight = [](std::size_t capacity, std::size_t size) {
+    return capacity >= size && capacity <= size + size / 64 + 1;
+  };
+  EXPECT_TRUE(tight(m.positions.capacity(), m.positions.size() + 1)) << m.positions.capacity();
+  EXPECT_GT(m.positions.capacity(), m.positions.size());
+  EXPECT_TRUE(tight(m.normals.capacity(), m.normals.size())) << m.normals.capacity();
+  EXPECT_TRUE(tight(m.uv0.capacity(), m.uv0.size())) << m.uv0.capacity();
+  EXPECT_TRUE(tight(m.tangents.capacity(), m.tangents.size())) << m.tangents.capacity();
+  EXPECT_TRUE(tight(m.triangles.capacity(), m.triangles.size())) << m.triangles.capacity();
+  EXPECT_TRUE(tight(m.triangle_material.capacity(), m.triangle_material.size()));
+  EXPECT_TRUE(tight(m.triangle_object.capacity(), m.triangle_object.size()));
+}
+
 // For leaf triangles, a ray straight through the leaf where its texture is clear passes, and one
 // where it is opaque stops: MASK cut-outs work on the generated foliage.
 TEST_F(GeneratedAtrium, LeavesAreCutOutWhereTheirTextureIsClear) {
