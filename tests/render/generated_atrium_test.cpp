@@ -1,13 +1,16 @@
 // scenes/generate_atrium.py (the scale benchmark's scene) at a small size: the file it writes
-// loads with the layout it promises, renders visibly, and its leaves are cut out by their
-// texture's alpha in the intersector. Skipped where python3 is not installed.
+// loads with the layout it promises, into arrays without unused memory, the same on any number
+// of threads; it renders visibly, and its leaves are cut out by their texture's alpha in the
+// intersector. Skipped where python3 is not installed.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <set>
 #include <string>
 
 #include <glm/geometric.hpp>
+#include <tbb/global_control.h>
 
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
@@ -100,6 +103,22 @@ TEST_F(GeneratedAtrium, MeshArraysHoldNoUnusedMemory) {
   EXPECT_TRUE(tight(m.triangles.capacity(), m.triangles.size())) << m.triangles.capacity();
   EXPECT_TRUE(tight(m.triangle_material.capacity(), m.triangle_material.size()));
   EXPECT_TRUE(tight(m.triangle_object.capacity(), m.triangle_object.size()));
+}
+
+// Tangent generation runs in parallel (scene/tangents.cpp): the scene, tangents included, is
+// the same bits on one thread as on all.
+TEST_F(GeneratedAtrium, LoadsTheSameOnOneThreadAsOnAll) {
+  scene::Scene parallel = scene::load_gltf(file_);
+  scene::Scene serial = [&] {
+    tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+    return scene::load_gltf(file_);
+  }();
+  EXPECT_EQ(parallel.content_hash, serial.content_hash);
+  ASSERT_EQ(parallel.mesh.tangents.size(), serial.mesh.tangents.size());
+  ASSERT_FALSE(serial.mesh.tangents.empty());
+  EXPECT_EQ(std::memcmp(parallel.mesh.tangents.data(), serial.mesh.tangents.data(),
+                        serial.mesh.tangents.size() * sizeof(glm::vec4)),
+            0);
 }
 
 // For leaf triangles, a ray straight through the leaf where its texture is clear passes, and one
