@@ -482,12 +482,17 @@ class Gltf:
             text += b" "
         total = 12 + 8 + len(text) + 8 + len(self.bin)
         tmp = path + ".tmp"
-        with open(tmp, "wb") as f:
-            f.write(struct.pack("<4sII", b"glTF", 2, total))
-            f.write(struct.pack("<I4s", len(text), b"JSON") + text)
-            f.write(struct.pack("<I4s", len(self.bin), b"BIN\x00"))
-            f.write(self.bin)
-        os.replace(tmp, path)  # never a half-written scene under the final name
+        try:
+            with open(tmp, "wb") as f:
+                f.write(struct.pack("<4sII", b"glTF", 2, total))
+                f.write(struct.pack("<I4s", len(text), b"JSON") + text)
+                f.write(struct.pack("<I4s", len(self.bin), b"BIN\x00"))
+                f.write(self.bin)
+            os.replace(tmp, path)  # never a half-written scene under the final name
+        except OSError:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+            raise
 
 
 def quat_y(angle):
@@ -592,8 +597,14 @@ def build(triangles, texture_size):
     return g
 
 
+class Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, as dofcache's own commands do
+        print("generate_atrium.py: error: %s" % message, file=sys.stderr)
+        sys.exit(2)
+
+
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = Parser(description=__doc__.split("\n")[0])
     parser.add_argument("out", nargs="?", default=os.path.join("out", "atrium.glb"),
                         help="output .glb (default: out/atrium.glb)")
     parser.add_argument("--triangles", type=int, default=2_100_000,
@@ -610,9 +621,13 @@ def main():
               file=sys.stderr)
         return 2
     g = build(args.triangles, args.texture_size)
-    directory = os.path.dirname(os.path.abspath(args.out))
-    os.makedirs(directory, exist_ok=True)
-    g.write_glb(args.out)
+    try:
+        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        g.write_glb(args.out)
+    except OSError as e:
+        print("generate_atrium.py: error: cannot write %s: %s" % (args.out, e.strerror),
+              file=sys.stderr)
+        return 1
     print("%s: %d triangles, %d textures, %d materials, %.1f MB" % (
         args.out, g.triangles, len(g.doc["textures"]), len(g.doc["materials"]),
         os.path.getsize(args.out) / 1e6))
