@@ -131,7 +131,7 @@ void check_radiance_cache_backend(const std::string& name, bool allow_none) {
 
 std::unique_ptr<RadianceCache> make_radiance_cache(const std::string& backend) {
   check_radiance_cache_backend(backend, /*allow_none=*/true);
-  if (backend == "octree") return std::make_unique<OctreeRadianceCache>();
+  if (backend == "octree") return make_octree_radiance_cache();
   if (backend == "vdb") return make_vdb_radiance_cache();
   return nullptr;  // "none"
 }

@@ -15,18 +15,20 @@ void TileSampleBuffer::add(const CacheSample& s) {
   lo_ = samples_.empty() ? lo : glm::min(lo_, lo);
   hi_ = samples_.empty() ? hi : glm::max(hi_, hi);
   samples_.push_back(local);
-  columns_.push_back(local);
+  blocks_.push_back(local);
 }
 
 bool TileSampleBuffer::lookup(glm::vec3 p, glm::vec3 n, const LookupOptions& options,
                               LookupResult* out) const {
   WeightedSum sum;
-  // A tile holds a few hundred samples at most: a linear scan, four samples at a time, beats
+  // A tile holds a few hundred samples at most: a linear scan, eight samples at a time, beats
   // building any structure. The bounds test skips points no sample of the tile can reach.
   if (!samples_.empty() && glm::all(glm::greaterThanEqual(p, lo_)) &&
       glm::all(glm::lessThanEqual(p, hi_))) {
     SampleTest test(p, n, options);
-    columns_.test_range(0, static_cast<std::uint32_t>(columns_.size()), test, &sum);
+    RangeScanner scanner(test, &sum, /*bridge_gaps=*/true);
+    scanner.add(&blocks_, 0, static_cast<std::uint32_t>(blocks_.size()));
+    scanner.flush();
   }
   return sum.finish(options.min_samples, out);
 }
@@ -37,7 +39,7 @@ void TileSampleBuffer::append_to(std::vector<CacheSample>* batch) const {
 
 void TileSampleBuffer::clear() {
   samples_.clear();
-  columns_.clear();
+  blocks_.clear();
 }
 
 }  // namespace dofcache::cache

@@ -15,8 +15,8 @@
 #include <immintrin.h>
 #endif
 
-#include "dofcache/cache/sample_store.h"
 #include "dofcache/core/error.h"
+#include "dofcache/cache/sample_blocks.h"
 #include "grid_math.h"
 
 namespace dofcache::cache {
@@ -45,307 +45,6 @@ struct VoxelKey {
   }
 };
 
-// The distance prefilter's bound is r^2 kSlack, a hair above the test's r^2 (scan_ranges_baseline).
-constexpr float kSlack = 1.0f + 0x1p-20f;
-
-// A level's samples in the order of the level's voxels, laid out for the lookup. The distance
-// prefilter reads positions and bounds in blocks of eight samples (x[8], y[8], z[8], reach2[8]:
-// two cache lines), so a voxel run's candidates are contiguous in memory; radii and normals follow
-// (the next two lines) for the scalar test of the few in reach, and the accepted ones read a
-// 16-byte record (id, value). Frames are only read back (get), so they sit apart.
-class LevelSamples {
- public:
-  static constexpr std::uint32_t kLanes = 8;
-  struct alignas(32) Block {
-    float x[kLanes], y[kLanes], z[kLanes], reach2[kLanes];  // reach2 = r^2 (1 + 2^-20)
-    float r[kLanes], nx[kLanes], ny[kLanes], nz[kLanes];
-  };
-  struct Record {
-    std::uint32_t id;
-    glm::vec3 value;
-  };
-
-  std::size_t size() const { return records_.size(); }
-  bool empty() const { return records_.empty(); }
-
-  void reserve(std::size_t n) {
-    blocks_.reserve((n + kLanes - 1) / kLanes);
-    records_.reserve(n);
-    frames_.reserve(n);
-  }
-  void push_back(const CacheSample& s) {
-    push_geometry(s.position, s.radius, s.normal);
-    records_.push_back({s.id, s.value});
-    frames_.push_back(s.frame);
-  }
-  void append_from(const LevelSamples& o, std::size_t j) {
-    push_geometry(o.position(j), o.radius(j), o.normal(j));
-    records_.push_back(o.records_[j]);
-    frames_.push_back(o.frames_[j]);
-  }
-  void swap(LevelSamples& o) {
-    blocks_.swap(o.blocks_);
-    records_.swap(o.records_);
-    frames_.swap(o.frames_);
-  }
-
-  CacheSample get(std::size_t i) const {
-    CacheSample s;
-    s.position = position(i);
-    s.radius = radius(i);
-    s.normal = normal(i);
-    s.id = records_[i].id;
-    s.value = records_[i].value;
-    s.frame = frames_[i];
-    return s;
-  }
-  std::uint32_t id(std::size_t i) const { return records_[i].id; }
-  glm::vec3 position(std::size_t i) const {
-    const Block& b = blocks_[i / kLanes];
-    return {b.x[i % kLanes], b.y[i % kLanes], b.z[i % kLanes]};
-  }
-  float radius(std::size_t i) const { return blocks_[i / kLanes].r[i % kLanes]; }
-  glm::vec3 normal(std::size_t i) const {
-    const Block& b = blocks_[i / kLanes];
-    return {b.nx[i % kLanes], b.ny[i % kLanes], b.nz[i % kLanes]};
-  }
-
-  const Block* blocks() const { return blocks_.data(); }  // sample i: block i / 8, lane i % 8
-  const Record* records() const { return records_.data(); }
-
-  std::size_t memory_bytes() const {
-    return heap_bytes(blocks_) + heap_bytes(records_) + heap_bytes(frames_);
-  }
-
- private:
-  // Appends a sample's geometry; the unused lanes of the last block keep radius 0, out of every
-  // point's reach.
-  void push_geometry(glm::vec3 p, float r, glm::vec3 n) {
-    std::size_t i = size();
-    if (i % kLanes == 0) blocks_.push_back(Block{});
-    Block& b = blocks_.back();
-    const std::size_t l = i % kLanes;
-    b.x[l] = p.x;
-    b.y[l] = p.y;
-    b.z[l] = p.z;
-    b.reach2[l] = r * r * kSlack;
-    b.r[l] = r;
-    b.nx[l] = n.x;
-    b.ny[l] = n.y;
-    b.nz[l] = n.z;
-  }
-
-  std::vector<Block> blocks_;
-  std::vector<Record> records_;
-  std::vector<std::uint32_t> frames_;
-};
-
-// Samples [begin, end) of one level: the candidates of one or more voxel runs.
-struct Range {
-  const LevelSamples* samples;
-  std::uint32_t begin, end;
-};
-
-// The scalar test of sample `lane` of block k, added to *sum if accepted.
-inline __attribute__((always_inline)) void test_lane(const LevelSamples& samples,
-                                                     std::uint32_t k, unsigned lane,
-                                                     const SampleTest& test, WeightedSum* sum) {
-  const LevelSamples::Block& b = samples.blocks()[k];
-  const float w = test.weight({b.x[lane], b.y[lane], b.z[lane]}, b.r[lane],
-                              {b.nx[lane], b.ny[lane], b.nz[lane]});
-  if (w > 0.0f) {
-    const LevelSamples::Record& record = samples.records()[k * LevelSamples::kLanes + lane];
-    sum->add(record.id, w, record.value);
-  }
-}
-
-// The samples that passed the prefilter, collected without a branch per block and tested
-// together afterwards: which blocks have a sample in reach follows no pattern, and a mispredicted
-// branch per such block costs more than the whole prefilter.
-class Candidates {
- public:
-  // Room for the blocks noted between two test() calls, kept apart from the counters so that
-  // those stay in registers.
-  struct Noted {
-    const LevelSamples* samples;
-    std::uint32_t k;  // block
-  };
-  static constexpr unsigned kMaxBlocks = 64 / LevelSamples::kLanes;
-  using Storage = std::array<Noted, kMaxBlocks>;
-
-  Candidates(Storage* blocks, const SampleTest& test, WeightedSum* sum)
-      : blocks_(blocks->data()), test_(test), sum_(sum) {}
-
-  // Where to stop noting the blocks k, k + 1, ... of a range (last block k_last) to keep room for
-  // its last block; the candidates are tested first if there is none.
-  std::uint32_t stop(std::uint32_t k, std::uint32_t k_last) {
-    if (count_ == kMaxBlocks) test();
-    return std::min(k_last, k + (kMaxBlocks - 1 - count_));
-  }
-
-  // Notes the lanes of block k that passed (mask, possibly 0). There must be room (stop()).
-  void note(const LevelSamples* samples, std::uint32_t k, unsigned mask) {
-    blocks_[count_] = {samples, k};
-    lanes_ |= static_cast<std::uint64_t>(mask) << (LevelSamples::kLanes * count_);
-    count_ += mask != 0;
-  }
-
-  // The scalar test of every candidate noted so far.
-  __attribute__((always_inline)) void test() {
-    while (lanes_) {
-      const auto bit = static_cast<unsigned>(__builtin_ctzll(lanes_));
-      lanes_ &= lanes_ - 1;
-      const Noted& noted = blocks_[bit / LevelSamples::kLanes];
-      test_lane(*noted.samples, noted.k, bit % LevelSamples::kLanes, test_, sum_);
-    }
-    count_ = 0;
-  }
-
- private:
-  Noted* blocks_;
-  const SampleTest& test_;
-  WeightedSum* sum_;
-  unsigned count_ = 0;
-  std::uint64_t lanes_ = 0;  // bit 8 i + lane: that lane of blocks_[i] passed
-};
-
-// The lanes of the range in its first and in its last block (bit l: lane l).
-inline unsigned first_lanes(const Range& range) {
-  return (0xFFu << (range.begin % LevelSamples::kLanes)) & 0xFFu;
-}
-inline unsigned last_lanes(const Range& range) {
-  return 0xFFu >> (LevelSamples::kLanes - 1 - (range.end - 1) % LevelSamples::kLanes);
-}
-
-// Tests the samples of the ranges against the query and adds the accepted ones to *sum. A
-// prefilter, ||p - p_i||^2 < r_i^2 (1 + 2^-20) (the block's reach2) with the distance computed in
-// the order SampleTest computes it, picks the candidates: it only skips samples that
-// SampleTest::weight rejects, and the decision is the scalar test's, so every backend accepts the
-// same samples with the same weights. It tests whole blocks, the lanes outside the range masked
-// off: half a block per SSE2 instruction here (the x86-64 baseline), a whole one in
-// scan_ranges_avx2. Neither uses fused multiply-add. The blocks of a range are noted in chunks
-// that leave the candidates room for its last block.
-void scan_ranges_baseline(const Range* ranges, unsigned count, const SampleTest& test,
-                          WeightedSum* sum) {
-  Candidates::Storage storage;
-  Candidates candidates(&storage, test, sum);
-#if defined(__SSE2__)
-  const glm::vec3 p = test.position();
-  const __m128 qx = _mm_set1_ps(p.x), qy = _mm_set1_ps(p.y), qz = _mm_set1_ps(p.z);
-  auto half = [&](const float* x, const float* y, const float* z, const float* reach2) {
-    __m128 dx = _mm_sub_ps(qx, _mm_load_ps(x));
-    __m128 dy = _mm_sub_ps(qy, _mm_load_ps(y));
-    __m128 dz = _mm_sub_ps(qz, _mm_load_ps(z));
-    __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-    return static_cast<unsigned>(_mm_movemask_ps(_mm_cmplt_ps(d2, _mm_load_ps(reach2))));
-  };
-  auto prefilter = [&](const LevelSamples::Block& b) {
-    return half(b.x, b.y, b.z, b.reach2) | half(b.x + 4, b.y + 4, b.z + 4, b.reach2 + 4) << 4;
-  };
-#else
-  auto prefilter = [](const LevelSamples::Block&) { return 0xFFu; };
-#endif
-  for (const Range* range = ranges; range != ranges + count; ++range) {
-    const LevelSamples* samples = range->samples;
-    const LevelSamples::Block* blocks = samples->blocks();
-    const std::uint32_t k_last = (range->end - 1) / LevelSamples::kLanes;
-    std::uint32_t k = range->begin / LevelSamples::kLanes;
-    unsigned lanes = first_lanes(*range);
-    for (;;) {
-      for (const std::uint32_t stop = candidates.stop(k, k_last); k < stop; ++k, lanes = 0xFFu)
-        candidates.note(samples, k, prefilter(blocks[k]) & lanes);
-      if (k == k_last) break;
-      candidates.test();
-    }
-    candidates.note(samples, k, prefilter(blocks[k]) & lanes & last_lanes(*range));
-  }
-  candidates.test();
-}
-
-#if defined(__x86_64__)
-// The prefilter of one block, eight lanes per instruction (AVX2: not in the x86-64 baseline, so
-// chosen at run time).
-__attribute__((target("avx2"), always_inline)) inline unsigned prefilter_avx2(
-    const LevelSamples::Block& b, __m256 qx, __m256 qy, __m256 qz) {
-  const __m256 dx = _mm256_sub_ps(qx, _mm256_load_ps(b.x));
-  const __m256 dy = _mm256_sub_ps(qy, _mm256_load_ps(b.y));
-  const __m256 dz = _mm256_sub_ps(qz, _mm256_load_ps(b.z));
-  const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
-                                  _mm256_mul_ps(dz, dz));
-  return static_cast<unsigned>(
-      _mm256_movemask_ps(_mm256_cmp_ps(d2, _mm256_load_ps(b.reach2), _CMP_LT_OQ)));
-}
-
-__attribute__((target("avx2"))) void scan_ranges_avx2(const Range* ranges, unsigned count,
-                                                      const SampleTest& test, WeightedSum* sum) {
-  Candidates::Storage storage;
-  Candidates candidates(&storage, test, sum);
-  const glm::vec3 p = test.position();
-  const __m256 qx = _mm256_set1_ps(p.x), qy = _mm256_set1_ps(p.y), qz = _mm256_set1_ps(p.z);
-  for (const Range* range = ranges; range != ranges + count; ++range) {
-    const LevelSamples* samples = range->samples;
-    const LevelSamples::Block* blocks = samples->blocks();
-    const std::uint32_t k_last = (range->end - 1) / LevelSamples::kLanes;
-    std::uint32_t k = range->begin / LevelSamples::kLanes;
-    unsigned lanes = first_lanes(*range);
-    for (;;) {
-      for (const std::uint32_t stop = candidates.stop(k, k_last); k < stop; ++k, lanes = 0xFFu)
-        candidates.note(samples, k, prefilter_avx2(blocks[k], qx, qy, qz) & lanes);
-      if (k == k_last) break;
-      candidates.test();
-    }
-    candidates.note(samples, k, prefilter_avx2(blocks[k], qx, qy, qz) & lanes & last_lanes(*range));
-  }
-  candidates.test();
-}
-
-const bool kHaveAvx2 = [] {
-  __builtin_cpu_init();  // may run before libgcc's own initialisation
-  return __builtin_cpu_supports("avx2") != 0;
-}();
-#endif
-
-// Collects the ranges a lookup must test and tests them in batches, so that a lookup enters the
-// SIMD kernel once rather than once per voxel run.
-class RangeScanner {
- public:
-  RangeScanner(const SampleTest& test, WeightedSum* sum) : test_(test), sum_(sum) {}
-
-  // Runs of one level arrive in increasing order. A run that starts in the block where the
-  // previous one ends, or in the next, extends it: the samples in between lie in voxels outside
-  // the query's box, which the test rejects, and a shared block is tested once.
-  void add(const LevelSamples* samples, std::uint32_t begin, std::uint32_t end) {
-    if (count_ > 0) {
-      Range& last = ranges_[count_ - 1];
-      if (last.samples == samples &&
-          begin / LevelSamples::kLanes <= (last.end - 1) / LevelSamples::kLanes + 1) {
-        assert(begin >= last.end);
-        last.end = end;
-        return;
-      }
-    }
-    if (count_ == kMaxRanges) flush();
-    ranges_[count_++] = {samples, begin, end};
-  }
-
-  void flush() {
-#if defined(__x86_64__)
-    if (kHaveAvx2)
-      scan_ranges_avx2(ranges_.data(), count_, test_, sum_);
-    else
-#endif
-      scan_ranges_baseline(ranges_.data(), count_, test_, sum_);
-    count_ = 0;
-  }
-
- private:
-  static constexpr unsigned kMaxRanges = 16;
-  const SampleTest& test_;
-  WeightedSum* sum_;
-  std::array<Range, kMaxRanges> ranges_;
-  unsigned count_ = 0;
-};
-
 struct Level {
   explicit Level(int e) : exponent(e), h(std::ldexp(1.0, e)), inv_h(std::ldexp(1.0, -e)) {}
 
@@ -355,7 +54,7 @@ struct Level {
   // voxels too: their run is empty), so a run of voxels along z is one contiguous range, read
   // from two values of one leaf. Voxels with samples are active.
   Tree tree{0};
-  LevelSamples samples;                   // sorted by VoxelKey
+  BlockSamples samples;                   // sorted by VoxelKey
   std::vector<std::uint32_t> leaf_begin;  // first sample of each leaf, increasing
   float r_max = 0.0f;                     // largest radius on the level
   double reach = 0.0;                     // r_max * kRadiusPad: how far a lookup searches
@@ -466,7 +165,7 @@ class VdbRadianceCache final : public RadianceCache {
     const SampleTest test(p, n, options);
     if (std::uint64_t in = levels_containing(p)) {
       const Reader& reader = this->reader();
-      RangeScanner scanner(test, &sum);
+      RangeScanner scanner(test, &sum, /*bridge_gaps=*/true);
       do {
         const auto k = static_cast<unsigned>(__builtin_ctzll(in));
         in &= in - 1;
@@ -660,7 +359,7 @@ class VdbRadianceCache final : public RadianceCache {
                      [](const auto& x, const auto& y) { return x.first < y.first; });
 
     // Merge, and note each sample's key for the start indices below.
-    LevelSamples merged;
+    BlockSamples merged;
     merged.reserve(level.samples.size() + added.size());
     std::vector<VoxelKey> keys;
     keys.reserve(level.samples.size() + added.size());

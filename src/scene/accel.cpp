@@ -234,32 +234,33 @@ Hit Accel::intersect(const Ray& ray) const {
   const Impl& im = *impl_;
   QueryContext context;
   rtcInitIntersectContext(&context.embree);
-  if (im.alpha_tested) context.ray_key = ray_key(ray);
-  float tnear = ray.tnear;
+  const bool alpha = im.alpha_tested;
+  if (alpha) context.ray_key = ray_key(ray);
+  RTCRayHit rh;
+  rh.ray.org_x = ray.origin.x;
+  rh.ray.org_y = ray.origin.y;
+  rh.ray.org_z = ray.origin.z;
+  rh.ray.tnear = ray.tnear;
+  rh.ray.dir_x = ray.direction.x;
+  rh.ray.dir_y = ray.direction.y;
+  rh.ray.dir_z = ray.direction.z;
+  rh.ray.time = 0.0f;
+  rh.ray.mask = 0xffffffffu;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
   // Camera rays skip the backs of single-sided triangles: trace again past each one met (a few
-  // at most in real scenes; the bound only guards against pathological stacks of them).
+  // at most in real scenes; the bound only guards against pathological stacks of them). Every
+  // other ray (nearly all of them) takes one trip through the loop.
   for (int attempt = 0; attempt < 256; ++attempt) {
-    RTCRayHit rh;
-    rh.ray.org_x = ray.origin.x;
-    rh.ray.org_y = ray.origin.y;
-    rh.ray.org_z = ray.origin.z;
-    rh.ray.tnear = tnear;
-    rh.ray.dir_x = ray.direction.x;
-    rh.ray.dir_y = ray.direction.y;
-    rh.ray.dir_z = ray.direction.z;
-    rh.ray.time = 0.0f;
     rh.ray.tfar = ray.tfar;
-    rh.ray.mask = 0xffffffffu;
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(im.scene, &context.embree, &rh);
-
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return Hit{};
     Hit hit;
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
     hit.t = rh.ray.tfar;
-    hit.triangle = im.scene_triangle(rh.hit.geomID, rh.hit.primID);
+    // Without alpha-tested triangles the mesh is one geometry, Scene::mesh.triangles itself.
+    hit.triangle = alpha ? im.scene_triangle(rh.hit.geomID, rh.hit.primID) : rh.hit.primID;
     hit.u = rh.hit.u;
     hit.v = rh.hit.v;
     if (!ray.cull_back_faces || !im.single_sided[hit.triangle]) return hit;
@@ -267,7 +268,7 @@ Hit Accel::intersect(const Ray& ray) const {
     const auto& p = im.source->mesh.positions;
     if (glm::dot(glm::cross(p[t.y] - p[t.x], p[t.z] - p[t.x]), ray.direction) <= 0.0f)
       return hit;  // the front (counter-clockwise) face
-    tnear = std::nextafter(hit.t, std::numeric_limits<float>::infinity());
+    rh.ray.tnear = std::nextafter(hit.t, std::numeric_limits<float>::infinity());
   }
   return Hit{};
 }

@@ -9,7 +9,7 @@
 #include <glm/vec3.hpp>
 
 #include "dofcache/cache/sample.h"
-#include "dofcache/cache/sample_store.h"
+#include "dofcache/cache/sample_blocks.h"
 
 namespace dofcache::cache {
 
@@ -30,7 +30,7 @@ class TileSampleBuffer {
 
  private:
   std::vector<CacheSample> samples_;
-  SampleColumns columns_;  // the same samples, laid out for lookups
+  BlockSamples blocks_;  // the same samples, laid out for lookups
   glm::vec3 lo_{0.0f}, hi_{0.0f};  // bounds of the samples' spheres
 };
 
