@@ -17,11 +17,16 @@
 namespace dofcache::scene {
 namespace {
 
-// Triangles whose material is alpha-tested (MASK or BLEND) go into a second Embree geometry that
-// has the filter function; the rest (nearly always all) into one without, which Embree traces at
-// full speed. Culling the back faces of single-sided materials, which only camera rays do, is a
-// re-trace past the culled hit (Accel::intersect), not a filter on every triangle.
-constexpr unsigned kPlainGeometry = 0, kAlphaGeometry = 1;
+// Triangles whose material is alpha-tested (MASK or BLEND) go into Embree geometries that have
+// the filter function; the rest (nearly always all) into ones without, which Embree traces at
+// full speed. Each geometry is a run of consecutive scene triangles of one kind that shares
+// Scene::mesh.triangles: the loader appends a primitive's triangles together, so runs are few
+// and no index is copied (a copy was 16 bytes per triangle, a quarter of Embree's own BVH). Where
+// runs are many and short, the triangles are copied into two geometries instead (plain and
+// alpha-tested), since an Embree geometry costs far more than a triangle's indices.
+// Culling the back faces of single-sided materials, which only camera rays do, is a re-trace past
+// the culled hit (Accel::intersect), not a filter on every triangle.
+constexpr unsigned kPlainGeometry = 0, kAlphaGeometry = 1;  // the copies' geometries
 
 // The query's context: Embree hands it to the filter function (it must start with Embree's own).
 struct QueryContext {
@@ -69,13 +74,36 @@ struct Accel::Impl {
   const Scene* source = nullptr;
   std::vector<float> padded_positions;  // only when Scene::mesh.positions cannot be shared
   std::vector<std::uint8_t> single_sided;  // per scene triangle: culled from behind by camera rays
-  // With alpha-tested triangles: each geometry's index buffer and its primitives' scene triangles
-  // (empty when there are none: the plain geometry is then Scene::mesh.triangles itself).
+  // Embree geometry g holds the scene triangles run_first[g] + prim (runs sharing
+  // Scene::mesh.triangles) or, where the triangles were copied (run_first empty),
+  // triangle_of[g][prim], with indices[g] its index buffer.
+  std::vector<std::uint32_t> run_first;
   std::vector<glm::uvec3> indices[2];
   std::vector<std::uint32_t> triangle_of[2];
+  bool alpha_tested = false;  // some triangles are: rays need their key for BLEND draws
 
   std::uint32_t scene_triangle(unsigned geometry, unsigned prim) const {
-    return triangle_of[geometry].empty() ? prim : triangle_of[geometry][prim];
+    return run_first.empty() ? triangle_of[geometry][prim] : run_first[geometry] + prim;
+  }
+
+  // Embree geometry `id`: `count` triangles of `index` over the shared vertex buffer, with the
+  // alpha filter function if `alpha`.
+  void attach(unsigned id, const void* vertices, std::size_t vertex_count,
+              const glm::uvec3* index, std::size_t count, bool alpha) {
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0,
+                               3 * sizeof(float), vertex_count);
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, index, 0,
+                               3 * sizeof(std::uint32_t), count);
+    if (alpha) {
+      rtcSetGeometryUserData(geom, this);
+      rtcSetGeometryIntersectFilterFunction(geom, &Impl::filter);
+      rtcSetGeometryOccludedFilterFunction(geom, &Impl::filter);
+    }
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(scene, geom, id);
+    rtcReleaseGeometry(geom);  // the scene holds it now
   }
 
   // Embree reports errors through a C callback. Throwing through Embree's C API is not safe, so
@@ -112,8 +140,8 @@ struct Accel::Impl {
     const Scene& s = *im->source;
     for (unsigned i = 0; i < args->N; ++i) {
       if (args->valid[i] != -1) continue;
-      const std::uint32_t t =
-          im->scene_triangle(kAlphaGeometry, RTCHitN_primID(args->hit, args->N, i));
+      const std::uint32_t t = im->scene_triangle(RTCHitN_geomID(args->hit, args->N, i),
+                                                 RTCHitN_primID(args->hit, args->N, i));
       const float alpha =
           s.alpha_at(t, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
       const Material& m = s.materials[s.mesh.triangle_material[t]];
@@ -145,23 +173,27 @@ Accel::Accel(const Scene& s) : impl_(std::make_unique<Impl>()) {
   im.check("creating the scene");
 
   const Mesh& mesh = s.mesh;
+  const std::size_t n = mesh.triangles.size();
   im.source = &s;
-  im.single_sided.assign(mesh.triangles.size(), 0);
-  std::size_t alpha_tested = 0;
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+  im.single_sided.assign(n, 0);
+  std::vector<std::uint8_t> alpha(n, 0);
+  std::vector<std::uint32_t> runs;  // the first triangle of each run of one kind
+  for (std::size_t t = 0; t < n; ++t) {
     const std::uint32_t material = t < mesh.triangle_material.size() ? mesh.triangle_material[t] : 0;
-    if (material >= s.materials.size()) continue;
-    const Material& m = s.materials[material];
-    im.single_sided[t] = !m.double_sided;
-    alpha_tested += m.alpha_mode != AlphaMode::Opaque;
+    if (material < s.materials.size()) {
+      const Material& m = s.materials[material];
+      im.single_sided[t] = !m.double_sided;
+      alpha[t] = m.alpha_mode != AlphaMode::Opaque;
+    }
+    im.alpha_tested = im.alpha_tested || alpha[t];
+    if (t == 0 || alpha[t] != alpha[t - 1]) runs.push_back(static_cast<std::uint32_t>(t));
   }
-  if (alpha_tested > 0) {
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-      const std::uint32_t material =
-          t < mesh.triangle_material.size() ? mesh.triangle_material[t] : 0;
-      const bool alpha =
-          material < s.materials.size() && s.materials[material].alpha_mode != AlphaMode::Opaque;
-      const unsigned g = alpha ? kAlphaGeometry : kPlainGeometry;
+  // An Embree geometry takes about a kilobyte: shared runs while they average hundreds of
+  // triangles.
+  const bool share = runs.size() <= 16 + n / 256;
+  if (!share) {
+    for (std::size_t t = 0; t < n; ++t) {
+      const unsigned g = alpha[t] ? kAlphaGeometry : kPlainGeometry;
       im.indices[g].push_back(mesh.triangles[t]);
       im.triangle_of[g].push_back(static_cast<std::uint32_t>(t));
     }
@@ -177,26 +209,18 @@ Accel::Accel(const Scene& s) : impl_(std::make_unique<Impl>()) {
         for (int c = 0; c < 3; ++c) im.padded_positions[3 * i + c] = mesh.positions[i][c];
       vertices = im.padded_positions.data();
     }
-    for (unsigned g : {kPlainGeometry, kAlphaGeometry}) {
-      const glm::uvec3* index = alpha_tested ? im.indices[g].data() : mesh.triangles.data();
-      const std::size_t count = alpha_tested ? im.indices[g].size()
-                                : g == kPlainGeometry ? mesh.triangles.size()
-                                                      : 0;
-      if (count == 0) continue;
-      RTCGeometry geom = rtcNewGeometry(im.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-      rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
-      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0,
-                                 3 * sizeof(float), mesh.positions.size());
-      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, index, 0,
-                                 3 * sizeof(std::uint32_t), count);
-      if (g == kAlphaGeometry) {
-        rtcSetGeometryUserData(geom, &im);
-        rtcSetGeometryIntersectFilterFunction(geom, &Impl::filter);
-        rtcSetGeometryOccludedFilterFunction(geom, &Impl::filter);
+    if (share) {
+      for (std::size_t r = 0; r < runs.size(); ++r) {
+        const std::size_t end = r + 1 < runs.size() ? runs[r + 1] : n;
+        im.attach(static_cast<unsigned>(r), vertices, mesh.positions.size(),
+                  mesh.triangles.data() + runs[r], end - runs[r], alpha[runs[r]]);
       }
-      rtcCommitGeometry(geom);
-      rtcAttachGeometryByID(im.scene, geom, g);
-      rtcReleaseGeometry(geom);  // the scene holds it now
+      im.run_first = std::move(runs);
+    } else {
+      for (unsigned g : {kPlainGeometry, kAlphaGeometry})
+        if (!im.indices[g].empty())
+          im.attach(g, vertices, mesh.positions.size(), im.indices[g].data(),
+                    im.indices[g].size(), g == kAlphaGeometry);
     }
     im.check("setting up the triangle geometry");
   }
@@ -210,7 +234,7 @@ Hit Accel::intersect(const Ray& ray) const {
   const Impl& im = *impl_;
   QueryContext context;
   rtcInitIntersectContext(&context.embree);
-  const bool alpha = !im.triangle_of[kAlphaGeometry].empty();
+  const bool alpha = im.alpha_tested;
   if (alpha) context.ray_key = ray_key(ray);
   RTCRayHit rh;
   rh.ray.org_x = ray.origin.x;
@@ -235,7 +259,8 @@ Hit Accel::intersect(const Ray& ray) const {
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return Hit{};
     Hit hit;
     hit.t = rh.ray.tfar;
-    hit.triangle = alpha ? im.triangle_of[rh.hit.geomID][rh.hit.primID] : rh.hit.primID;
+    // Without alpha-tested triangles the mesh is one geometry, Scene::mesh.triangles itself.
+    hit.triangle = alpha ? im.scene_triangle(rh.hit.geomID, rh.hit.primID) : rh.hit.primID;
     hit.u = rh.hit.u;
     hit.v = rh.hit.v;
     if (!ray.cull_back_faces || !im.single_sided[hit.triangle]) return hit;
@@ -252,7 +277,7 @@ bool Accel::occluded(const Ray& ray) const {
   if (ray.cull_back_faces) return intersect(ray).valid();  // needs the hits to cull
   QueryContext context;
   rtcInitIntersectContext(&context.embree);
-  if (!impl_->triangle_of[kAlphaGeometry].empty()) context.ray_key = ray_key(ray);
+  if (impl_->alpha_tested) context.ray_key = ray_key(ray);
   RTCRay r;
   r.org_x = ray.origin.x;
   r.org_y = ray.origin.y;

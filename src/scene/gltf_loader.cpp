@@ -557,15 +557,35 @@ class Loader : gltf::Document {
     for (auto& [v, face] : repaired_) sums[v] += face;
     for (auto& [v, sum] : sums)
       m.normals[v] = glm::length(sum) > 0.0f ? glm::normalize(sum) : glm::vec3(0, 0, 1);
-    if (!has_uv_[0]) m.uv0.clear();
-    if (!has_uv_[1]) m.uv1.clear();
-    if (!has_colors_) m.colors.clear();
-    if (!has_tangents_) m.tangents.clear();
+    // Arrays no primitive filled are freed, not just emptied, and the others lose the slack of
+    // their growth: on a scene of millions of triangles, the attributes filled with defaults
+    // and the doubling of push_back held about as much memory as the data (docs/scenes.md,
+    // "Scale").
+    if (!has_uv_[0]) std::vector<glm::vec2>().swap(m.uv0);
+    if (!has_uv_[1]) std::vector<glm::vec2>().swap(m.uv1);
+    if (!has_colors_) std::vector<glm::vec4>().swap(m.colors);
+    if (!has_tangents_) std::vector<glm::vec4>().swap(m.tangents);
+    fit(m.normals), fit(m.uv0), fit(m.uv1), fit(m.colors), fit(m.tangents);
+    fit(m.triangles), fit(m.triangle_material), fit(m.triangle_object);
     for (glm::vec3 p : m.positions) scene_.bounds.extend(p);
     // Embree reads vertex buffers with 16-byte loads: keep (initialised) room for one more float
     // after the last vertex so the accelerator can share this buffer (see accel.cpp).
     m.positions.emplace_back(0.0f);
     m.positions.pop_back();
+    if (m.positions.capacity() > m.positions.size() + m.positions.size() / 64 + 1) {
+      std::vector<glm::vec3> fitted;
+      fitted.reserve(m.positions.size() + 1);
+      fitted = m.positions;  // keeps the reserved capacity (no reallocation: it fits)
+      fitted.emplace_back(0.0f);
+      fitted.pop_back();
+      m.positions.swap(fitted);
+    }
+  }
+
+  // Drops a vector's unused capacity when it is more than a little (a copy costs time).
+  template <class T>
+  static void fit(std::vector<T>& v) {
+    if (v.capacity() > v.size() + v.size() / 64) v.shrink_to_fit();
   }
 
   // -- materials and textures

@@ -114,5 +114,43 @@ TEST(Accel, EmptyMeshBuildsAndMisses) {
   EXPECT_FALSE(accel.occluded(ray));
 }
 
+// Opaque and cut-out triangles side by side, in long runs of one kind (Embree geometries sharing
+// the scene's index buffer) or alternating (many short runs: the indices are copied into two
+// geometries): either way each hit names its scene triangle and the cut-out ones are not hit.
+TEST(Accel, HitsNameTheSceneTriangleWhetherRunsAreSharedOrCopied) {
+  for (std::size_t run_length : {std::size_t{16}, std::size_t{1}}) {  // 4 runs; 64 runs
+    Scene s;
+    const std::size_t n = 64;
+    for (std::size_t i = 0; i < n; ++i) {
+      const float x = static_cast<float>(i);
+      const auto first = static_cast<std::uint32_t>(s.mesh.positions.size());
+      s.mesh.positions.insert(s.mesh.positions.end(),
+                              {{x, 0, -2}, {x + 0.8f, 0, -2}, {x, 0.8f, -2}});
+      s.mesh.triangles.push_back({first, first + 1, first + 2});
+      s.mesh.triangle_material.push_back((i / run_length) % 2 == 0 ? 0 : 1);
+      s.mesh.triangle_object.push_back(0);
+    }
+    s.mesh.normals.assign(s.mesh.positions.size(), glm::vec3(0, 0, 1));
+    s.materials.resize(2);
+    s.materials[1].alpha_mode = AlphaMode::Mask;
+    s.materials[1].base_color.a = 0.0f;  // cut out everywhere
+    Accel accel(s);
+    for (std::size_t i = 0; i < n; ++i) {
+      Ray ray;
+      ray.origin = {static_cast<float>(i) + 0.2f, 0.2f, 0.0f};
+      ray.direction = {0, 0, -1};
+      const Hit hit = accel.intersect(ray);
+      if (s.mesh.triangle_material[i] == 0) {
+        ASSERT_TRUE(hit.valid()) << "run length " << run_length << ", triangle " << i;
+        EXPECT_EQ(hit.triangle, i) << "run length " << run_length;
+        EXPECT_NEAR(hit.u, 0.25f, 1e-5f);
+      } else {
+        EXPECT_FALSE(hit.valid()) << "run length " << run_length << ", triangle " << i;
+        EXPECT_FALSE(accel.occluded(ray)) << "run length " << run_length << ", triangle " << i;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace dofcache::scene
