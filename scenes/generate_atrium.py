@@ -25,7 +25,8 @@ import os
 import random
 import struct
 import sys
-import zlib
+
+import png_writer  # scenes/png_writer.py, beside this script
 
 GL_FLOAT, GL_UNSIGNED_INT = 5126, 5125
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -237,19 +238,7 @@ def bush(leaves, seed):
 
 def png_rgba(width, height, pixel):
     """pixel(x, y) -> (r, g, b, a), 0..255; row 0 is the top."""
-    raw = bytearray()
-    for y in range(height):
-        raw.append(0)  # filter: none
-        for x in range(width):
-            raw.extend(pixel(x, y))
-
-    def chunk(tag, data):
-        body = tag + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xffffffff)
-
-    ihdr = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(bytes(raw), 6))
-            + chunk(b"IEND", b""))
+    return png_writer.png(width, height, pixel, alpha=True, level=6)
 
 
 def hash01(x, y, seed):

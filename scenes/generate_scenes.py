@@ -24,7 +24,8 @@ import json
 import math
 import os
 import struct
-import zlib
+
+import png_writer  # scenes/png_writer.py, beside this script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 Y_RES = 480  # image height the CoC tables are computed for
@@ -329,19 +330,7 @@ def vase(segments=64):
 
 def png_bytes(width, height, pixel):
     """pixel(x, y) -> (r, g, b) bytes; row 0 is the top."""
-    raw = bytearray()
-    for y in range(height):
-        raw.append(0)  # filter: none
-        for x in range(width):
-            raw += bytes(pixel(x, y))
-
-    def chunk(tag, data):
-        body = tag + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xffffffff)
-
-    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(bytes(raw), 9))
-            + chunk(b"IEND", b""))
+    return png_writer.png(width, height, pixel, alpha=False, level=9)
 
 
 # --------------------------------------------------------------------------------------------

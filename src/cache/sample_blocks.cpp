@@ -80,14 +80,37 @@ inline unsigned last_lanes(const Range& range) {
   return 0xFFu >> (BlockSamples::kLanes - 1 - (range.end - 1) % BlockSamples::kLanes);
 }
 
+// The blocks of each range through `prefilter` (a block -> the mask of its lanes in reach), noted
+// in chunks that leave the candidates room for the range's last block, then the scalar test of
+// the candidates. Inlined into each kernel, so it is compiled for that kernel's instruction set.
+template <typename Prefilter>
+__attribute__((always_inline)) inline void scan_blocks(const Range* ranges, unsigned count,
+                                                       Candidates& candidates,
+                                                       const Prefilter& prefilter) {
+  for (const Range* range = ranges; range != ranges + count; ++range) {
+    const BlockSamples* samples = range->samples;
+    const BlockSamples::Block* blocks = samples->blocks();
+    const std::uint32_t k_last = (range->end - 1) / BlockSamples::kLanes;
+    std::uint32_t k = range->begin / BlockSamples::kLanes;
+    unsigned lanes = first_lanes(*range);
+    for (;;) {
+      for (const std::uint32_t stop = candidates.stop(k, k_last); k < stop; ++k, lanes = 0xFFu)
+        candidates.note(samples, k, prefilter(blocks[k]) & lanes);
+      if (k == k_last) break;
+      candidates.test();
+    }
+    candidates.note(samples, k, prefilter(blocks[k]) & lanes & last_lanes(*range));
+  }
+  candidates.test();
+}
+
 // Tests the samples of the ranges against the query and adds the accepted ones to *sum. A
 // prefilter, ||p - p_i||^2 < r_i^2 (1 + 2^-20) (the block's reach2) with the distance computed in
 // the order SampleTest computes it, picks the candidates: it only skips samples that
 // SampleTest::weight rejects, and the decision is the scalar test's, so every backend accepts the
 // same samples with the same weights. It tests whole blocks, the lanes outside the range masked
 // off: half a block per SSE2 instruction here (the x86-64 baseline), a whole one in
-// scan_ranges_avx2. Neither uses fused multiply-add. The blocks of a range are noted in chunks
-// that leave the candidates room for its last block.
+// scan_ranges_avx2. Neither uses fused multiply-add.
 void scan_ranges_baseline(const Range* ranges, unsigned count, const SampleTest& test,
                           WeightedSum* sum) {
   Candidates::Storage storage;
@@ -108,21 +131,7 @@ void scan_ranges_baseline(const Range* ranges, unsigned count, const SampleTest&
 #else
   auto prefilter = [](const BlockSamples::Block&) { return 0xFFu; };
 #endif
-  for (const Range* range = ranges; range != ranges + count; ++range) {
-    const BlockSamples* samples = range->samples;
-    const BlockSamples::Block* blocks = samples->blocks();
-    const std::uint32_t k_last = (range->end - 1) / BlockSamples::kLanes;
-    std::uint32_t k = range->begin / BlockSamples::kLanes;
-    unsigned lanes = first_lanes(*range);
-    for (;;) {
-      for (const std::uint32_t stop = candidates.stop(k, k_last); k < stop; ++k, lanes = 0xFFu)
-        candidates.note(samples, k, prefilter(blocks[k]) & lanes);
-      if (k == k_last) break;
-      candidates.test();
-    }
-    candidates.note(samples, k, prefilter(blocks[k]) & lanes & last_lanes(*range));
-  }
-  candidates.test();
+  scan_blocks(ranges, count, candidates, prefilter);
 }
 
 #if defined(__x86_64__)
@@ -145,21 +154,10 @@ __attribute__((target("avx2"))) void scan_ranges_avx2(const Range* ranges, unsig
   Candidates candidates(&storage, test, sum);
   const glm::vec3 p = test.position();
   const __m256 qx = _mm256_set1_ps(p.x), qy = _mm256_set1_ps(p.y), qz = _mm256_set1_ps(p.z);
-  for (const Range* range = ranges; range != ranges + count; ++range) {
-    const BlockSamples* samples = range->samples;
-    const BlockSamples::Block* blocks = samples->blocks();
-    const std::uint32_t k_last = (range->end - 1) / BlockSamples::kLanes;
-    std::uint32_t k = range->begin / BlockSamples::kLanes;
-    unsigned lanes = first_lanes(*range);
-    for (;;) {
-      for (const std::uint32_t stop = candidates.stop(k, k_last); k < stop; ++k, lanes = 0xFFu)
-        candidates.note(samples, k, prefilter_avx2(blocks[k], qx, qy, qz) & lanes);
-      if (k == k_last) break;
-      candidates.test();
-    }
-    candidates.note(samples, k, prefilter_avx2(blocks[k], qx, qy, qz) & lanes & last_lanes(*range));
-  }
-  candidates.test();
+  auto prefilter = [&](const BlockSamples::Block& b) __attribute__((target("avx2"))) {
+    return prefilter_avx2(b, qx, qy, qz);
+  };
+  scan_blocks(ranges, count, candidates, prefilter);
 }
 
 const bool kHaveAvx2 = [] {
