@@ -23,8 +23,10 @@ def main():
     out = sys.argv[2] if len(sys.argv) > 2 else os.path.join(ROOT, "docs/images/cache_sweep.png")
     with open(src) as f:
         results = json.load(f)
+    machine = results.get("machine", {})
+    body = results.get("results", results)
     series = {}
-    for row in results["rows"]:
+    for row in body["rows"]:
         series.setdefault((row["trace"], row["backend"]), []).append(row)
     traces = sorted({t for t, _ in series})
     colours = dict(zip(traces, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
@@ -49,7 +51,9 @@ def main():
     right.set_ylabel("bytes per sample")
     right.set_ylim(bottom=0)
     right.legend(fontsize=7, loc="upper right")
-    fig.suptitle("Radiance-cache backends on recorded render traces (dashed: octree, solid: vdb)")
+    commit = machine.get("git", {}).get("commit", "")[:7]
+    fig.suptitle("Radiance-cache backends on recorded render traces (dashed: octree, solid: vdb)"
+                 f", commit {commit}")
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     print("wrote", out)
