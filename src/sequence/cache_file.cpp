@@ -127,6 +127,8 @@ void write_vdb(const std::string& path, const CacheFile& file) {
   meta.insertMeta("dofcache.format", vdb::StringMetadata(kFormatName));
   meta.insertMeta("dofcache.version", vdb::Int32Metadata(kCacheFileVersion));
   meta.insertMeta("dofcache.scene_hash", vdb::StringMetadata(hex64(file.identity.scene_hash)));
+  meta.insertMeta("dofcache.environment_hash",
+                  vdb::StringMetadata(hex64(file.identity.environment_hash)));
   meta.insertMeta("dofcache.scene", vdb::StringMetadata(file.scene_source));
   meta.insertMeta("dofcache.light_samples", vdb::Int32Metadata(file.identity.light_samples));
   meta.insertMeta("dofcache.gather_rays", vdb::Int32Metadata(file.identity.gather_rays));
@@ -237,6 +239,8 @@ CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
                 ")");
   CacheFile file;
   file.identity.scene_hash = m.hex("dofcache.scene_hash");
+  if (m.has("dofcache.environment_hash"))  // written since environments exist
+    file.identity.environment_hash = m.hex("dofcache.environment_hash");
   file.scene_source = m.string("dofcache.scene");
   file.identity.light_samples = m.int32("dofcache.light_samples");
   file.identity.gather_rays = m.int32("dofcache.gather_rays");
@@ -343,6 +347,7 @@ bool valid_sample_record(const SampleRecord& r) {
 CacheIdentity cache_identity(const scene::Scene& scene, const render::RenderSettings& settings) {
   CacheIdentity id;
   id.scene_hash = scene.content_hash;
+  if (settings.shading.environment) id.environment_hash = settings.shading.environment->content_hash();
   id.light_samples = settings.shading.light_samples;
   id.gather_rays = settings.shading.gather_rays;
   id.bounces = settings.shading.bounces;
@@ -386,6 +391,13 @@ void check_cache_identity(const CacheFile& file, const CacheIdentity& expected,
     throw Error(path + ": the cache was made for another scene ('" + file.scene_source +
                 "', content hash " + hex64(got.scene_hash) + "; this scene's is " +
                 hex64(expected.scene_hash) + ")");
+  if (got.environment_hash != expected.environment_hash) {
+    auto name = [](std::uint64_t h) { return h == 0 ? std::string("none") : hex64(h); };
+    throw Error(path + ": the cache was made under another environment light (content hash " +
+                name(got.environment_hash) + "; this render's is " +
+                name(expected.environment_hash) +
+                "; cached values depend on it: use the same --env options or a new cache)");
+  }
   auto differs = [&](const char* what, int a, int b) {
     if (a != b)
       throw Error(path + ": the cache was made with " + what + " " + std::to_string(a) +

@@ -172,7 +172,34 @@ TEST_F(CacheFileTest, RefusesOtherSceneOrShading) {
   other = f.identity;
   other.sample_quality = 4;
   EXPECT_NE(message(other).find("--cache-sample-quality"), std::string::npos);
+  other = f.identity;
+  other.environment_hash = 0xfeedULL;  // the cache was made without an environment
+  EXPECT_NE(message(other).find("another environment light"), std::string::npos)
+      << message(other);
   EXPECT_EQ(message(f.identity), "accepted");
+}
+
+TEST_F(CacheFileTest, EnvironmentIsPartOfTheIdentity) {
+  CacheFile f = sample_file(4);
+  f.identity.environment_hash = 0x00000000cafef00dULL;
+  write_cache_file(path("env.vdb"), f);
+  const CacheFile g = read_cache_file(path("env.vdb"));
+  EXPECT_EQ(g.identity.environment_hash, 0x00000000cafef00dULL);
+  EXPECT_TRUE(g.identity == f.identity);
+
+  // What a render computes: the environment's own content hash, or 0 without one.
+  scene::Scene scene;
+  render::RenderSettings s;
+  EXPECT_EQ(cache_identity(scene, s).environment_hash, 0u);
+  s.shading.environment = std::make_shared<render::Environment>(
+      render::Environment::constant(glm::vec3(0.5f)));
+  const std::uint64_t grey = cache_identity(scene, s).environment_hash;
+  EXPECT_EQ(grey, s.shading.environment->content_hash());
+  EXPECT_NE(grey, 0u);
+  s.shading.environment = std::make_shared<render::Environment>(
+      render::Environment::constant(glm::vec3(0.25f)));
+  EXPECT_NE(cache_identity(scene, s).environment_hash, grey);
+  EXPECT_THROW(check_cache_identity(g, cache_identity(scene, s), "env.vdb"), Error);
 }
 
 TEST_F(CacheFileTest, RefusesDamagedFiles) {

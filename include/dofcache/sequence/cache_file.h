@@ -7,6 +7,8 @@
 //                   dofcache.scene_hash (16 hex digits), dofcache.scene (source, informational),
 //                   dofcache.light_samples / gather_rays / bounces / sample_quality (int32),
 //                   dofcache.min_factor (double), dofcache.sample_count (int64),
+//                   dofcache.environment_hash (16 hex digits: the environment light's content
+//                   hash, 0 for none; absent in files from before environments: none),
 //                   checkpoints also: dofcache.sequence_key (16 hex digits), dofcache.first_frame,
 //                   dofcache.frame (int32: the last complete frame)
 //   grid "samples"  a PointDataGrid, one point per sample, power-of-two voxel size (so positions
@@ -35,15 +37,17 @@ namespace dofcache::sequence {
 
 constexpr int kCacheFileVersion = 1;
 
-// What cached values depend on: the scene and the settings of the E/pi estimator. A cache is
-// reusable only where all of these match. (The radius rule's min_factor is stored but need not
+// What cached values depend on: the scene, the environment light and the settings of the E/pi
+// estimator. A cache is reusable only where all of these match. (The radius rule's min_factor is stored but need not
 // match: the reuse rule adapts every radius to the current frame.)
 struct CacheIdentity {
   std::uint64_t scene_hash = 0;
   int light_samples = 0, gather_rays = 0, bounces = 0, sample_quality = 0;
+  std::uint64_t environment_hash = 0;  // Environment::content_hash(), 0 without one
 
   bool operator==(const CacheIdentity& o) const {
-    return scene_hash == o.scene_hash && light_samples == o.light_samples &&
+    return scene_hash == o.scene_hash && environment_hash == o.environment_hash &&
+           light_samples == o.light_samples &&
            gather_rays == o.gather_rays && bounces == o.bounces &&
            sample_quality == o.sample_quality;
   }
