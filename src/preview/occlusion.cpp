@@ -185,10 +185,11 @@ void reach_region(const std::vector<float>& coc, int W, int H, const LayerReach&
 
 std::vector<image::Image> lens_reach_regions(const image::Image& depth, const LayerPlan& plan,
                                              const lens::LensImaging& imaging,
-                                             const PreviewOptions& options) {
-  const int n = plan.size(), W = depth.width(), H = depth.height();
+                                             const PreviewOptions& options, int count) {
+  const int n = count < 0 ? plan.size() : std::min(count, plan.size());
+  const int W = depth.width(), H = depth.height();
   if (depth.channels() != 1) throw Error("occlusion masks: depth must be 1 channel");
-  std::vector<image::Image> regions(n, image::Image(W, H, 1, 0.0f));
+  std::vector<image::Image> regions(plan.size(), image::Image(W, H, 1, 0.0f));
   if (n < 2 || W == 0 || H == 0) return regions;
   if (!options.mask_lens_reach) {
     for (int j = 1; j < n; ++j) regions[j] = image::Image(W, H, 1, 1.0f);

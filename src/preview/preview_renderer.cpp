@@ -41,6 +41,18 @@ class IdLayers {
     for (const glm::vec3& v : scene.mesh.positions) farthest_ = std::max(farthest_, static_cast<double>(cam.depth(v)));
   }
 
+  // Whether the plane z has a surface at or behind it (+inf has none); no hit exists otherwise.
+  bool any_surface_behind(double z) const { return z * (1.0 - 1e-4) <= farthest_; }
+
+  // The layers up to the first plane behind every surface: the farther ones are empty (planes
+  // lie front to back).
+  int traced_layers(const LayerPlan& plan) const {
+    int j = 1;
+    while (j < plan.size() && any_surface_behind(plan.layers[j].depth)) ++j;
+    return j;
+  }
+
+  // regions: lens_reach_regions for at least traced_layers(plan) layers.
   std::vector<image::Image> render(const LayerPlan& plan, const std::vector<image::Image>& regions,
                                    std::uint64_t* traced) {
     const int n = plan.size();
@@ -48,7 +60,7 @@ class IdLayers {
     layers[0] = pinhole_.ids;
     for (int j = 1; j < n; ++j) {
       const double z = plan.layers[j].depth;
-      if (!(z * (1.0 - 1e-4) <= farthest_)) {  // +inf, or behind every surface
+      if (!any_surface_behind(z)) {
         layers[j] = image::Image(pinhole_.ids.width(), pinhole_.ids.height(), 1, -1.0f);
         continue;
       }
@@ -166,10 +178,10 @@ SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel&
     result.coverage = revealed_coverage(plan, in.imaging);
     if (n >= 2) {
       t0 = clock::now();
+      IdLayers ids(scene, accel, camera, base, in);
       const std::vector<image::Image> regions =
-          lens_reach_regions(in.depth, plan, in.imaging, options);
-      std::vector<image::Image> id_layers =
-          IdLayers(scene, accel, camera, base, in).render(plan, regions, &t.id_pixels);
+          lens_reach_regions(in.depth, plan, in.imaging, options, ids.traced_layers(plan));
+      std::vector<image::Image> id_layers = ids.render(plan, regions, &t.id_pixels);
       t.id_render_ms = ms_since(t0);
       // No surface at all at or behind the last near plane: any farther plane reveals nothing
       // either, so the revealed layers cover every depth behind z_1.

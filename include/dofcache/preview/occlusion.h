@@ -50,10 +50,12 @@ namespace dofcache::preview {
 // Since it needs no id layer, a renderer can compute it first and trace L_j only where the masks
 // read it: inside region_j (rules 1-3 of layer j) and, for rule (2) of layer j-1, inside
 // region_{j-1} where L_{j-1} passes rule (1). Elsewhere L_j may be left at L_0: the masks are the
-// same (tested).
+// same (tested). With count >= 0 only the regions of layers below `count` are computed (the
+// others are left empty), for a renderer that knows the farther planes reveal nothing (behind
+// every surface).
 std::vector<image::Image> lens_reach_regions(const image::Image& depth, const LayerPlan& plan,
                                              const lens::LensImaging& imaging,
-                                             const PreviewOptions& options = {});
+                                             const PreviewOptions& options = {}, int count = -1);
 
 // The masks from the id layers and the regions of lens_reach_regions: rules (1) and (2), within
 // region_j. Throws dofcache::Error on mismatched counts or sizes.
