@@ -50,15 +50,31 @@ void distance_to_open(const std::vector<unsigned char>& open, int W, int H,
   constexpr float kFar = 1e20f;
   std::vector<float> tmp(static_cast<size_t>(W) * H);
   dist2.resize(tmp.size());
-  detail::parallel_rows(W, [&](int x0, int x1) {  // columns
-    std::vector<float> f(H), d(H), z(H + 1);
-    std::vector<int> v(H);
-    for (int x = x0; x < x1; ++x) {
-      for (int y = 0; y < H; ++y) f[y] = open[static_cast<size_t>(y) * W + x] ? 0.0f : kFar;
-      edt_1d(f.data(), d.data(), H, v.data(), z.data());
-      for (int y = 0; y < H; ++y) tmp[static_cast<size_t>(y) * W + x] = d[y];
-    }
-  });
+  // Columns: for a binary image the 1D transform is the squared distance to the nearest open
+  // pixel of the column (kFar if none), found by one sweep down and one up. Swept a row at a
+  // time over a band of columns, so memory is read in order.
+  detail::parallel_rows(
+      W,
+      [&](int x0, int x1) {
+        constexpr int kNone = std::numeric_limits<int>::max() / 4;
+        std::vector<int> last(x1 - x0, -kNone);
+        for (int y = 0; y < H; ++y)
+          for (int x = x0; x < x1; ++x) {
+            const size_t p = static_cast<size_t>(y) * W + x;
+            if (open[p]) last[x - x0] = y;
+            const int d = y - last[x - x0];
+            tmp[p] = d >= kNone ? kFar : static_cast<float>(d) * static_cast<float>(d);
+          }
+        std::fill(last.begin(), last.end(), kNone + H);
+        for (int y = H - 1; y >= 0; --y)
+          for (int x = x0; x < x1; ++x) {
+            const size_t p = static_cast<size_t>(y) * W + x;
+            if (open[p]) last[x - x0] = y;
+            const int d = last[x - x0] - y;
+            if (d < kNone) tmp[p] = std::min(tmp[p], static_cast<float>(d) * static_cast<float>(d));
+          }
+      },
+      64);
   detail::parallel_rows(H, [&](int y0, int y1) {  // rows
     std::vector<float> d(W), z(W + 1);
     std::vector<int> v(W);
