@@ -121,10 +121,34 @@ class IdLayers {
   double farthest_ = -std::numeric_limits<double>::infinity();
 };
 
-std::uint64_t count_set(const image::Image& mask) {
-  std::uint64_t n = 0;
-  for (float v : mask.data()) n += v > 0.5f;
-  return n;
+std::vector<std::uint32_t> set_pixels(const image::Image& mask) {
+  std::vector<std::uint32_t> pixels;
+  const auto count = static_cast<std::uint32_t>(mask.pixel_count());
+  for (std::uint32_t p = 0; p < count; ++p)
+    if (mask.data()[p] > 0.5f) pixels.push_back(p);
+  return pixels;
+}
+
+// A_j: colour and depth with the near plane at `near_depth`, rendered at the masked pixels only
+// (render::render_pixels: the values a masked render gives, black and +inf elsewhere).
+RevealedLayer revealed_layer(const scene::Scene& scene, const scene::Accel& accel,
+                             const scene::Camera& camera, const render::RenderSettings& base,
+                             double near_depth, const std::vector<std::uint32_t>& pixels,
+                             image::Image mask) {
+  render::RenderSettings s = base;
+  s.near_depth = static_cast<float>(near_depth);
+  const std::vector<render::PixelRender> seen =
+      render::render_pixels(scene, accel, camera, s, pixels);
+  RevealedLayer a{near_depth, image::Image(mask.width(), mask.height(), 3, 0.0f),
+                  image::Image(mask.width(), mask.height(), 1,
+                               std::numeric_limits<float>::infinity()),
+                  std::move(mask)};
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    float* c = a.color.data().data() + static_cast<size_t>(pixels[i]) * 3;
+    c[0] = seen[i].color.x, c[1] = seen[i].color.y, c[2] = seen[i].color.z;
+    a.depth.data()[pixels[i]] = seen[i].depth;
+  }
+  return a;
 }
 
 }  // namespace
@@ -194,16 +218,11 @@ SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel&
       // 4. The revealed layers, where the masks are set.
       t0 = clock::now();
       for (int j = 1; j < n; ++j) {
-        std::uint64_t count = count_set(masks[j]);
-        if (count == 0) continue;
-        render::RenderSettings s = base;
-        s.near_depth = static_cast<float>(plan.layers[j].depth);
-        s.mask = &masks[j];
-        s.progress_label = "layer " + std::to_string(j);
-        render::RenderOutput a = render::render(scene, accel, camera, s);
-        in.revealed.push_back(RevealedLayer{plan.layers[j].depth, std::move(a.color),
-                                            std::move(a.depth), std::move(masks[j])});
-        t.revealed_pixels += count;
+        std::vector<std::uint32_t> pixels = set_pixels(masks[j]);
+        if (pixels.empty()) continue;
+        in.revealed.push_back(revealed_layer(scene, accel, camera, base, plan.layers[j].depth,
+                                             pixels, std::move(masks[j])));
+        t.revealed_pixels += pixels.size();
       }
       t.revealed_layers = static_cast<int>(in.revealed.size());
       t.extra_render_ms = ms_since(t0);

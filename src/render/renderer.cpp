@@ -198,6 +198,30 @@ void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters
     }
 }
 
+// The radiance of samples [s0, end) of pixel (x, y), summed.
+glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint32_t end,
+                     TileWork& work, float* density, PixelMoments* moments) {
+  const RenderSettings& st = c.settings;
+  const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
+  glm::dvec3 acc(0.0);
+  for (std::uint32_t s = s0; s < end; ++s) {
+    glm::vec2 film, lens_u;
+    sample_point(c, x, y, s, &film, &lens_u);
+    scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(film, lens_u));
+    std::uint64_t key = hash_combine(pixel, s);
+    ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
+    Rng rng(key, s);
+    glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
+    if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
+    acc += glm::dvec3(l);
+    if (moments) {
+      const double v = scene::luminance(l);
+      moments->sum += v, moments->sum2 += v * v, ++moments->count;
+    }
+  }
+  return acc;
+}
+
 // Samples [s0, s1) of every pixel of a tile (up to the pixel's own count), added into `sum`.
 // Returns the number of samples taken.
 std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, std::uint32_t s1,
@@ -213,25 +237,9 @@ std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, 
       if (end <= s0) continue;
       taken += end - s0;
       PixelMoments* moments = c.moments ? &c.moments[index] : nullptr;
-      std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
-      glm::dvec3 acc(0.0);
       std::uint64_t lookups_before = work.lookups, hits_before = work.hits + work.tile_hits;
       float* density = pixel_stats.enabled() ? pixel_stats.created.pixel(x, y) : nullptr;
-      for (std::uint32_t s = s0; s < end; ++s) {
-        glm::vec2 film, lens_u;
-        sample_point(c, x, y, s, &film, &lens_u);
-        scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(film, lens_u));
-        std::uint64_t key = hash_combine(pixel, s);
-        ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
-        Rng rng(key, s);
-        glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
-        if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
-        acc += glm::dvec3(l);
-        if (moments) {
-          const double v = scene::luminance(l);
-          moments->sum += v, moments->sum2 += v * v, ++moments->count;
-        }
-      }
+      const glm::dvec3 acc = pixel_sum(c, x, y, s0, end, work, density, moments);
       if (pixel_stats.enabled()) {
         pixel_stats.hits.at(x, y, 0) += static_cast<float>(work.hits + work.tile_hits - hits_before);
         pixel_stats.lookups.at(x, y, 0) += static_cast<float>(work.lookups - lookups_before);
@@ -493,6 +501,48 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   st.rays = rays;
   st.shading_points = shading_points;
   st.threads = threads;
+  return out;
+}
+
+std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::Accel& accel,
+                                       const scene::Camera& camera,
+                                       const RenderSettings& settings,
+                                       const std::vector<std::uint32_t>& pixels) {
+  settings.validate();
+  if (settings.cache.cache || settings.adaptive.enabled || settings.visibility_only)
+    throw Error("render_pixels: no radiance cache, adaptive sampling or visibility-only render");
+  const std::uint64_t count = static_cast<std::uint64_t>(settings.width) * settings.height;
+  for (std::uint32_t p : pixels)
+    if (p >= count) throw Error("render_pixels: pixel index outside the image");
+  Context c{scene,
+            accel,
+            settings,
+            make_camera(camera, settings),
+            Shader(scene, accel, settings.shading),
+            Shader(scene, accel, settings.shading)};
+  std::vector<PixelRender> out(pixels.size());
+  const auto w = static_cast<std::uint32_t>(settings.width);
+  const auto spp = static_cast<std::uint32_t>(settings.spp);
+  const int threads = settings.threads > 0
+                          ? settings.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels.size(), 16), [&](const auto& r) {
+      TileWork work;
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const int x = static_cast<int>(pixels[i] % w), y = static_cast<int>(pixels[i] / w);
+        const CentreHit h = trace_centre(scene, accel, c.camera, settings, x, y, work.rays);
+        // As render() divides its sums: one pass, so the sum is this pixel's.
+        const glm::dvec3 sum = pixel_sum(c, x, y, 0, spp, work, nullptr, nullptr);
+        PixelRender& px = out[i];
+        px.color = glm::vec3(static_cast<float>(sum.x / spp), static_cast<float>(sum.y / spp),
+                             static_cast<float>(sum.z / spp));
+        px.depth = h.hit ? h.depth : std::numeric_limits<float>::infinity();
+        px.id = h.id;
+      }
+    });
+  });
   return out;
 }
 

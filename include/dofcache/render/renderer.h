@@ -176,4 +176,21 @@ std::vector<PixelVisibility> trace_pixel_centres(const scene::Scene& scene,
                                                  const RenderSettings& settings,
                                                  const std::vector<std::uint32_t>& pixels);
 
+// What render() gives at one pixel: colour, and depth and id through its centre.
+struct PixelRender {
+  glm::vec3 color{0.0f};
+  float depth = 0.0f;
+  float id = -1.0f;
+};
+
+// render() for the listed pixels only (indices y * width + x; settings.mask is ignored), with the
+// same values bit for bit (tested): for sparse pixel sets, such as the preview's revealed layers,
+// without render()'s full-size buffers. Every mode without a radiance cache, adaptive sampling or
+// visibility_only (those throw dofcache::Error, as do invalid settings and indices outside the
+// image). The result follows the list's order.
+std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::Accel& accel,
+                                       const scene::Camera& camera,
+                                       const RenderSettings& settings,
+                                       const std::vector<std::uint32_t>& pixels);
+
 }  // namespace dofcache::render
