@@ -90,7 +90,7 @@ int run_preview(const RenderOptions& o, const scene::Scene& scene, const scene::
         {"environment", environment_json(o.environment, environment)},
         {"shading", shading_json(s.shading)},
         {"preview", {{"layers", t.layers}, {"revealed_layers", t.revealed_layers},
-                     {"revealed_pixels", t.revealed_pixels},
+                     {"revealed_pixels", t.revealed_pixels}, {"id_pixels", t.id_pixels},
                      {"pinhole_render_ms", t.pinhole_render_ms},
                      {"id_render_ms", t.id_render_ms}, {"mask_build_ms", t.mask_build_ms},
                      {"extra_region_mask_ms", t.mask_ms()},

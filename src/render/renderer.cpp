@@ -73,9 +73,9 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-scene::Ray clipped(const Context& c, scene::Ray ray) {
-  if (c.settings.near_depth > 0.0f) {
-    ray.tnear = c.camera.t_at_depth(ray, c.settings.near_depth);
+scene::Ray clipped(const ThinLensCamera& camera, const RenderSettings& settings, scene::Ray ray) {
+  if (settings.near_depth > 0.0f) {
+    ray.tnear = camera.t_at_depth(ray, settings.near_depth);
     // The inside of an object the plane cuts open is what a clipped render is for: the back
     // faces glTF would cull stay visible (and are marked kInsideId in the ids).
     ray.cull_back_faces = false;
@@ -156,26 +156,70 @@ void sample_point(const Context& c, int x, int y, std::uint32_t s, glm::vec2* fi
   }
 }
 
+// What the ray through the centre of pixel (x, y) sees first (render()'s depth, normal and id).
+struct CentreHit {
+  bool hit = false;
+  float depth = 0.0f, id = -1.0f;
+  glm::vec3 normal{0.0f};
+};
+
+CentreHit trace_centre(const scene::Scene& scene, const scene::Accel& accel,
+                       const ThinLensCamera& camera, const RenderSettings& settings, int x, int y,
+                       RayCounters& counters) {
+  scene::Ray ray = clipped(camera, settings, camera.pinhole_ray(glm::vec2(x + 0.5f, y + 0.5f)));
+  ++counters.rays;
+  scene::Hit hit = accel.intersect(ray);
+  CentreHit r;
+  if (!hit.valid()) return r;
+  scene::SurfacePoint sp = scene.surface_point(hit.triangle, hit.u, hit.v);
+  r.hit = true;
+  r.depth = camera.depth(sp.position);
+  r.normal = sp.shading_normal;
+  r.id = static_cast<float>(settings.triangle_ids ? hit.triangle
+                                                  : scene.mesh.triangle_object[hit.triangle]);
+  // glTF culls the back of one-sided surfaces: met first behind a near plane, it is the inside
+  // of an object whose front the plane removed.
+  if (settings.near_depth > 0.0f && glm::dot(sp.geometric_normal, ray.direction) > 0.0f &&
+      !scene.materials[sp.material].double_sided)
+    r.id = kInsideId;
+  return r;
+}
+
 void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters& counters) {
   for (int y = t.y0; y < t.y1; ++y)
     for (int x = t.x0; x < t.x1; ++x) {
       if (masked_out(c.settings, x, y)) continue;
-      scene::Ray ray = clipped(c, c.camera.pinhole_ray(glm::vec2(x + 0.5f, y + 0.5f)));
-      ++counters.rays;
-      scene::Hit hit = c.accel.intersect(ray);
-      if (!hit.valid()) continue;
-      scene::SurfacePoint sp = c.scene.surface_point(hit.triangle, hit.u, hit.v);
-      out.depth.at(x, y, 0) = c.camera.depth(sp.position);
+      const CentreHit h = trace_centre(c.scene, c.accel, c.camera, c.settings, x, y, counters);
+      if (!h.hit) continue;
+      out.depth.at(x, y, 0) = h.depth;
       float* n = out.normal.pixel(x, y);
-      n[0] = sp.shading_normal.x, n[1] = sp.shading_normal.y, n[2] = sp.shading_normal.z;
-      out.ids.at(x, y, 0) = static_cast<float>(
-          c.settings.triangle_ids ? hit.triangle : c.scene.mesh.triangle_object[hit.triangle]);
-      // glTF culls the back of one-sided surfaces: met first behind a near plane, it is the inside
-      // of an object whose front the plane removed.
-      if (c.settings.near_depth > 0.0f && glm::dot(sp.geometric_normal, ray.direction) > 0.0f &&
-          !c.scene.materials[sp.material].double_sided)
-        out.ids.at(x, y, 0) = kInsideId;
+      n[0] = h.normal.x, n[1] = h.normal.y, n[2] = h.normal.z;
+      out.ids.at(x, y, 0) = h.id;
     }
+}
+
+// The radiance of samples [s0, end) of pixel (x, y), summed.
+glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint32_t end,
+                     TileWork& work, float* density, PixelMoments* moments) {
+  const RenderSettings& st = c.settings;
+  const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
+  glm::dvec3 acc(0.0);
+  for (std::uint32_t s = s0; s < end; ++s) {
+    glm::vec2 film, lens_u;
+    sample_point(c, x, y, s, &film, &lens_u);
+    scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(film, lens_u));
+    std::uint64_t key = hash_combine(pixel, s);
+    ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
+    Rng rng(key, s);
+    glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
+    if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
+    acc += glm::dvec3(l);
+    if (moments) {
+      const double v = scene::luminance(l);
+      moments->sum += v, moments->sum2 += v * v, ++moments->count;
+    }
+  }
+  return acc;
 }
 
 // Samples [s0, s1) of every pixel of a tile (up to the pixel's own count), added into `sum`.
@@ -193,25 +237,9 @@ std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, 
       if (end <= s0) continue;
       taken += end - s0;
       PixelMoments* moments = c.moments ? &c.moments[index] : nullptr;
-      std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
-      glm::dvec3 acc(0.0);
       std::uint64_t lookups_before = work.lookups, hits_before = work.hits + work.tile_hits;
       float* density = pixel_stats.enabled() ? pixel_stats.created.pixel(x, y) : nullptr;
-      for (std::uint32_t s = s0; s < end; ++s) {
-        glm::vec2 film, lens_u;
-        sample_point(c, x, y, s, &film, &lens_u);
-        scene::Ray ray = clipped(c, c.camera.generate_ray(film, lens_u));
-        std::uint64_t key = hash_combine(pixel, s);
-        ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
-        Rng rng(key, s);
-        glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
-        if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
-        acc += glm::dvec3(l);
-        if (moments) {
-          const double v = scene::luminance(l);
-          moments->sum += v, moments->sum2 += v * v, ++moments->count;
-        }
-      }
+      const glm::dvec3 acc = pixel_sum(c, x, y, s0, end, work, density, moments);
       if (pixel_stats.enabled()) {
         pixel_stats.hits.at(x, y, 0) += static_cast<float>(work.hits + work.tile_hits - hits_before);
         pixel_stats.lookups.at(x, y, 0) += static_cast<float>(work.lookups - lookups_before);
@@ -473,6 +501,79 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   st.rays = rays;
   st.shading_points = shading_points;
   st.threads = threads;
+  return out;
+}
+
+std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::Accel& accel,
+                                       const scene::Camera& camera,
+                                       const RenderSettings& settings,
+                                       const std::vector<std::uint32_t>& pixels) {
+  settings.validate();
+  if (settings.cache.cache || settings.adaptive.enabled || settings.visibility_only)
+    throw Error("render_pixels: no radiance cache, adaptive sampling or visibility-only render");
+  const std::uint64_t count = static_cast<std::uint64_t>(settings.width) * settings.height;
+  for (std::uint32_t p : pixels)
+    if (p >= count) throw Error("render_pixels: pixel index outside the image");
+  Context c{scene,
+            accel,
+            settings,
+            make_camera(camera, settings),
+            Shader(scene, accel, settings.shading),
+            Shader(scene, accel, settings.shading)};
+  std::vector<PixelRender> out(pixels.size());
+  const auto w = static_cast<std::uint32_t>(settings.width);
+  const auto spp = static_cast<std::uint32_t>(settings.spp);
+  const int threads = settings.threads > 0
+                          ? settings.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels.size(), 16), [&](const auto& r) {
+      TileWork work;
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const int x = static_cast<int>(pixels[i] % w), y = static_cast<int>(pixels[i] / w);
+        const CentreHit h = trace_centre(scene, accel, c.camera, settings, x, y, work.rays);
+        // As render() divides its sums: one pass, so the sum is this pixel's.
+        const glm::dvec3 sum = pixel_sum(c, x, y, 0, spp, work, nullptr, nullptr);
+        PixelRender& px = out[i];
+        px.color = glm::vec3(static_cast<float>(sum.x / spp), static_cast<float>(sum.y / spp),
+                             static_cast<float>(sum.z / spp));
+        px.depth = h.hit ? h.depth : std::numeric_limits<float>::infinity();
+        px.id = h.id;
+      }
+    });
+  });
+  return out;
+}
+
+std::vector<PixelVisibility> trace_pixel_centres(const scene::Scene& scene,
+                                                 const scene::Accel& accel,
+                                                 const scene::Camera& camera,
+                                                 const RenderSettings& settings,
+                                                 const std::vector<std::uint32_t>& pixels) {
+  settings.validate();
+  const ThinLensCamera cam = make_camera(camera, settings);
+  const std::uint32_t w = static_cast<std::uint32_t>(settings.width);
+  const std::uint64_t count = static_cast<std::uint64_t>(settings.width) * settings.height;
+  for (std::uint32_t p : pixels)
+    if (p >= count) throw Error("trace_pixel_centres: pixel index outside the image");
+  std::vector<PixelVisibility> out(pixels.size());
+  const int threads = settings.threads > 0
+                          ? settings.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    // Chunks of a few hundred pixels: a ray costs about a microsecond.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels.size(), 256), [&](const auto& r) {
+      RayCounters counters;
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const int x = static_cast<int>(pixels[i] % w), y = static_cast<int>(pixels[i] / w);
+        const CentreHit h = trace_centre(scene, accel, cam, settings, x, y, counters);
+        out[i] = h.hit ? PixelVisibility{h.depth, h.id}
+                       : PixelVisibility{std::numeric_limits<float>::infinity(), -1.0f};
+      }
+    });
+  });
   return out;
 }
 

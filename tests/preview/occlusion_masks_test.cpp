@@ -93,5 +93,67 @@ TEST_F(OcclusionMasks, RejectsMismatchedInputs) {
   EXPECT_THROW(build_occlusion_masks(ids, depth, plan, imaging, options), Error);
 }
 
+// Rule (3) alone, at every pixel. Layer 2 (c_2 = 0, c_hi = 4; F at c = -7 is the only occluder,
+// window ceil((4 + 7) / 2) = 6): F's 6 px ring; M (open, c = 1 <= c_hi + 1); and the background
+// (open, but c = 8: reach (4 - 8) / 2 + 1/2 < 0) only within the 6 px window of F, where the
+// occluder's CoC bounds the reach. Layer 4 (c_hi = c_4 = 8, window 8): the 8 px ring inside M's
+// outline and all of the background.
+TEST_F(OcclusionMasks, LensReachRegionsAreRule3Alone) {
+  std::vector<image::Image> regions = lens_reach_regions(depth, plan, imaging, options);
+  ASSERT_EQ(regions.size(), 5u);
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      EXPECT_EQ(regions[0].at(x, y, 0), 0.0f);
+      const bool r2 = in_square(x, y, 2, 38) && !in_square(x, y, 14, 26);
+      EXPECT_EQ(regions[2].at(x, y, 0), r2 ? 1.0f : 0.0f) << x << "," << y;
+      EXPECT_EQ(regions[4].at(x, y, 0), in_square(x, y, 12, 28) ? 0.0f : 1.0f) << x << "," << y;
+    }
+  options.mask_lens_reach = false;
+  regions = lens_reach_regions(depth, plan, imaging, options);
+  for (int j = 1; j < 5; ++j)
+    for (float v : regions[j].data()) ASSERT_EQ(v, 1.0f) << "layer " << j;
+}
+
+// What a renderer may spare: L_j left at L_0 outside region_j and outside the part of region_{j-1}
+// where L_{j-1} passes rule (1). On the benchmark scene (many layers, occluders at several
+// depths) the masks must not change, and the sparing must be substantial.
+TEST(OcclusionRegions, IdLayersOutsideTheRegionsDoNotMatter) {
+  const SyntheticScene scene = make_demo_scene(160, 120);
+  const PreviewInputs in = scene.pinhole();
+  PreviewOptions options;
+  const LayerPlan plan = plan_layers(in.depth, in.imaging, options);
+  ASSERT_GE(plan.size(), 4);
+  const std::vector<image::Image> full = scene.id_layers(plan);
+  const std::vector<image::Image> expected =
+      build_occlusion_masks(full, in.depth, plan, in.imaging, options);
+  const std::vector<image::Image> regions = lens_reach_regions(in.depth, plan, in.imaging, options);
+
+  std::vector<image::Image> spared = full;
+  std::size_t clipped = 0, kept = 0, revealed = 0;
+  for (int j = 1; j < plan.size(); ++j) {
+    for (std::size_t p = 0; p < in.depth.pixel_count(); ++p) {
+      const float before = spared[j - 1].data()[p], id0 = in.ids.data()[p];
+      const bool read = regions[j].data()[p] > 0.5f ||
+                        (j >= 2 && regions[j - 1].data()[p] > 0.5f && before >= 0 && before != id0);
+      clipped += in.depth.data()[p] < plan.layers[j].depth;
+      kept += read && in.depth.data()[p] < plan.layers[j].depth;
+      if (!read) spared[j].data()[p] = id0;
+    }
+    for (float v : expected[j].data()) revealed += v > 0.5f;
+  }
+  ASSERT_GT(revealed, 0u) << "nothing revealed: the test would prove nothing";
+  const std::vector<image::Image> masks = build_occlusion_masks(spared, regions);
+  ASSERT_EQ(masks.size(), expected.size());
+  for (int j = 0; j < plan.size(); ++j)
+    for (std::size_t p = 0; p < in.depth.pixel_count(); ++p) {
+      ASSERT_EQ(masks[j].data()[p], expected[j].data()[p]) << "layer " << j << " pixel " << p;
+      if (expected[j].data()[p] > 0.5f) {
+        ASSERT_EQ(regions[j].data()[p], 1.0f);
+      }
+    }
+  // Most clipped pixels need no tracing.
+  EXPECT_LT(kept, clipped / 2) << kept << " of " << clipped << " clipped pixels read";
+}
+
 }  // namespace
 }  // namespace dofcache::preview

@@ -198,6 +198,18 @@ TEST_P(TwoLayerMasks, ExactlyTheExpectedPixels) {
     }
   EXPECT_EQ(r.timings.revealed_pixels, static_cast<std::uint64_t>(expected_count));
   EXPECT_EQ(r.timings.revealed_layers, 1);
+  // The id layers trace only the clipped pixels the masks read (lens_reach_regions): with the
+  // lens reach, the rings; without it, every clipped pixel of every plane in front of the back
+  // quad (a plane behind every surface has nothing to trace).
+  std::uint64_t clipped = 0;
+  for (int j = 1; j < plan.size(); ++j)
+    if (plan.layers[j].depth <= kBack)
+      for (float z : r.inputs.depth.data()) clipped += z < plan.layers[j].depth * (1 + 1e-4);
+  if (reach) {
+    EXPECT_LT(r.timings.id_pixels, clipped / 2);
+  } else {
+    EXPECT_EQ(r.timings.id_pixels, clipped);
+  }
   EXPECT_GT(r.timings.pinhole_render_ms, 0.0);
   EXPECT_GT(r.timings.id_render_ms, 0.0);
   EXPECT_GT(r.timings.extra_render_ms, 0.0);

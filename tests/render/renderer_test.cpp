@@ -167,6 +167,88 @@ TEST(Renderer, ClippedRenderMarksTheInsideOfObjects) {
   EXPECT_EQ(render(s, accel2, s.cameras[0], st).ids.at(20, 15, 0), 1.0f);
 }
 
+// trace_pixel_centres gives what a visibility-only render() gives at the listed pixels, in the
+// list's order: with and without a near plane (which clips the occluder and cuts the inside-marked
+// quad open), object and triangle ids.
+TEST(Renderer, TracedPixelCentresEqualTheVisibilityRender) {
+  scene::Scene s = shaded_scene();
+  s.materials.push_back(testing::diffuse_material(glm::vec3(0.5f)));
+  testing::add_quad(s, {glm::vec3(-1, -1, -2.5f), glm::vec3(-1, 1, -2.5f), glm::vec3(1, 1, -2.5f),
+                        glm::vec3(1, -1, -2.5f)},
+                    {0.0f, 0.0f, -1.0f}, static_cast<std::uint32_t>(s.materials.size() - 1), 5);
+  scene::Accel accel(s);
+  RenderSettings st = small_settings(2, 1);
+  st.visibility_only = true;
+  for (float near : {0.0f, 2.2f, 3.0f})
+    for (bool triangles : {false, true}) {
+      st.near_depth = near;
+      st.triangle_ids = triangles;
+      const RenderOutput full = render(s, accel, s.cameras[0], st);
+      std::vector<std::uint32_t> pixels;  // every pixel, backwards, and one twice
+      for (int p = st.width * st.height - 1; p >= 0; --p) pixels.push_back(p);
+      pixels.push_back(7);
+      const std::vector<PixelVisibility> seen =
+          trace_pixel_centres(s, accel, s.cameras[0], st, pixels);
+      ASSERT_EQ(seen.size(), pixels.size());
+      int inside = 0, hits = 0;
+      for (size_t i = 0; i < pixels.size(); ++i) {
+        const int x = pixels[i] % st.width, y = pixels[i] / st.width;
+        ASSERT_EQ(seen[i].id, full.ids.at(x, y, 0)) << x << "," << y << " near " << near;
+        ASSERT_EQ(seen[i].depth, full.depth.at(x, y, 0)) << x << "," << y << " near " << near;
+        inside += seen[i].id == kInsideId;
+        hits += seen[i].id >= 0;
+      }
+      EXPECT_GT(hits, 0);
+      if (near == 2.2f) {
+        EXPECT_GT(inside, 0) << "the near plane should cut the quad open";
+      }
+    }
+  EXPECT_THROW(trace_pixel_centres(s, accel, s.cameras[0], st,
+                                   {static_cast<std::uint32_t>(st.width * st.height)}),
+               Error);
+}
+
+// render_pixels gives what a masked render() gives at the listed pixels (colour, depth, id),
+// bit for bit, in every integrator without a cache, with and without a near plane.
+TEST(Renderer, RenderedPixelsEqualTheMaskedRender) {
+  scene::Scene s = shaded_scene();
+  scene::Accel accel(s);
+  RenderSettings st = small_settings(2, 3);
+  image::Image mask(st.width, st.height, 1, 0.0f);
+  std::vector<std::uint32_t> pixels;
+  for (int p = st.width * st.height - 1; p >= 0; p -= 7) {  // backwards, a scattered subset
+    mask.data()[p] = 1.0f;
+    pixels.push_back(static_cast<std::uint32_t>(p));
+  }
+  for (Mode mode : {Mode::Pinhole, Mode::Drt, Mode::Accumulation})
+    for (float near : {0.0f, 3.0f}) {
+      st.mode = mode;
+      st.near_depth = near;
+      st.mask = &mask;
+      const RenderOutput full = render(s, accel, s.cameras[0], st);
+      st.mask = nullptr;
+      const std::vector<PixelRender> seen = render_pixels(s, accel, s.cameras[0], st, pixels);
+      ASSERT_EQ(seen.size(), pixels.size());
+      double total = 0;
+      for (size_t i = 0; i < pixels.size(); ++i) {
+        const int x = pixels[i] % st.width, y = pixels[i] / st.width;
+        for (int k = 0; k < 3; ++k)
+          ASSERT_EQ(seen[i].color[k], full.color.at(x, y, k)) << x << "," << y << " " << mode_name(mode);
+        ASSERT_EQ(seen[i].depth, full.depth.at(x, y, 0)) << x << "," << y;
+        ASSERT_EQ(seen[i].id, full.ids.at(x, y, 0)) << x << "," << y;
+        total += seen[i].color.x + seen[i].color.y + seen[i].color.z;
+      }
+      EXPECT_GT(total, 0.0) << "a black image would prove nothing";
+    }
+  st.adaptive.enabled = true;
+  st.mode = Mode::Drt;
+  EXPECT_THROW(render_pixels(s, accel, s.cameras[0], st, pixels), Error);
+  st.adaptive.enabled = false;
+  EXPECT_THROW(render_pixels(s, accel, s.cameras[0], st,
+                             {static_cast<std::uint32_t>(st.width * st.height)}),
+               Error);
+}
+
 // glTF sides and cut-outs as the camera sees them. A diffuse quad (albedo 0.5) at z = -2 fills
 // the centre of a pinhole view; a directional light of 2 pi sqrt2 lux comes from the camera's
 // side at 45 degrees, so a lit Lambertian point shows 0.5 / pi * 2 pi sqrt2 * cos 45 = 1 (plus

@@ -43,8 +43,28 @@
 
 namespace dofcache::preview {
 
+// Rule (3) alone, from the pinhole depth: region_j (1 channel, 0 or 1, the depth's size) holds
+// the pixels p with d_j(p) <= rho_j(p) + 1/2; region_0 is empty, and without
+// options.mask_lens_reach every pixel of the other layers is set. Near a silhouette the region is
+// a ring as wide as the blur can reach behind it; the inside of a large occluder is not in it.
+// Since it needs no id layer, a renderer can compute it first and trace L_j only where the masks
+// read it: inside region_j (rules 1-3 of layer j) and, for rule (2) of layer j-1, inside
+// region_{j-1} where L_{j-1} passes rule (1). Elsewhere L_j may be left at L_0: the masks are the
+// same (tested). With count >= 0 only the regions of layers below `count` are computed (the
+// others are left empty), for a renderer that knows the farther planes reveal nothing (behind
+// every surface).
+std::vector<image::Image> lens_reach_regions(const image::Image& depth, const LayerPlan& plan,
+                                             const lens::LensImaging& imaging,
+                                             const PreviewOptions& options = {}, int count = -1);
+
+// The masks from the id layers and the regions of lens_reach_regions: rules (1) and (2), within
+// region_j. Throws dofcache::Error on mismatched counts or sizes.
+std::vector<image::Image> build_occlusion_masks(const std::vector<image::Image>& id_layers,
+                                                const std::vector<image::Image>& regions);
+
 // id_layers[j] = L_j (1 channel, same size as `depth`, the pinhole depth), j = 0..plan.size()-1.
-// Returns plan.size() masks (1 channel, 0 or 1). Throws dofcache::Error on mismatched sizes.
+// Returns plan.size() masks (1 channel, 0 or 1): the above with the regions computed here. Throws
+// dofcache::Error on mismatched sizes.
 std::vector<image::Image> build_occlusion_masks(const std::vector<image::Image>& id_layers,
                                                 const image::Image& depth, const LayerPlan& plan,
                                                 const lens::LensImaging& imaging,

@@ -5,10 +5,11 @@
 //
 // For LayeredOcclusion (paper 3.2):
 //   1. plan = plan_layers(pinhole depth, imaging, options);
-//   2. L_j for j = 1..n-1: visibility-only pinhole renders with the near plane at z_j, triangle
-//      ids. Only pixels whose pinhole surface the plane clips are traced; elsewhere L_j = L_0 (the
-//      pinhole hit is the nearest one beyond the plane too). L_j of an infinitely distant z_j is
-//      empty;
+//   2. L_j for j = 1..n-1: visibility through the pixel centres with the near plane at z_j,
+//      triangle ids. Only pixels whose pinhole surface the plane clips are traced, and of those
+//      only the ones the masks read (lens_reach_regions, occlusion.h); elsewhere L_j = L_0 (the
+//      pinhole hit is the nearest one beyond the plane too), which gives the same masks as tracing
+//      every clipped pixel. L_j of a plane behind every surface (or at infinity) is empty;
 //   3. masks = build_occlusion_masks(L, depth, plan, imaging, options);
 //   4. A_j: colour (the same pinhole samples per pixel) and depth with the near plane at z_j,
 //      only where mask_j is set.
@@ -41,6 +42,7 @@ struct ScenePreviewTimings {
   int layers = 0;                     // layers planned (layered methods)
   int revealed_layers = 0;            // revealed layers with a non-empty mask
   std::uint64_t revealed_pixels = 0;  // pixels rendered again, summed over the revealed layers
+  std::uint64_t id_pixels = 0;        // pixels traced for the id layers, summed over L_1..L_{n-1}
   render::RenderStats pinhole_stats;
 };
 

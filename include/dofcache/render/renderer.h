@@ -9,6 +9,7 @@
 // (seed, pixel, sample index), so a fixed seed gives the same image for any thread count.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/cache/sample_radius.h"
@@ -157,5 +158,39 @@ ThinLensCamera make_camera(const scene::Camera& camera, const RenderSettings& se
 
 RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
                     const scene::Camera& camera, const RenderSettings& settings);
+
+// What the ray through the centre of a pixel sees first: render()'s depth and id there.
+struct PixelVisibility {
+  float depth = 0.0f;  // camera-space depth (+inf: nothing)
+  float id = -1.0f;    // object or triangle id (RenderSettings::triangle_ids), -1 or kInsideId
+};
+
+// The depth and id images of a visibility-only render(), for the listed pixels only (indices
+// y * width + x, in any order; settings.mask is ignored): the same near plane, ids and kInsideId
+// rule, bit-identical values (tested). For sparse pixel sets, such as the preview's near-plane id
+// layers, it spares render()'s full-size images and tiles. The result follows the list's order.
+// Throws dofcache::Error on invalid settings or an index outside the image.
+std::vector<PixelVisibility> trace_pixel_centres(const scene::Scene& scene,
+                                                 const scene::Accel& accel,
+                                                 const scene::Camera& camera,
+                                                 const RenderSettings& settings,
+                                                 const std::vector<std::uint32_t>& pixels);
+
+// What render() gives at one pixel: colour, and depth and id through its centre.
+struct PixelRender {
+  glm::vec3 color{0.0f};
+  float depth = 0.0f;
+  float id = -1.0f;
+};
+
+// render() for the listed pixels only (indices y * width + x; settings.mask is ignored), with the
+// same values bit for bit (tested): for sparse pixel sets, such as the preview's revealed layers,
+// without render()'s full-size buffers. Every mode without a radiance cache, adaptive sampling or
+// visibility_only (those throw dofcache::Error, as do invalid settings and indices outside the
+// image). The result follows the list's order.
+std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::Accel& accel,
+                                       const scene::Camera& camera,
+                                       const RenderSettings& settings,
+                                       const std::vector<std::uint32_t>& pixels);
 
 }  // namespace dofcache::render
