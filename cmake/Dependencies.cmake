@@ -9,6 +9,8 @@ find_package(nlohmann_json 3 CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(fmt CONFIG REQUIRED)
 find_package(Threads REQUIRED)
+# libpng: the PNG output is encoded without loading OpenImageIO (src/image/png_encoder.cpp).
+find_package(PNG REQUIRED)
 if(DOFCACHE_BUILD_TESTS)
   find_package(GTest CONFIG REQUIRED)
 endif()

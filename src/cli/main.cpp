@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <exception>
 #include <fstream>
@@ -20,6 +22,29 @@ void write_json_file(const std::string& path, const nlohmann::json& json) {
 }
 
 }  // namespace dofcache::cli
+
+namespace {
+
+// Whether a command will read or write an image file other than a PNG output (which is encoded
+// without them): then the image codecs (OpenImageIO, ~0.4 CPU-seconds to load) load while it
+// starts. compare and refocus read images; render, sequence and farm only when an argument
+// names an EXR or HDR file (output, environment map, preview inputs). The viewer shows its first
+// preview without them and loads them when asked to save. Any other use loads them on demand.
+bool needs_image_codecs(const CLI::App& command, int argc, char** argv) {
+  const std::string name = command.get_name();
+  if (name == "view") return false;
+  if (name != "render" && name != "sequence" && name != "farm") return true;
+  for (int i = 1; i < argc; ++i) {
+    std::string arg = argv[i];
+    std::transform(arg.begin(), arg.end(), arg.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    for (const char* ext : {".exr", ".hdr"})
+      if (arg.find(ext) != std::string::npos) return true;
+  }
+  return false;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace dofcache;
@@ -53,9 +78,7 @@ int main(int argc, char** argv) {
   try {
     for (auto& [sub, run] : runners) {
       if (!sub->parsed()) continue;
-      // Every command but the viewer reads or writes images; the codecs load while it starts.
-      // The viewer shows its first preview without them and loads them when asked to save.
-      if (sub->get_name() != "view") image::preload_image_codecs();
+      if (needs_image_codecs(*sub, argc, argv)) image::preload_image_codecs();
       return run();
     }
   } catch (const Error& e) {

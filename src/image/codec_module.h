@@ -19,7 +19,7 @@
 
 namespace dofcache::image::codec {
 
-constexpr int kAbiVersion = 2;
+constexpr int kAbiVersion = 3;
 
 // `file` is what a writer writes (the temporary file of an atomic write), `path` the name its
 // messages give. Inputs are checked by the caller as image_io.h describes; readers do all checks.
@@ -27,8 +27,6 @@ struct Table {
   int abi_version;
   std::string (*write_exr)(const std::string& file, const std::string& path, const Image& color,
                            const std::vector<NamedChannels>& extra);
-  std::string (*write_png)(const std::string& file, const std::string& path, const Image& color);
-  std::string (*encode_png)(const Image& color, std::vector<unsigned char>& bytes);
   std::string (*encode_exr)(const Image& color, std::vector<unsigned char>& bytes);
   std::string (*read_image)(const std::string& path, std::uint64_t max_values, Image& out);
   std::string (*read_channels)(const std::string& path, const std::vector<std::string>& names,

@@ -1,11 +1,12 @@
 // Image files: the paths and images are checked here, every write made atomic (temporary file in
 // the target's directory, then rename); the encoding and decoding is the codec module's
-// (oiio_codec.cpp, loaded on first use: codec_module.h).
+// (oiio_codec.cpp, loaded on first use: codec_module.h), except PNG encoding (png_encoder.cpp).
 #include "dofcache/image/image_io.h"
 
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <fstream>
 
 #include "codec_module.h"
 #include "dofcache/core/atomic_file.h"
@@ -59,17 +60,21 @@ void write_image(const std::string& path, const Image& color,
   if (color.empty()) fail_write(path, "empty image");
   if (color.channels() != 3)
     fail_write(path, "colour must have 3 channels (RGB), not " + std::to_string(color.channels()));
+  if (format_of(path) == Format::Png) {  // PNG is encoded here (png_encoder.cpp), without loading the codec module
+    const std::vector<unsigned char> bytes = encode_png(color);
+    write_atomically(path, [&](const std::string& tmp) {
+      std::ofstream out(tmp, std::ios::binary);
+      out.write(reinterpret_cast<const char*>(bytes.data()),
+                static_cast<std::streamsize>(bytes.size()));
+      out.close();
+      if (!out) fail_write(path, "write failed");
+    });
+    return;
+  }
   const codec::Table& codecs = codec::table();
-  const bool exr = format_of(path) == Format::Exr;
   write_atomically(path, [&](const std::string& tmp) {
-    check(exr ? codecs.write_exr(tmp, path, color, extra) : codecs.write_png(tmp, path, color));
+    check(codecs.write_exr(tmp, path, color, extra));
   });
-}
-
-std::vector<unsigned char> encode_png(const Image& color) {
-  std::vector<unsigned char> bytes;
-  check(codec::table().encode_png(color, bytes));
-  return bytes;
 }
 
 std::vector<unsigned char> encode_exr(const Image& color) {

@@ -138,27 +138,6 @@ void write_exr(const std::string& tmp, const std::string& path, const Image& col
   if (!out->close()) fail_write(path, out->geterror());
 }
 
-// 8-bit sRGB values of linear RGB `color`, and their spec.
-std::vector<unsigned char> srgb_bytes(const Image& color, ImageSpec& spec) {
-  std::vector<unsigned char> pixels(color.pixel_count() * 3);
-  const std::vector<float>& src = color.data();
-  for (size_t i = 0; i < pixels.size(); ++i) {
-    float v = linear_to_srgb(src[i]);  // clamps to [0,1]; NaN -> 0
-    pixels[i] = static_cast<unsigned char>(std::lround(v * 255.0f));
-  }
-  spec = ImageSpec(color.width(), color.height(), 3, TypeDesc::UINT8);
-  spec.attribute("oiio:ColorSpace", "sRGB");
-  return pixels;
-}
-
-void write_png(const std::string& tmp, const std::string& path, const Image& color) {
-  ImageSpec spec;
-  const std::vector<unsigned char> pixels = srgb_bytes(color, spec);
-  auto out = create_output(tmp, path);
-  if (!out->open(tmp, spec) || !out->write_image(TypeDesc::UINT8, pixels.data()))
-    fail_write(path, out->geterror());
-  if (!out->close()) fail_write(path, out->geterror());
-}
 
 // An open image file, its first subimage's spec already read.
 struct OpenedInput {
@@ -547,18 +526,6 @@ std::vector<ExrPart> read_multipart_exr(const std::string& path, std::uint64_t m
   return parts;
 }
 
-std::vector<unsigned char> encode_png(const Image& color) {
-  ImageSpec spec;
-  const std::vector<unsigned char> pixels = srgb_bytes(color, spec);
-  std::vector<unsigned char> bytes;
-  OIIO::Filesystem::IOVecOutput memory(bytes);
-  auto out = ImageOutput::create("png");
-  if (!out || !out->set_ioproxy(&memory) || !out->open("memory.png", spec) ||
-      !out->write_image(TypeDesc::UINT8, pixels.data()) || !out->close())
-    throw Error(std::string("cannot encode a PNG image: ") +
-                (out ? out->geterror() : OIIO::geterror()));
-  return bytes;
-}
 
 std::vector<unsigned char> encode_exr(const Image& color) {
   const ImageSpec spec = exr_spec(color.width(), color.height(), {"R", "G", "B"});
@@ -590,12 +557,6 @@ const codec::Table kTable = {
     [](const std::string& tmp, const std::string& path, const Image& color,
        const std::vector<NamedChannels>& extra) {
       return guarded([&] { oiio::write_exr(tmp, path, color, extra); });
-    },
-    [](const std::string& tmp, const std::string& path, const Image& color) {
-      return guarded([&] { oiio::write_png(tmp, path, color); });
-    },
-    [](const Image& color, std::vector<unsigned char>& bytes) {
-      return guarded([&] { bytes = oiio::encode_png(color); });
     },
     [](const Image& color, std::vector<unsigned char>& bytes) {
       return guarded([&] { bytes = oiio::encode_exr(color); });

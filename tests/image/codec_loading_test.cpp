@@ -3,7 +3,11 @@
 // pays for them, and one that does gets them transparently.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
+#include <iterator>
+#include <limits>
+#include <vector>
 #include <string>
 
 #include "dofcache/core/error.h"
@@ -24,22 +28,47 @@ bool mapped(const std::string& name) {
 
 class CodecLoading : public dofcache::testing::ScratchDirTest {};
 
-// One test, in its own process: the order of the two observations matters.
-TEST_F(CodecLoading, OpenImageIoIsLoadedByTheFirstImageWriteNotBefore) {
+// One test, in its own process: the order of the observations matters.
+TEST_F(CodecLoading, OpenImageIoIsLoadedByTheFirstExrOrImageReadNotByPngWrites) {
   EXPECT_FALSE(mapped("libOpenImageIO")) << "the image library links OpenImageIO again";
   EXPECT_FALSE(mapped("libdofcache_image_codec"));
 
+  // A PNG is encoded by the image library itself.
   Image red(2, 1, 3, 0.0f);
   red.pixel(0, 0)[0] = red.pixel(1, 0)[0] = 1.0f;
+  red.pixel(0, 0)[1] = 0.5f;  // sRGB: 255 * (1.055 * 0.5^(1/2.4) - 0.055) = 187.5 -> 188
   const std::string file = path("red.png");
   write_image(file, red);
+  EXPECT_FALSE(mapped("libdofcache_image_codec"));
+  EXPECT_FALSE(mapped("libOpenImageIO"));
+
+  // Reading it back (OpenImageIO's PNG reader: an independent decoder) loads the codecs.
+  const Image back = read_image(file);
   EXPECT_TRUE(mapped("libdofcache_image_codec"));
   EXPECT_TRUE(mapped("libOpenImageIO"));
-
-  const Image back = read_image(file);
   ASSERT_EQ(back.width(), 2);
+  ASSERT_EQ(back.height(), 1);
   EXPECT_NEAR(back.pixel(1, 0)[0], 1.0f, 1e-6f);  // sRGB 255 decodes to exactly 1
   EXPECT_NEAR(back.pixel(1, 0)[1], 0.0f, 1e-6f);
+  EXPECT_NEAR(back.pixel(0, 0)[1], srgb_to_linear(188.0f / 255.0f), 1e-6f);
+}
+
+// The in-memory PNG is a complete file: the same bytes as the written one.
+TEST_F(CodecLoading, EncodedPngEqualsTheWrittenFile) {
+  Image img(3, 2, 3, 0.25f);
+  img.pixel(2, 1)[2] = std::numeric_limits<float>::quiet_NaN();  // written as 0
+  const std::vector<unsigned char> bytes = encode_png(img);
+  ASSERT_GT(bytes.size(), 8u);
+  EXPECT_EQ(std::string(bytes.begin() + 1, bytes.begin() + 4), "PNG");
+  write_image(path("grey.png"), img);
+  std::ifstream in(path("grey.png"), std::ios::binary);
+  const std::vector<unsigned char> file((std::istreambuf_iterator<char>(in)),
+                                        std::istreambuf_iterator<char>());
+  EXPECT_EQ(file, bytes);
+  const Image back = read_image(path("grey.png"));
+  EXPECT_NEAR(back.pixel(0, 0)[0], srgb_to_linear(std::round(linear_to_srgb(0.25f) * 255.0f) / 255.0f),
+              1e-6f);
+  EXPECT_EQ(back.pixel(2, 1)[2], 0.0f);
 }
 
 // Paths are checked without the codecs, so a bad output path is refused before a render.
