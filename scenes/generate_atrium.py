@@ -19,14 +19,12 @@ the flattened scene. Deterministic: the same arguments give the same bytes. Stan
 """
 import argparse
 import array
-import json
 import math
 import os
 import random
-import struct
 import sys
 
-import png_writer  # scenes/png_writer.py, beside this script
+import gltf_files  # scenes/gltf_files.py, beside this script
 
 GL_FLOAT, GL_UNSIGNED_INT = 5126, 5125
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -238,7 +236,7 @@ def bush(leaves, seed):
 
 def png_rgba(width, height, pixel):
     """pixel(x, y) -> (r, g, b, a), 0..255; row 0 is the top."""
-    return png_writer.png(width, height, pixel, alpha=True, level=6)
+    return gltf_files.png(width, height, pixel, alpha=True, level=6)
 
 
 def hash01(x, y, seed):
@@ -463,25 +461,7 @@ class Gltf:
         self.doc["scenes"][0]["nodes"].append(len(self.doc["nodes"]) - 1)
 
     def write_glb(self, path):
-        while len(self.bin) % 4:
-            self.bin.append(0)
-        self.doc["buffers"] = [{"byteLength": len(self.bin)}]
-        text = json.dumps(self.doc, separators=(",", ":")).encode()
-        while len(text) % 4:
-            text += b" "
-        total = 12 + 8 + len(text) + 8 + len(self.bin)
-        tmp = path + ".tmp"
-        try:
-            with open(tmp, "wb") as f:
-                f.write(struct.pack("<4sII", b"glTF", 2, total))
-                f.write(struct.pack("<I4s", len(text), b"JSON") + text)
-                f.write(struct.pack("<I4s", len(self.bin), b"BIN\x00"))
-                f.write(self.bin)
-            os.replace(tmp, path)  # never a half-written scene under the final name
-        except OSError:
-            if os.path.exists(tmp):
-                os.remove(tmp)
-            raise
+        gltf_files.write_glb(path, self.doc, self.bin)  # atomic: never a half-written scene
 
 
 def quat_y(angle):

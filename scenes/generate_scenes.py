@@ -25,7 +25,7 @@ import math
 import os
 import struct
 
-import png_writer  # scenes/png_writer.py, beside this script
+import gltf_files  # scenes/gltf_files.py, beside this script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 Y_RES = 480  # image height the CoC tables are computed for
@@ -330,7 +330,7 @@ def vase(segments=64):
 
 def png_bytes(width, height, pixel):
     """pixel(x, y) -> (r, g, b) bytes; row 0 is the top."""
-    return png_writer.png(width, height, pixel, alpha=False, level=9)
+    return gltf_files.png(width, height, pixel, alpha=False, level=9)
 
 
 # --------------------------------------------------------------------------------------------
@@ -563,17 +563,7 @@ class Gltf:
 
     def write_glb(self, path):
         self.finish()
-        while len(self.bin) % 4:
-            self.bin.append(0)
-        self.doc["buffers"] = [{"byteLength": len(self.bin)}]
-        text = json.dumps(self.doc, separators=(",", ":")).encode()
-        while len(text) % 4:
-            text += b" "
-        total = 12 + 8 + len(text) + 8 + len(self.bin)
-        with open(path, "wb") as f:
-            f.write(struct.pack("<4sII", b"glTF", 2, total))
-            f.write(struct.pack("<I4s", len(text), b"JSON") + text)
-            f.write(struct.pack("<I4s", len(self.bin), b"BIN\x00") + bytes(self.bin))
+        gltf_files.write_glb(path, self.doc, self.bin)
 
 
 # --------------------------------------------------------------------------------------------
