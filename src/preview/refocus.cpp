@@ -12,7 +12,6 @@
 namespace dofcache::preview {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 bool same_depth(double a, double b) { return a == b || std::abs(a - b) <= 1e-9 * std::abs(a); }
 

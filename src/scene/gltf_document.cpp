@@ -1,5 +1,6 @@
 #include "dofcache/scene/gltf_document.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -9,6 +10,7 @@
 
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
+#include <zlib.h>
 
 #include "dofcache/core/error.h"
 
@@ -41,6 +43,66 @@ std::uint32_t big_endian(const unsigned char* p, int bytes) {
   std::uint32_t v = 0;
   for (int i = 0; i < bytes; ++i) v = v << 8 | p[i];
   return v;
+}
+
+// Why stb_image must not see a PNG, or "" if it may. stb_image allocates what a chunk declares
+// before it checks that the file holds it (a 2 GB IDAT length in a 74-byte file), and inflates the
+// image data into a buffer it grows without bound, so a few kilobytes of IDAT that inflate to
+// gigabytes (a zlib bomb behind a small declared size) would exhaust memory. So every chunk must
+// lie within the file, and the image data is inflated here first, into a scratch buffer, and
+// refused once it passes what its IHDR allows: each row's filter byte and samples, twice over
+// (Adam7 interlacing adds a few bytes per pass), plus a little. Not a PNG: "".
+std::string png_refusal(const unsigned char* p, std::size_t size) {
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (size < 8 || std::memcmp(p, kPng, 8) != 0) return "";
+  if (size < 33 || std::memcmp(p + 12, "IHDR", 4) != 0) return "its PNG header is damaged";
+  const std::uint64_t width = big_endian(p + 16, 4), height = big_endian(p + 20, 4);
+  const std::uint64_t depth = p[24], colour = p[25];
+  const std::uint64_t channels = colour == 0 ? 1 : colour == 2 ? 3 : colour == 3 ? 1
+                                 : colour == 4 ? 2 : 4;
+  const std::uint64_t row = 1 + (width * channels * std::max<std::uint64_t>(depth, 1) + 7) / 8;
+  const std::uint64_t limit = 2 * height * row + 4096;
+  z_stream z{};
+  if (inflateInit(&z) != Z_OK) return "out of memory";
+  unsigned char scratch[16384];
+  std::uint64_t produced = 0;
+  std::string refusal;
+  bool inflating = true;
+  for (std::size_t at = 8; at < size && refusal.empty();) {
+    if (size - at < 12) {
+      refusal = "its PNG data ends inside a chunk";
+      break;
+    }
+    const std::uint64_t length = big_endian(p + at, 4);
+    if (length > size - at - 12) {
+      refusal = "a PNG chunk declares " + std::to_string(length) + " bytes, past the end of the data";
+      break;
+    }
+    if (std::memcmp(p + at + 4, "IDAT", 4) == 0 && inflating) {
+      z.next_in = const_cast<unsigned char*>(p + at + 8);
+      z.avail_in = static_cast<uInt>(length);
+      while (z.avail_in > 0) {
+        z.next_out = scratch;
+        z.avail_out = sizeof scratch;
+        const int status = inflate(&z, Z_NO_FLUSH);
+        produced += sizeof scratch - z.avail_out;
+        if (produced > limit) {
+          refusal = "its PNG data inflates to more than its " + std::to_string(width) + "x" +
+                    std::to_string(height) + " pixels can hold";
+          break;
+        }
+        if (status != Z_OK) {  // the end of the stream, or damaged data stb_image refuses
+          inflating = false;
+          break;
+        }
+      }
+    } else if (std::memcmp(p + at + 4, "IEND", 4) == 0) {
+      break;
+    }
+    at += 12 + static_cast<std::size_t>(length);
+  }
+  inflateEnd(&z);
+  return refusal;
 }
 
 // What the image callback needs besides its arguments: the model being parsed (its buffers are
@@ -77,6 +139,11 @@ bool load_image(tinygltf::Image* image, const int index, std::string* err, std::
       *err += label + ": " + std::to_string(width) + "x" + std::to_string(height) +
               " pixels exceed the texture limit (" + std::to_string(budget.max_pixels) +
               " pixels for all images of a file; raise it with --max-texture-pixels)\n";
+    return false;
+  }
+  const std::string refusal = png_refusal(bytes, std::size_t(size));
+  if (!refusal.empty()) {
+    if (err) *err += label + ": " + refusal + "\n";
     return false;
   }
   budget.used += pixels;

@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 #include <glm/geometric.hpp>
+#include <zlib.h>
 
 #include "dofcache/core/error.h"
 #include "dofcache/scene/accel.h"
@@ -674,6 +675,78 @@ TEST_F(GltfFeaturesTest, AlphaModesAreReadAndAnUnknownOneRefused) {
   std::string bad = write("alpha_bad.gltf", g.json(one_primitive(pos, "", 0) +
                                                    ",\"materials\":[{\"alphaMode\":\"CLIP\"}]"));
   expect_error([&] { load_gltf(bad); }, {bad, "alphaMode 'CLIP'"});
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Hostile PNG textures: refused in one line before stb_image allocates what they declare
+
+// A PNG of `width` x `height` RGBA pixels whose IDAT chunk holds `idat` (CRCs are not checked by
+// the guard; zeros), with `idat_length` declared for it.
+std::vector<unsigned char> png_file(std::uint32_t width, std::uint32_t height,
+                                    const std::vector<unsigned char>& idat,
+                                    std::uint32_t idat_length) {
+  std::vector<unsigned char> f = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  auto u32 = [&](std::uint32_t v) {
+    for (int s = 24; s >= 0; s -= 8) f.push_back(static_cast<unsigned char>(v >> s));
+  };
+  auto chunk = [&](const char* type, const std::vector<unsigned char>& data, std::uint32_t length) {
+    u32(length);
+    f.insert(f.end(), type, type + 4);
+    f.insert(f.end(), data.begin(), data.end());
+    u32(0);  // CRC
+  };
+  std::vector<unsigned char> ihdr;
+  for (std::uint32_t v : {width, height})
+    for (int s = 24; s >= 0; s -= 8) ihdr.push_back(static_cast<unsigned char>(v >> s));
+  ihdr.insert(ihdr.end(), {8, 6, 0, 0, 0});  // 8-bit RGBA, not interlaced
+  chunk("IHDR", ihdr, 13);
+  chunk("IDAT", idat, idat_length);
+  chunk("IEND", {}, 0);
+  return f;
+}
+
+std::string png_textured_file(const std::vector<unsigned char>& png) {
+  Gltf g;
+  int pos = g.add_floats(kTriangle, "VEC3");
+  int uv = g.add_floats({0, 0, 1, 0, 0, 1}, "VEC2");
+  return g.json(one_primitive(pos, attr("TEXCOORD_0", uv), 0) +
+                ",\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}]"
+                ",\"images\":[{\"uri\":\"data:image/png;base64," + base64(png) +
+                "\"}],\"textures\":[{\"source\":0}]");
+}
+
+TEST_F(GltfFeaturesTest, PngChunkLongerThanTheFileIsRefusedInOneLine) {
+  // What fuzzing found: an IDAT declaring 1.8 GB in a file of a few dozen bytes, which stb_image
+  // allocated before reading.
+  const std::string bad = write("png_chunk.gltf", png_textured_file(png_file(2, 2, {1, 2, 3},
+                                                                             0x6ad88011u)));
+  expect_error([&] { load_gltf(bad); }, {bad, "image 0", "declares 1792573457 bytes"});
+}
+
+TEST_F(GltfFeaturesTest, PngDataInflatingPastItsSizeIsRefusedInOneLine) {
+  // 8 MB of zeros compress to a few kilobytes; a 2x2 RGBA image holds 2 x (1 + 8) bytes.
+  std::vector<unsigned char> zeros(8u << 20, 0);
+  uLongf packed_size = compressBound(static_cast<uLong>(zeros.size()));
+  std::vector<unsigned char> packed(packed_size);
+  ASSERT_EQ(compress2(packed.data(), &packed_size, zeros.data(), static_cast<uLong>(zeros.size()), 9),
+            Z_OK);
+  packed.resize(packed_size);
+  ASSERT_LT(packed.size(), 64u * 1024);
+  const std::string bomb = write("png_bomb.gltf", png_textured_file(png_file(
+                                                      2, 2, packed, std::uint32_t(packed.size()))));
+  expect_error([&] { load_gltf(bomb); }, {bomb, "image 0", "inflates to more than its 2x2"});
+
+  // The same image with its true data loads (the guard refuses only what overflows).
+  const std::vector<unsigned char> rows = {0, 255, 0, 0, 255, 0, 255, 0, 255,
+                                           0, 0, 0, 255, 255, 255, 255, 255, 255};
+  uLongf ok_size = compressBound(static_cast<uLong>(rows.size()));
+  std::vector<unsigned char> ok(ok_size);
+  ASSERT_EQ(compress2(ok.data(), &ok_size, rows.data(), static_cast<uLong>(rows.size()), 9), Z_OK);
+  ok.resize(ok_size);
+  const std::string fine = write("png_fine.gltf", png_textured_file(png_file(
+                                                      2, 2, ok, std::uint32_t(ok.size()))));
+  EXPECT_NO_THROW(load_gltf(fine));
 }
 
 }  // namespace
