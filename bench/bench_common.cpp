@@ -23,6 +23,7 @@
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
+#include "dofcache/render/setup.h"
 
 #ifndef DOFCACHE_SOURCE_DIR
 #define DOFCACHE_SOURCE_DIR "."
@@ -511,6 +512,19 @@ image::Image cached_reference(const std::string& key, const std::function<image:
   image::Image img = render();
   image::write_image(file.string(), img);
   return img;
+}
+
+render::RenderSettings camera_settings(const scene::Scene& scene, const scene::Accel& accel,
+                                       const scene::Camera& camera, int width, int spp,
+                                       int threads) {
+  render::RenderSettings s;
+  s.width = width;
+  s.height = render::height_for_width(camera, width);
+  s.spp = spp;
+  s.threads = threads;
+  s.lens = render::resolve_lens(scene, accel, camera, {}).lens;
+  s.progress = Progress::Display::Never;
+  return s;
 }
 
 image::Image converged_reference(const std::string& scene_name, const scene::Scene& scene,

@@ -42,6 +42,12 @@ std::string write_results(const std::string& name, const nlohmann::json& results
 // identify everything the image depends on (scene, size, samples, lens, frame).
 image::Image cached_reference(const std::string& key, const std::function<image::Image()>& render);
 
+// What a user gets for the camera at `width` pixels: the camera's aspect ratio, the scene's lens
+// (or the default one, resolved as the CLI resolves it), default shading, no progress display.
+render::RenderSettings camera_settings(const scene::Scene& scene, const scene::Accel& accel,
+                                       const scene::Camera& camera, int width, int spp,
+                                       int threads);
+
 // The converged reference of one scene view: uncached DRT of `base` (size, lens, shading) with
 // `spp` samples and a seed independent of the measured renders, through cached_reference keyed by
 // scene name, size, samples and scene identity.

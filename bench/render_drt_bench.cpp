@@ -28,14 +28,9 @@ int run(const Options& o) {
     scene::Scene scene = render::load_scene(bench::scene_path(name));
     scene::Accel accel(scene);
     const scene::Camera& camera = scene.cameras[0];
-    render::RenderSettings s;
-    s.width = o.width;
-    s.height = render::height_for_width(camera, o.width);
-    s.spp = o.spp;
-    s.threads = o.threads;
+    render::RenderSettings s =
+        bench::camera_settings(scene, accel, camera, o.width, o.spp, o.threads);
     s.shading = shading;
-    s.lens = render::resolve_lens(scene, accel, camera, {}).lens;
-    s.progress = Progress::Display::Never;
     render::RenderOutput out = render::render(scene, accel, camera, s);
     const render::RenderStats& st = out.stats;
     table.add_row({name, static_cast<long>(scene.mesh.triangles.size()),

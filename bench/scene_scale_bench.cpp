@@ -180,13 +180,8 @@ int run(const Options& o) {
   const EmbreeMemory embree = embree_memory(scene);
 
   const scene::Camera& camera = scene.cameras[0];
-  render::RenderSettings s;
-  s.width = o.width;
-  s.height = render::height_for_width(camera, o.width);
-  s.spp = o.spp;
-  s.threads = o.threads;
-  s.lens = render::resolve_lens(scene, accel, camera, {}).lens;
-  s.progress = Progress::Display::Never;
+  const render::RenderSettings s =
+      bench::camera_settings(scene, accel, camera, o.width, o.spp, o.threads);
   const render::RenderStats st = render::render(scene, accel, camera, s).stats;
   if (generated) fs::remove_all(fs::path(file).parent_path());
 
