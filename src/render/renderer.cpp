@@ -69,6 +69,21 @@ struct TileWork {
   double lookup_seconds = 0.0;
 };
 
+// RenderSettings::threads, 0 meaning every core.
+int worker_threads(const RenderSettings& settings) {
+  return settings.threads > 0
+             ? settings.threads
+             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+// Throws unless every pixel index (y * width + x) lies inside the image; `what` names the caller.
+void check_pixel_indices(const RenderSettings& settings, const std::vector<std::uint32_t>& pixels,
+                         const char* what) {
+  const std::uint64_t count = static_cast<std::uint64_t>(settings.width) * settings.height;
+  for (std::uint32_t p : pixels)
+    if (p >= count) throw Error(std::string(what) + ": pixel index outside the image");
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
@@ -363,9 +378,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   }
 
   const std::vector<Tile> tiles = make_tiles(w, h);
-  const int threads = settings.threads > 0
-                          ? settings.threads
-                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads = worker_threads(settings);
   // Passes of sample ranges. Accumulation: one lens position per pass. With a cache: doubling
   // passes, so early passes fill the cache that later (larger) passes read. Otherwise: one pass.
   // Adaptive sampling (drt): the passes up to the pilot's count, the allocation, then the passes
@@ -511,9 +524,7 @@ std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::A
   settings.validate();
   if (settings.cache.cache || settings.adaptive.enabled || settings.visibility_only)
     throw Error("render_pixels: no radiance cache, adaptive sampling or visibility-only render");
-  const std::uint64_t count = static_cast<std::uint64_t>(settings.width) * settings.height;
-  for (std::uint32_t p : pixels)
-    if (p >= count) throw Error("render_pixels: pixel index outside the image");
+  check_pixel_indices(settings, pixels, "render_pixels");
   Context c{scene,
             accel,
             settings,
@@ -523,9 +534,7 @@ std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::A
   std::vector<PixelRender> out(pixels.size());
   const auto w = static_cast<std::uint32_t>(settings.width);
   const auto spp = static_cast<std::uint32_t>(settings.spp);
-  const int threads = settings.threads > 0
-                          ? settings.threads
-                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads = worker_threads(settings);
   tbb::task_arena arena(threads);
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels.size(), 16), [&](const auto& r) {
@@ -554,13 +563,9 @@ std::vector<PixelVisibility> trace_pixel_centres(const scene::Scene& scene,
   settings.validate();
   const ThinLensCamera cam = make_camera(camera, settings);
   const std::uint32_t w = static_cast<std::uint32_t>(settings.width);
-  const std::uint64_t count = static_cast<std::uint64_t>(settings.width) * settings.height;
-  for (std::uint32_t p : pixels)
-    if (p >= count) throw Error("trace_pixel_centres: pixel index outside the image");
+  check_pixel_indices(settings, pixels, "trace_pixel_centres");
   std::vector<PixelVisibility> out(pixels.size());
-  const int threads = settings.threads > 0
-                          ? settings.threads
-                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads = worker_threads(settings);
   tbb::task_arena arena(threads);
   arena.execute([&] {
     // Chunks of a few hundred pixels: a ray costs about a microsecond.
