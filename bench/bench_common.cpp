@@ -146,12 +146,7 @@ std::string csv_field(const json& v) {
 }
 
 void write_text(const std::string& path, const std::string& text) {
-  write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) throw Error("cannot write '" + path + "'");
-  });
+  write_bytes_atomically(path, text);
 }
 
 }  // namespace

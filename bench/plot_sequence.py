@@ -31,17 +31,24 @@ def main():
     body = results.get("results", results)
     for path, frames in body["per_frame"].items():
         fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-        x = [f["frame"] for f in frames]
         for key, label, style in METHODS:
-            if key not in frames[0]:
+            # A method may skip frames (the benchmark's --ref-every renders "none" and measures
+            # the error only on frames with a reference): plot what each frame has.
+            timed = [f for f in frames if key in f]
+            if not timed:
                 continue
-            top.plot(x, [f[key]["cpu_seconds"] for f in frames], style, label=label)
-            bottom.plot(x, [f[key]["rel_mse"] for f in frames], style, label=label)
+            top.plot([f["frame"] for f in timed], [f[key]["cpu_seconds"] for f in timed], style,
+                     marker="." if len(timed) < len(frames) else None, label=label)
+            scored = [f for f in timed if "rel_mse" in f[key]]
+            bottom.plot([f["frame"] for f in scored], [f[key]["rel_mse"] for f in scored], style,
+                        marker="o" if len(scored) < len(frames) else None, markersize=3,
+                        label=label)
         top.set_yscale("log")
         top.set_ylabel("CPU seconds per frame")
         top.grid(True, which="both", alpha=0.3)
         top.legend(fontsize=8)
         bottom.set_ylabel("relMSE against the frame's reference")
+        bottom.legend(fontsize=8)
         bottom.set_ylim(bottom=0)
         bottom.set_xlabel("frame")
         bottom.grid(True, alpha=0.3)

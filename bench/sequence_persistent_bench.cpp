@@ -10,7 +10,7 @@
 // reuse rate (lookups served entirely by samples of earlier frames) and flicker (mean absolute
 // difference to the previous frame; the reference's own figure is what the scene's change
 // explains, the rest is error). Writes bench/results/sequence_persistent.{json,csv}.
-//   sequence_persistent_bench [--width W] [--spp N] [--ref-spp N] [--threads T] [--frames N]
+//   sequence_persistent_bench [--width W] [--spp N] [--ref-spp N] [--ref-every K] [--threads T] [--frames N]
 //                             [--path dolly|focus_pull|walk]... [--results NAME]   (--help for more)
 #include <time.h>
 
@@ -41,7 +41,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct Options {
-  int width = 96, spp = 16, ref_spp = 256, threads = 0, max_frames = 0;
+  int width = 96, spp = 16, ref_spp = 256, threads = 0, max_frames = 0, ref_every = 1;
   std::vector<std::string> paths;  // names of kCases to run
   std::string results = "sequence_persistent";
 };
@@ -67,6 +67,7 @@ double cpu_seconds() {
 }
 
 struct FrameResult {
+  bool rendered = false;
   double wall = 0, cpu = 0, rel_mse = 0, flicker = -1, error_flicker = -1;
   std::uint64_t rays = 0, shading_points = 0;
   sequence::FrameCacheStats cache;
@@ -94,10 +95,19 @@ std::string hex(std::uint64_t v) {
   return buf;
 }
 
-// The converged reference of one frame: uncached DRT with many lens samples, its own seeds.
-image::Image reference(const scene::Scene& scene, const scene::Accel& accel,
-                       const sequence::FrameSpec& f, const render::RenderSettings& base,
-                       const Options& o, const std::string& name) {
+// The converged reference of one frame: uncached DRT with many lens samples, its own seeds,
+// rendered as two independent halves. Their difference measures the reference's own noise, which
+// adds to every error measured against it: relMSE(a, b) / 4 estimates that term (the mean's
+// variance is a quarter of the halves' squared difference), and it is subtracted so that an error
+// near the reference's noise is not read as a floor.
+struct Reference {
+  image::Image color;
+  double noise_rel_mse = 0.0;
+};
+
+Reference reference(const scene::Scene& scene, const scene::Accel& accel,
+                    const sequence::FrameSpec& f, const render::RenderSettings& base,
+                    const Options& o, const std::string& name) {
   std::uint64_t key = hash_combine(scene.content_hash, static_cast<std::uint64_t>(o.ref_spp));
   for (int c = 0; c < 4; ++c)
     for (int k = 0; k < 4; ++k) {
@@ -113,24 +123,40 @@ image::Image reference(const scene::Scene& scene, const scene::Accel& accel,
   }
   key = hash_combine(key, static_cast<std::uint64_t>(base.shading.light_samples) << 32 |
                               static_cast<std::uint64_t>(base.shading.gather_rays));
-  std::string file_key = "sequence_" + name + "_" + std::to_string(base.width) + "x" +
-                         std::to_string(base.height) + "_f" + std::to_string(f.number) + "_" +
-                         hex(key).substr(0, 8);
-  return bench::cached_reference(file_key, [&] {
-    render::RenderSettings r = base;
-    r.spp = o.ref_spp;
-    r.lens = f.lens;
-    r.seed = sequence::frame_seed(1000003, f.number);  // independent of the measured renders
-    r.cache.cache = nullptr;
-    return render::render(scene, accel, f.camera, r).color;
-  });
+  const std::string file_key = "sequence_" + name + "_" + std::to_string(base.width) + "x" +
+                               std::to_string(base.height) + "_f" + std::to_string(f.number) +
+                               "_" + hex(key).substr(0, 8);
+  image::Image halves[2];
+  for (int h = 0; h < 2; ++h)
+    halves[h] = bench::cached_reference(file_key + "_half" + std::to_string(h), [&] {
+      render::RenderSettings r = base;
+      r.spp = std::max(1, o.ref_spp / 2);
+      r.lens = f.lens;
+      // Independent of the measured renders and of each other.
+      r.seed = sequence::frame_seed(1000003 + 7919 * h, f.number);
+      r.cache.cache = nullptr;
+      return render::render(scene, accel, f.camera, r).color;
+    });
+  Reference ref;
+  ref.noise_rel_mse = image::compare(halves[0], halves[1]).rel_mse / 4.0;
+  ref.color = std::move(halves[0]);
+  for (std::size_t i = 0; i < ref.color.data().size(); ++i)
+    ref.color.data()[i] = 0.5f * (ref.color.data()[i] + halves[1].data()[i]);
+  return ref;
+}
+
+// Frames with a reference (and a render without a cache, as costly): pairs of consecutive frames,
+// one pair every `every` frames, so that the error flicker between two frames is still measured.
+bool has_reference(std::size_t i, int every) {
+  return every <= 1 || static_cast<int>(i % static_cast<std::size_t>(every)) < 2;
 }
 
 int run(const Options& o) {
-  bench::Table summary({"path", "frames", "method", "total wall [s]", "total CPU [s]",
-                        "speed-up vs fresh (CPU)", "rays [M]", "shading points",
-                        "mean relMSE", "relMSE / fresh (mean)", "relMSE / fresh (max)",
-                        "mean reuse", "flicker", "reference flicker", "error flicker"},
+  bench::Table summary({"path", "frames", "method", "frames measured", "wall / frame [s]",
+                        "CPU / frame [s]", "speed-up vs fresh (CPU)", "rays / frame [M]",
+                        "shading points / frame", "mean relMSE", "relMSE / fresh (mean)",
+                        "relMSE / fresh (max)", "mean reuse", "flicker", "reference flicker",
+                        "error flicker"},
                        4);
   nlohmann::json per_frame_json = nlohmann::json::object();
   sequence::ReusePolicy policy;  // the defaults a user gets
@@ -158,18 +184,22 @@ int run(const Options& o) {
     std::fprintf(stderr, "%s: %zu frames at %dx%d, %d spp\n", pc.name.c_str(), frames.size(),
                  base.width, base.height, base.spp);
 
-    std::vector<image::Image> refs;
-    for (const sequence::FrameSpec& f : frames)
-      refs.push_back(reference(scene, accel, f, base, o, pc.name));
+    std::vector<Reference> refs(frames.size());
+    for (std::size_t i = 0; i < frames.size(); ++i)
+      if (has_reference(i, o.ref_every))
+        refs[i] = reference(scene, accel, frames[i], base, o, pc.name);
 
     sequence::PersistentCache fresh("vdb", policy, base.cache.radius),
         persistent("vdb", policy, base.cache.radius);
-    std::vector<std::vector<FrameResult>> results(kMethods);
+    std::vector<std::vector<FrameResult>> results(kMethods,
+                                                  std::vector<FrameResult>(frames.size()));
     std::vector<image::Image> previous(kMethods);
     for (std::size_t i = 0; i < frames.size(); ++i) {
       const sequence::FrameSpec& f = frames[i];
+      const bool measured = has_reference(i, o.ref_every);
       std::fprintf(stderr, "  frame %d\r", f.number);
       for (int m = 0; m < kMethods; ++m) {
+        if (m == kNone && !measured) continue;
         render::RenderSettings r = base;
         r.lens = f.lens;
         r.seed = sequence::frame_seed(1, f.number);
@@ -181,40 +211,44 @@ int run(const Options& o) {
         if (m == kFresh) fresh.clear();
         if (pcache) r.cache.cache = pcache->begin_frame(f.number, render::make_camera(f.camera, r));
         render::RenderOutput out = render::render(scene, accel, f.camera, r);
-        FrameResult fr;
+        FrameResult& fr = results[m][i];
         if (pcache) fr.cache = pcache->end_frame();
         fr.cpu = cpu_seconds() - c0;
         fr.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        fr.rendered = true;
         fr.rays = out.stats.rays;
         fr.shading_points = out.stats.shading_points;
-        fr.rel_mse = image::compare(out.color, refs[i]).rel_mse;
-        if (i > 0) {
+        if (measured)
+          fr.rel_mse = image::compare(out.color, refs[i].color).rel_mse - refs[i].noise_rel_mse;
+        if (i > 0 && !previous[m].data().empty()) {
           fr.flicker = mean_abs_diff(out.color, previous[m]);
-          fr.error_flicker = error_change(out.color, refs[i], previous[m], refs[i - 1]);
+          if (measured && has_reference(i - 1, o.ref_every))
+            fr.error_flicker =
+                error_change(out.color, refs[i].color, previous[m], refs[i - 1].color);
         }
         previous[m] = std::move(out.color);
-        results[m].push_back(fr);
       }
+      // Rendered frames must follow each other for the flicker of the next one.
+      if (!measured) previous[kNone] = image::Image();
     }
 
-    // Per-path summary.
-    double fresh_cpu = 0.0;
-    for (const FrameResult& fr : results[kFresh]) fresh_cpu += fr.cpu;
-    double ref_flicker = 0.0;
-    for (std::size_t i = 1; i < refs.size(); ++i)
-      ref_flicker += mean_abs_diff(refs[i], refs[i - 1]);
-    ref_flicker /= std::max<std::size_t>(1, refs.size() - 1);
+    // Per-path summary over the frames each method rendered; its speed-up against the fresh
+    // cache and its error ratios over the same frames.
     nlohmann::json frames_json = nlohmann::json::array();
     for (std::size_t i = 0; i < frames.size(); ++i) {
       nlohmann::json row = {{"frame", frames[i].number},
                             {"focus_distance", frames[i].lens.focus_distance}};
-      if (i > 0) row["reference_flicker"] = mean_abs_diff(refs[i], refs[i - 1]);
+      if (has_reference(i, o.ref_every)) row["reference_noise_rel_mse"] = refs[i].noise_rel_mse;
+      if (i > 0 && has_reference(i, o.ref_every) && has_reference(i - 1, o.ref_every))
+        row["reference_flicker"] = mean_abs_diff(refs[i].color, refs[i - 1].color);
       for (int m = 0; m < kMethods; ++m) {
         const FrameResult& fr = results[m][i];
+        if (!fr.rendered) continue;
         nlohmann::json j = {{"wall_seconds", fr.wall}, {"cpu_seconds", fr.cpu},
-                            {"rays", fr.rays}, {"shading_points", fr.shading_points},
-                            {"rel_mse", fr.rel_mse}};
-        if (i > 0) j["flicker"] = fr.flicker, j["error_flicker"] = fr.error_flicker;
+                            {"rays", fr.rays}, {"shading_points", fr.shading_points}};
+        if (has_reference(i, o.ref_every)) j["rel_mse"] = fr.rel_mse;
+        if (fr.flicker >= 0) j["flicker"] = fr.flicker;
+        if (fr.error_flicker >= 0) j["error_flicker"] = fr.error_flicker;
         if (m != kNone)
           j.update({{"reuse_rate", fr.cache.reuse_rate()}, {"hit_rate", fr.cache.hit_rate()},
                     {"inserted", fr.cache.inserted}, {"shrunk", fr.cache.shrunk},
@@ -227,59 +261,80 @@ int run(const Options& o) {
     }
     per_frame_json[pc.name] = frames_json;
 
-    std::printf("\n%s: per frame (relMSE x 1e3; reuse = lookups served by earlier frames)\n",
+    std::printf("\n%s: per frame (relMSE x 1e3, the reference's noise subtracted; reuse = lookups "
+                "served by earlier frames)\n",
                 pc.name.c_str());
     bench::Table detail({"frame", "focus [m]", "none", "fresh", "persistent", "pers./fresh",
                          "reuse", "fresh CPU [s]", "pers. CPU [s]", "new samples"},
                         3);
     for (std::size_t i = 0; i < frames.size(); ++i) {
-      const FrameResult &fr = results[kFresh][i], &pr = results[kPersistent][i];
+      const FrameResult &nr = results[kNone][i], &fr = results[kFresh][i],
+                        &pr = results[kPersistent][i];
+      const bool measured = has_reference(i, o.ref_every);
+      auto err = [&](const FrameResult& x) {
+        return measured ? bench::Table::Cell(1e3 * x.rel_mse, 3) : bench::Table::Cell("-");
+      };
       detail.add_row({frames[i].number, bench::Table::Cell(frames[i].lens.focus_distance, 3),
-                      bench::Table::Cell(1e3 * results[kNone][i].rel_mse, 3),
-                      bench::Table::Cell(1e3 * fr.rel_mse, 3),
-                      bench::Table::Cell(1e3 * pr.rel_mse, 3),
-                      bench::Table::Cell(pr.rel_mse / fr.rel_mse, 3),
+                      err(nr), err(fr), err(pr),
+                      measured ? bench::Table::Cell(pr.rel_mse / fr.rel_mse, 3)
+                               : bench::Table::Cell("-"),
                       bench::Table::Cell(pr.cache.reuse_rate(), 3), bench::Table::Cell(fr.cpu, 2),
                       bench::Table::Cell(pr.cpu, 2), static_cast<long>(pr.cache.inserted)});
     }
     detail.print();
 
+    double ref_flicker = 0.0;
+    int ref_pairs = 0;
+    for (std::size_t i = 1; i < frames.size(); ++i)
+      if (has_reference(i, o.ref_every) && has_reference(i - 1, o.ref_every))
+        ref_flicker += mean_abs_diff(refs[i].color, refs[i - 1].color), ++ref_pairs;
+    ref_flicker /= std::max(1, ref_pairs);
     for (int m = 0; m < kMethods; ++m) {
-      double wall = 0, cpu = 0, rays = 0, sp = 0, err = 0, ratio = 0, ratio_max = 0, reuse = 0,
-             flicker = 0, err_flicker = 0;
+      double wall = 0, cpu = 0, fresh_cpu = 0, rays = 0, sp = 0, err = 0, ratio = 0,
+             ratio_max = 0, reuse = 0, flicker = 0, err_flicker = 0;
+      int n = 0, n_err = 0, n_reuse = 0, n_flicker = 0, n_err_flicker = 0;
       for (std::size_t i = 0; i < frames.size(); ++i) {
         const FrameResult& fr = results[m][i];
+        if (!fr.rendered) continue;
+        ++n;
         wall += fr.wall, cpu += fr.cpu, rays += fr.rays, sp += fr.shading_points;
-        err += fr.rel_mse;
-        double q = fr.rel_mse / results[kFresh][i].rel_mse;
-        ratio += q;
-        ratio_max = std::max(ratio_max, q);
-        if (i > 0) {
-          reuse += fr.cache.reuse_rate();
-          flicker += fr.flicker;
-          err_flicker += fr.error_flicker;
+        fresh_cpu += results[kFresh][i].cpu;
+        if (has_reference(i, o.ref_every)) {
+          err += fr.rel_mse;
+          const double q = fr.rel_mse / results[kFresh][i].rel_mse;
+          ratio += q;
+          ratio_max = std::max(ratio_max, q);
+          ++n_err;
         }
+        if (i > 0) reuse += fr.cache.reuse_rate(), ++n_reuse;
+        if (fr.flicker >= 0) flicker += fr.flicker, ++n_flicker;
+        if (fr.error_flicker >= 0) err_flicker += fr.error_flicker, ++n_err_flicker;
       }
-      const double n = static_cast<double>(frames.size()), pairs = std::max(1.0, n - 1.0);
+      const double frames_n = std::max(1, n), errs = std::max(1, n_err);
       summary.add_row({pc.name, static_cast<long>(frames.size()), kMethodNames[m],
-                       bench::Table::Cell(wall, 2), bench::Table::Cell(cpu, 2),
-                       bench::Table::Cell(fresh_cpu / cpu, 2), bench::Table::Cell(rays * 1e-6, 1),
-                       static_cast<long>(sp), bench::Table::Cell(err / n, 6),
-                       bench::Table::Cell(ratio / n, 3), bench::Table::Cell(ratio_max, 3),
-                       bench::Table::Cell(m == kNone ? 0.0 : reuse / pairs, 3),
-                       bench::Table::Cell(flicker / pairs, 5),
+                       static_cast<long>(n), bench::Table::Cell(wall / frames_n, 3),
+                       bench::Table::Cell(cpu / frames_n, 3),
+                       bench::Table::Cell(fresh_cpu / cpu, 2),
+                       bench::Table::Cell(rays * 1e-6 / frames_n, 2),
+                       static_cast<long>(sp / frames_n), bench::Table::Cell(err / errs, 6),
+                       bench::Table::Cell(ratio / errs, 3), bench::Table::Cell(ratio_max, 3),
+                       bench::Table::Cell(m == kNone ? 0.0 : reuse / std::max(1, n_reuse), 3),
+                       bench::Table::Cell(flicker / std::max(1, n_flicker), 5),
                        bench::Table::Cell(ref_flicker, 5),
-                       bench::Table::Cell(err_flicker / pairs, 5)});
+                       bench::Table::Cell(err_flicker / std::max(1, n_err_flicker), 5)});
     }
   }
-  std::printf("\nSummary (speed-up = fresh-cache CPU time / this method's CPU time; relMSE / fresh "
-              "= per-frame error ratio against the fresh cache; flicker = mean |frame - previous "
+  std::printf("\nSummary (per frame: the mean over the frames a method rendered; speed-up = fresh-"
+              "cache CPU time / this method's CPU time over the same frames; relMSE / fresh = "
+              "per-frame error ratio against the fresh cache; flicker = mean |frame - previous "
               "frame|; error flicker = mean |change of the error between frames|)\n");
   summary.print();
   nlohmann::json results;
   results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"reference_spp", o.ref_spp},
-                         {"backend", "vdb"}, {"evict_after", policy.evict_after},
-                         {"min_factor", render::CacheSettings{}.radius.min_factor}, {"shading", "defaults"}};
+                         {"reference_every", o.ref_every}, {"backend", "vdb"},
+                         {"evict_after", policy.evict_after},
+                         {"min_factor", render::CacheSettings{}.radius.min_factor},
+                         {"shading", "defaults"}};
   results["columns"] = summary.header();
   results["rows"] = summary.to_json();
   results["per_frame"] = per_frame_json;
@@ -298,6 +353,9 @@ int main(int argc, char** argv) {
   bench::add_count_option(app, "--spp", o.spp, "Lens samples per pixel of the measured frames");
   bench::add_count_option(app, "--ref-spp", o.ref_spp,
                           "Lens samples per pixel of each frame's converged uncached reference");
+  bench::add_count_option(app, "--ref-every", o.ref_every,
+                          "References (and renders without a cache) for a pair of consecutive "
+                          "frames every this many frames (1: every frame)");
   bench::add_count_option(app, "--frames", o.max_frames,
                           "Render at most this many frames of each path (0: all)", 0);
   std::vector<std::string> names;

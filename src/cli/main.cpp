@@ -2,7 +2,6 @@
 #include <cctype>
 #include <cstdio>
 #include <exception>
-#include <fstream>
 #include <map>
 
 #include "commands.h"
@@ -13,12 +12,7 @@
 namespace dofcache::cli {
 
 void write_json_file(const std::string& path, const nlohmann::json& json) {
-  write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp);
-    out << json.dump(2) << '\n';
-    out.close();
-    if (!out) throw Error("cannot write '" + path + "'");
-  });
+  write_bytes_atomically(path, json.dump(2) + "\n");
 }
 
 }  // namespace dofcache::cli

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -41,6 +42,15 @@ void commit_temporary(const std::string& tmp_path, const std::string& path) {
     throw Error("cannot write '" + path + "': " +
                 one_line(std::string("cannot rename the temporary file: ") +
                          std::strerror(errno)));
+}
+
+void write_bytes_atomically(const std::string& path, std::string_view bytes) {
+  write_atomically(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) throw Error("cannot write '" + path + "'");
+  });
 }
 
 void discard_temporary(const std::string& tmp_path) noexcept {

@@ -31,15 +31,10 @@ std::string chunk_file_name(int index, int count, const char* ext) {
 }
 
 void write_text(const std::string& path, const std::string& text, bool executable) {
-  write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) throw Error("cannot write '" + path + "'");
-    if (executable)
-      fs::permissions(tmp, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
-                      fs::perm_options::add);
-  });
+  write_bytes_atomically(path, text);
+  if (executable)
+    fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                    fs::perm_options::add);
 }
 
 }  // namespace

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
-#include <fstream>
 
 #include "codec_module.h"
 #include "dofcache/core/atomic_file.h"
@@ -62,13 +61,8 @@ void write_image(const std::string& path, const Image& color,
     fail_write(path, "colour must have 3 channels (RGB), not " + std::to_string(color.channels()));
   if (format_of(path) == Format::Png) {  // PNG is encoded here (png_encoder.cpp), without loading the codec module
     const std::vector<unsigned char> bytes = encode_png(color);
-    write_atomically(path, [&](const std::string& tmp) {
-      std::ofstream out(tmp, std::ios::binary);
-      out.write(reinterpret_cast<const char*>(bytes.data()),
-                static_cast<std::streamsize>(bytes.size()));
-      out.close();
-      if (!out) fail_write(path, "write failed");
-    });
+    write_bytes_atomically(
+        path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
     return;
   }
   const codec::Table& codecs = codec::table();

@@ -350,12 +350,7 @@ std::string checkpoint_journal_path(const std::string& checkpoint) {
 CheckpointJournalWriter CheckpointJournalWriter::create(const std::string& path,
                                                         const JournalBase& base) {
   const std::string header = encode_journal_header(base);
-  write_atomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(header.data(), static_cast<std::streamsize>(header.size()));
-    out.close();
-    if (!out) throw Error("cannot write '" + path + "'");
-  });
+  write_bytes_atomically(path, header);
   return CheckpointJournalWriter(path, header.size());
 }
 

@@ -280,12 +280,7 @@ int append_keyframe(const std::string& json_file, const scene::Camera& camera,
 
   const std::string text = doc.dump(2) + "\n";
   parse_keyframe_path(text, json_file, camera);  // what is written reads back
-  write_atomically(json_file, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) throw Error(json_file + ": cannot write the keyframe file");
-  });
+  write_bytes_atomically(json_file, text);
   return static_cast<int>(keys.size());
 }
 

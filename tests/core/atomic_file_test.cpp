@@ -79,6 +79,27 @@ TEST_F(AtomicFile, FailedRenameIsAOneLineError) {
   }
 }
 
+TEST_F(AtomicFile, BytesAreWrittenWholeWithEmbeddedZerosAndReplaceTheTarget) {
+  const std::string file = path("data.bin");
+  std::ofstream(file) << "an older, longer content";
+  const std::string bytes("a\0b\nc", 5);
+  write_bytes_atomically(file, bytes);
+  EXPECT_EQ(contents(file), bytes);
+  EXPECT_EQ(listing(), std::vector<std::string>{"data.bin"});
+}
+
+TEST_F(AtomicFile, BytesIntoAMissingDirectoryAreAOneLineErrorAndLeaveNothing) {
+  const std::string file = path("missing/out.json");
+  try {
+    write_bytes_atomically(file, "{}");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_EQ(msg, "cannot write '" + file + "'");
+  }
+  EXPECT_TRUE(listing().empty());
+}
+
 TEST_F(AtomicFile, StaleTemporariesOfDeadProcessesAreRemoved) {
   const std::string target = path("0001.exr");
   // A process id that cannot exist (above the kernel's pid_max limit of 2^22).

@@ -4,6 +4,7 @@
 // target's directory, which is renamed over the target only once complete. A reader never sees a
 // half-written file, and a failed write leaves the target as it was.
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace dofcache {
@@ -13,6 +14,10 @@ namespace dofcache {
 // is removed and the exception rethrown.
 template <class WriteFn>
 void write_atomically(const std::string& path, WriteFn&& write);
+
+// Writes `bytes` to `path` atomically; throws dofcache::Error ("cannot write '<path>'", one line)
+// if the temporary file cannot be written or renamed.
+void write_bytes_atomically(const std::string& path, std::string_view bytes);
 
 // "<dir>/.<stem>.tmp-<pid>-<counter><ext>": the target's directory (so the rename is atomic) and
 // extension (so writers that choose the format by extension still can), unique in the process.
