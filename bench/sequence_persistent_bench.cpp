@@ -1,7 +1,8 @@
 // Camera-path sequences with a persistent radiance cache on the shipped paths: the slow dolly (a
 // glTF animation, sampled at 12 fps: 25 frames of small camera motion), the focus pull (a keyframe
-// file, 36 frames) and the gallery walk (48 frames, 4.8 m of camera motion with a rack focus). For each path, three ways of rendering every frame run
-// side by side, interleaved frame by frame so that a change in machine load hits all alike:
+// file, 36 frames) and the gallery walk (48 frames, 4.8 m of camera motion with a rack focus).
+// For each path, three ways of rendering every frame run side by side, interleaved frame by frame
+// so that a change in machine load hits all alike:
 //   none        DRT without a cache;
 //   fresh       the vdb cache, emptied before every frame;
 //   persistent  the vdb cache carried across frames (reuse rule, eviction: persistent_cache.h).
@@ -10,8 +11,12 @@
 // reuse rate (lookups served entirely by samples of earlier frames) and flicker (mean absolute
 // difference to the previous frame; the reference's own figure is what the scene's change
 // explains, the rest is error). Writes bench/results/sequence_persistent.{json,csv}.
-//   sequence_persistent_bench [--width W] [--spp N] [--ref-spp N] [--ref-every K] [--threads T] [--frames N]
+//   sequence_persistent_bench [--width W] [--spp N] [--ref-spp N] [--ref-every K]
+//                             [--fresh-every K] [--fps F] [--threads T] [--frames N]
 //                             [--path dolly|focus_pull|walk]... [--results NAME]   (--help for more)
+// Long or large paths: --ref-every K keeps references (and uncached renders) to a pair of frames
+// every K, --fresh-every K renders the fresh cache on a subset, --ref-spp 0 drops the references.
+#include <sys/resource.h>
 #include <time.h>
 
 #include <algorithm>
@@ -41,7 +46,9 @@ namespace fs = std::filesystem;
 namespace {
 
 struct Options {
-  int width = 96, spp = 16, ref_spp = 256, threads = 0, max_frames = 0, ref_every = 1;
+  int width = 96, spp = 16, ref_spp = 256, threads = 0, max_frames = 0, ref_every = 1,
+      fresh_every = 1;
+  double fps = 0.0;  // 0: each path's own
   std::vector<std::string> paths;  // names of kCases to run
   std::string results = "sequence_persistent";
 };
@@ -147,8 +154,22 @@ Reference reference(const scene::Scene& scene, const scene::Accel& accel,
 
 // Frames with a reference (and a render without a cache, as costly): pairs of consecutive frames,
 // one pair every `every` frames, so that the error flicker between two frames is still measured.
-bool has_reference(std::size_t i, int every) {
-  return every <= 1 || static_cast<int>(i % static_cast<std::size_t>(every)) < 2;
+// --ref-spp 0: none (time and memory only).
+bool has_reference(std::size_t i, const Options& o) {
+  if (o.ref_spp <= 0) return false;
+  return o.ref_every <= 1 || static_cast<int>(i % static_cast<std::size_t>(o.ref_every)) < 2;
+}
+
+// Frames rendered with a fresh cache: every --fresh-every'th frame, and every frame with a
+// reference (a fresh frame depends on no other, so a subset measures its cost).
+bool renders_fresh(std::size_t i, const Options& o) {
+  return has_reference(i, o) || i % static_cast<std::size_t>(std::max(o.fresh_every, 1)) == 0;
+}
+
+double peak_rss_bytes() {
+  rusage u;
+  getrusage(RUSAGE_SELF, &u);
+  return 1024.0 * static_cast<double>(u.ru_maxrss);  // kilobytes on Linux
 }
 
 int run(const Options& o) {
@@ -159,6 +180,8 @@ int run(const Options& o) {
                         "error flicker"},
                        4);
   nlohmann::json per_frame_json = nlohmann::json::object();
+  // The process's peak resident set after each path (it only grows: run one path to read its own).
+  nlohmann::json peak_rss_json = nlohmann::json::object();
   sequence::ReusePolicy policy;  // the defaults a user gets
 
   for (const PathCase& pc : kCases) {
@@ -170,10 +193,11 @@ int run(const Options& o) {
         pc.keyframe_file.empty()
             ? sequence::load_gltf_camera_path(bench::scene_path(pc.scene_file), cam)
             : sequence::load_keyframe_path(bench::scene_path(pc.keyframe_file), cam);
-    auto [first, last] = sequence::path_frame_range(path, pc.fps);
+    const double fps = o.fps > 0.0 ? o.fps : pc.fps;
+    auto [first, last] = sequence::path_frame_range(path, fps);
     if (o.max_frames > 0) last = std::min(last, first + o.max_frames - 1);
     std::vector<sequence::FrameSpec> frames =
-        sequence::plan_frames(scene, accel, cam, path, pc.fps, first, last, {});
+        sequence::plan_frames(scene, accel, cam, path, fps, first, last, {});
 
     render::RenderSettings base;
     base.width = o.width;
@@ -186,7 +210,7 @@ int run(const Options& o) {
 
     std::vector<Reference> refs(frames.size());
     for (std::size_t i = 0; i < frames.size(); ++i)
-      if (has_reference(i, o.ref_every))
+      if (has_reference(i, o))
         refs[i] = reference(scene, accel, frames[i], base, o, pc.name);
 
     sequence::PersistentCache fresh("vdb", policy, base.cache.radius),
@@ -196,10 +220,10 @@ int run(const Options& o) {
     std::vector<image::Image> previous(kMethods);
     for (std::size_t i = 0; i < frames.size(); ++i) {
       const sequence::FrameSpec& f = frames[i];
-      const bool measured = has_reference(i, o.ref_every);
+      const bool measured = has_reference(i, o);
       std::fprintf(stderr, "  frame %d\r", f.number);
       for (int m = 0; m < kMethods; ++m) {
-        if (m == kNone && !measured) continue;
+        if ((m == kNone && !measured) || (m == kFresh && !renders_fresh(i, o))) continue;
         render::RenderSettings r = base;
         r.lens = f.lens;
         r.seed = sequence::frame_seed(1, f.number);
@@ -222,7 +246,7 @@ int run(const Options& o) {
           fr.rel_mse = image::compare(out.color, refs[i].color).rel_mse - refs[i].noise_rel_mse;
         if (i > 0 && !previous[m].data().empty()) {
           fr.flicker = mean_abs_diff(out.color, previous[m]);
-          if (measured && has_reference(i - 1, o.ref_every))
+          if (measured && has_reference(i - 1, o))
             fr.error_flicker =
                 error_change(out.color, refs[i].color, previous[m], refs[i - 1].color);
         }
@@ -230,6 +254,7 @@ int run(const Options& o) {
       }
       // Rendered frames must follow each other for the flicker of the next one.
       if (!measured) previous[kNone] = image::Image();
+      if (!renders_fresh(i, o)) previous[kFresh] = image::Image();
     }
 
     // Per-path summary over the frames each method rendered; its speed-up against the fresh
@@ -238,15 +263,15 @@ int run(const Options& o) {
     for (std::size_t i = 0; i < frames.size(); ++i) {
       nlohmann::json row = {{"frame", frames[i].number},
                             {"focus_distance", frames[i].lens.focus_distance}};
-      if (has_reference(i, o.ref_every)) row["reference_noise_rel_mse"] = refs[i].noise_rel_mse;
-      if (i > 0 && has_reference(i, o.ref_every) && has_reference(i - 1, o.ref_every))
+      if (has_reference(i, o)) row["reference_noise_rel_mse"] = refs[i].noise_rel_mse;
+      if (i > 0 && has_reference(i, o) && has_reference(i - 1, o))
         row["reference_flicker"] = mean_abs_diff(refs[i].color, refs[i - 1].color);
       for (int m = 0; m < kMethods; ++m) {
         const FrameResult& fr = results[m][i];
         if (!fr.rendered) continue;
         nlohmann::json j = {{"wall_seconds", fr.wall}, {"cpu_seconds", fr.cpu},
                             {"rays", fr.rays}, {"shading_points", fr.shading_points}};
-        if (has_reference(i, o.ref_every)) j["rel_mse"] = fr.rel_mse;
+        if (has_reference(i, o)) j["rel_mse"] = fr.rel_mse;
         if (fr.flicker >= 0) j["flicker"] = fr.flicker;
         if (fr.error_flicker >= 0) j["error_flicker"] = fr.error_flicker;
         if (m != kNone)
@@ -260,6 +285,7 @@ int run(const Options& o) {
       frames_json.push_back(row);
     }
     per_frame_json[pc.name] = frames_json;
+    peak_rss_json[pc.name] = peak_rss_bytes();
 
     std::printf("\n%s: per frame (relMSE x 1e3, the reference's noise subtracted; reuse = lookups "
                 "served by earlier frames)\n",
@@ -270,7 +296,7 @@ int run(const Options& o) {
     for (std::size_t i = 0; i < frames.size(); ++i) {
       const FrameResult &nr = results[kNone][i], &fr = results[kFresh][i],
                         &pr = results[kPersistent][i];
-      const bool measured = has_reference(i, o.ref_every);
+      const bool measured = has_reference(i, o);
       auto err = [&](const FrameResult& x) {
         return measured ? bench::Table::Cell(1e3 * x.rel_mse, 3) : bench::Table::Cell("-");
       };
@@ -278,19 +304,26 @@ int run(const Options& o) {
                       err(nr), err(fr), err(pr),
                       measured ? bench::Table::Cell(pr.rel_mse / fr.rel_mse, 3)
                                : bench::Table::Cell("-"),
-                      bench::Table::Cell(pr.cache.reuse_rate(), 3), bench::Table::Cell(fr.cpu, 2),
+                      bench::Table::Cell(pr.cache.reuse_rate(), 3),
+                      fr.rendered ? bench::Table::Cell(fr.cpu, 2) : bench::Table::Cell("-"),
                       bench::Table::Cell(pr.cpu, 2), static_cast<long>(pr.cache.inserted)});
     }
     detail.print();
 
+    // A fresh frame depends on no other, so the mean over the frames it rendered stands for all.
+    double fresh_cpu_per_frame = 0.0;
+    int fresh_frames = 0;
+    for (const FrameResult& fr : results[kFresh])
+      if (fr.rendered) fresh_cpu_per_frame += fr.cpu, ++fresh_frames;
+    fresh_cpu_per_frame /= std::max(1, fresh_frames);
     double ref_flicker = 0.0;
     int ref_pairs = 0;
     for (std::size_t i = 1; i < frames.size(); ++i)
-      if (has_reference(i, o.ref_every) && has_reference(i - 1, o.ref_every))
+      if (has_reference(i, o) && has_reference(i - 1, o))
         ref_flicker += mean_abs_diff(refs[i].color, refs[i - 1].color), ++ref_pairs;
     ref_flicker /= std::max(1, ref_pairs);
     for (int m = 0; m < kMethods; ++m) {
-      double wall = 0, cpu = 0, fresh_cpu = 0, rays = 0, sp = 0, err = 0, ratio = 0,
+      double wall = 0, cpu = 0, rays = 0, sp = 0, err = 0, ratio = 0,
              ratio_max = 0, reuse = 0, flicker = 0, err_flicker = 0;
       int n = 0, n_err = 0, n_reuse = 0, n_flicker = 0, n_err_flicker = 0;
       for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -298,8 +331,7 @@ int run(const Options& o) {
         if (!fr.rendered) continue;
         ++n;
         wall += fr.wall, cpu += fr.cpu, rays += fr.rays, sp += fr.shading_points;
-        fresh_cpu += results[kFresh][i].cpu;
-        if (has_reference(i, o.ref_every)) {
+        if (has_reference(i, o)) {
           err += fr.rel_mse;
           const double q = fr.rel_mse / results[kFresh][i].rel_mse;
           ratio += q;
@@ -310,11 +342,12 @@ int run(const Options& o) {
         if (fr.flicker >= 0) flicker += fr.flicker, ++n_flicker;
         if (fr.error_flicker >= 0) err_flicker += fr.error_flicker, ++n_err_flicker;
       }
-      const double frames_n = std::max(1, n), errs = std::max(1, n_err);
+      if (n == 0) continue;  // --ref-spp 0: no uncached renders
+      const double frames_n = n, errs = std::max(1, n_err);
       summary.add_row({pc.name, static_cast<long>(frames.size()), kMethodNames[m],
                        static_cast<long>(n), bench::Table::Cell(wall / frames_n, 3),
                        bench::Table::Cell(cpu / frames_n, 3),
-                       bench::Table::Cell(fresh_cpu / cpu, 2),
+                       bench::Table::Cell(fresh_cpu_per_frame / (cpu / frames_n), 2),
                        bench::Table::Cell(rays * 1e-6 / frames_n, 2),
                        static_cast<long>(sp / frames_n), bench::Table::Cell(err / errs, 6),
                        bench::Table::Cell(ratio / errs, 3), bench::Table::Cell(ratio_max, 3),
@@ -324,20 +357,22 @@ int run(const Options& o) {
                        bench::Table::Cell(err_flicker / std::max(1, n_err_flicker), 5)});
     }
   }
-  std::printf("\nSummary (per frame: the mean over the frames a method rendered; speed-up = fresh-"
-              "cache CPU time / this method's CPU time over the same frames; relMSE / fresh = "
+  std::printf("\nSummary (per frame: the mean over the frames a method rendered; speed-up = a fresh-"
+              "cache frame's mean CPU time / this method's; relMSE / fresh = "
               "per-frame error ratio against the fresh cache; flicker = mean |frame - previous "
               "frame|; error flicker = mean |change of the error between frames|)\n");
   summary.print();
   nlohmann::json results;
   results["settings"] = {{"width", o.width}, {"spp", o.spp}, {"reference_spp", o.ref_spp},
-                         {"reference_every", o.ref_every}, {"backend", "vdb"},
+                         {"reference_every", o.ref_every}, {"fresh_every", o.fresh_every},
+                         {"fps", o.fps}, {"backend", "vdb"},
                          {"evict_after", policy.evict_after},
                          {"min_factor", render::CacheSettings{}.radius.min_factor},
                          {"shading", "defaults"}};
   results["columns"] = summary.header();
   results["rows"] = summary.to_json();
   results["per_frame"] = per_frame_json;
+  results["peak_rss_bytes"] = peak_rss_json;
   std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
   return 0;
 }
@@ -352,10 +387,17 @@ int main(int argc, char** argv) {
   bench::add_common_options(app, o.width, o.threads, o.results);
   bench::add_count_option(app, "--spp", o.spp, "Lens samples per pixel of the measured frames");
   bench::add_count_option(app, "--ref-spp", o.ref_spp,
-                          "Lens samples per pixel of each frame's converged uncached reference");
+                          "Lens samples per pixel of each frame's converged uncached reference "
+                          "(0: no references, no uncached renders: time and memory only)",
+                          0);
   bench::add_count_option(app, "--ref-every", o.ref_every,
                           "References (and renders without a cache) for a pair of consecutive "
                           "frames every this many frames (1: every frame)");
+  bench::add_count_option(app, "--fresh-every", o.fresh_every,
+                          "Render with a fresh cache only every this many frames (and on frames "
+                          "with a reference): a fresh frame depends on no other");
+  app.add_option("--fps", o.fps, "Frames per second along each path (default: the path's own)")
+      ->check(CLI::Range(1e-3, 1e4));
   bench::add_count_option(app, "--frames", o.max_frames,
                           "Render at most this many frames of each path (0: all)", 0);
   std::vector<std::string> names;
