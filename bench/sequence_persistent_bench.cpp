@@ -396,7 +396,8 @@ int main(int argc, char** argv) {
   bench::add_count_option(app, "--fresh-every", o.fresh_every,
                           "Render with a fresh cache only every this many frames (and on frames "
                           "with a reference): a fresh frame depends on no other");
-  app.add_option("--fps", o.fps, "Frames per second along each path (default: the path's own)")
+  app.add_option("--fps", o.fps, "Frames per second along each path")
+      ->default_str("the path's own")
       ->check(CLI::Range(1e-3, 1e4));
   bench::add_count_option(app, "--frames", o.max_frames,
                           "Render at most this many frames of each path (0: all)", 0);
