@@ -69,6 +69,10 @@ int main(int argc, char** argv) {
     int code = app.exit(e);  // prints help/version, or the one-line error
     return code == 0 ? 0 : 2;
   }
+  // Every return below waits for a background codec load to finish first.
+  struct CodecLoadJoin {
+    ~CodecLoadJoin() { image::finish_loading_image_codecs(); }
+  } codec_load_join;
   try {
     for (auto& [sub, run] : runners) {
       if (!sub->parsed()) continue;

@@ -2,6 +2,7 @@
 // installed or copied program), else where the build put it (the build tree's tests and tools).
 #include <dlfcn.h>
 
+#include <chrono>
 #include <filesystem>
 #include <future>
 #include <mutex>
@@ -74,5 +75,12 @@ const Table& table() {
 }  // namespace codec
 
 void preload_image_codecs() { codec::start(std::launch::async); }
+
+void finish_loading_image_codecs() {
+  // Only a started background load: a deferred one would load here.
+  if (codec::loaded.valid() &&
+      codec::loaded.wait_for(std::chrono::seconds(0)) != std::future_status::deferred)
+    codec::loaded.wait();
+}
 
 }  // namespace dofcache::image

@@ -53,6 +53,19 @@ TEST_F(CodecLoading, OpenImageIoIsLoadedByTheFirstExrOrImageReadNotByPngWrites) 
   EXPECT_NEAR(back.pixel(0, 0)[1], srgb_to_linear(188.0f / 255.0f), 1e-6f);
 }
 
+// A program that preloads waits for the load before it exits (src/cli/main.cpp): finishing is a
+// no-op without a preload, and after one it returns only once the libraries are in. In its own
+// process, like the test above.
+TEST_F(CodecLoading, FinishingWaitsForAPreloadAndLoadsNothingWithoutOne) {
+  finish_loading_image_codecs();
+  EXPECT_FALSE(mapped("libdofcache_image_codec"));
+  EXPECT_FALSE(mapped("libOpenImageIO"));
+  preload_image_codecs();
+  finish_loading_image_codecs();  // the load takes about 0.4 s: without the wait, not yet mapped
+  EXPECT_TRUE(mapped("libdofcache_image_codec"));
+  EXPECT_TRUE(mapped("libOpenImageIO"));
+}
+
 // The in-memory PNG is a complete file: the same bytes as the written one.
 TEST_F(CodecLoading, EncodedPngEqualsTheWrittenFile) {
   Image img(3, 2, 3, 0.25f);

@@ -77,6 +77,12 @@ std::vector<ExrPart> read_multipart_exr(const std::string& path,
 // for them (a third of a CPU-second): for programs that will surely need them. Optional.
 void preload_image_codecs();
 
+// Waits until a background load that preload_image_codecs() started has finished (no-op
+// otherwise). A program that preloads calls it before it exits: the process must not exit while
+// the loader thread is inside dlopen, running the constructors of OpenImageIO's libraries, whose
+// objects would be torn down half-made (LeakSanitizer saw them leak).
+void finish_loading_image_codecs();
+
 // The sRGB transfer functions (IEC 61966-2-1): encode = linear -> display, decode the inverse.
 // Inline: the codec module (which cannot see the program's symbols) uses them too.
 inline float linear_to_srgb(float linear) {
