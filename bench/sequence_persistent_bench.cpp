@@ -244,7 +244,7 @@ int run(const Options& o) {
         fr.shading_points = out.stats.shading_points;
         if (measured)
           fr.rel_mse = image::compare(out.color, refs[i].color).rel_mse - refs[i].noise_rel_mse;
-        if (i > 0 && !previous[m].data().empty()) {
+        if (i > 0 && results[m][i - 1].rendered) {  // flicker needs consecutive frames
           fr.flicker = mean_abs_diff(out.color, previous[m]);
           if (measured && has_reference(i - 1, o))
             fr.error_flicker =
@@ -252,13 +252,10 @@ int run(const Options& o) {
         }
         previous[m] = std::move(out.color);
       }
-      // Rendered frames must follow each other for the flicker of the next one.
-      if (!measured) previous[kNone] = image::Image();
-      if (!renders_fresh(i, o)) previous[kFresh] = image::Image();
     }
 
-    // Per-path summary over the frames each method rendered; its speed-up against the fresh
-    // cache and its error ratios over the same frames.
+    // Per-path results: each method over the frames it rendered, its error ratios against the
+    // fresh cache on the frames with a reference.
     nlohmann::json frames_json = nlohmann::json::array();
     for (std::size_t i = 0; i < frames.size(); ++i) {
       nlohmann::json row = {{"frame", frames[i].number},

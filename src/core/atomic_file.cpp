@@ -44,12 +44,15 @@ void commit_temporary(const std::string& tmp_path, const std::string& path) {
                          std::strerror(errno)));
 }
 
-void write_bytes_atomically(const std::string& path, std::string_view bytes) {
+void write_bytes_atomically(const std::string& path, std::string_view bytes, FileMode mode) {
   write_atomically(path, [&](const std::string& tmp) {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     out.close();
     if (!out) throw Error("cannot write '" + path + "'");
+    if (mode == FileMode::Executable)
+      fs::permissions(tmp, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                      fs::perm_options::add);
   });
 }
 

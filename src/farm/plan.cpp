@@ -31,10 +31,7 @@ std::string chunk_file_name(int index, int count, const char* ext) {
 }
 
 void write_text(const std::string& path, const std::string& text, bool executable) {
-  write_bytes_atomically(path, text);
-  if (executable)
-    fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
-                    fs::perm_options::add);
+  write_bytes_atomically(path, text, executable ? FileMode::Executable : FileMode::Regular);
 }
 
 }  // namespace

@@ -88,6 +88,17 @@ TEST_F(AtomicFile, BytesAreWrittenWholeWithEmbeddedZerosAndReplaceTheTarget) {
   EXPECT_EQ(listing(), std::vector<std::string>{"data.bin"});
 }
 
+TEST_F(AtomicFile, ExecutableBytesAreExecutableForEveryoneAndRegularOnesAreNot) {
+  const std::string script = path("run.sh"), text = path("plan.json");
+  write_bytes_atomically(script, "#!/bin/sh\n", FileMode::Executable);
+  write_bytes_atomically(text, "{}");
+  const fs::perms exec = fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec;
+  EXPECT_EQ(fs::status(script).permissions() & exec, exec);
+  EXPECT_EQ(fs::status(text).permissions() & exec, fs::perms::none);
+  EXPECT_EQ(contents(script), "#!/bin/sh\n");
+  EXPECT_EQ(listing(), (std::vector<std::string>{"plan.json", "run.sh"}));
+}
+
 TEST_F(AtomicFile, BytesIntoAMissingDirectoryAreAOneLineErrorAndLeaveNothing) {
   const std::string file = path("missing/out.json");
   try {

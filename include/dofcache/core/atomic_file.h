@@ -15,9 +15,14 @@ namespace dofcache {
 template <class WriteFn>
 void write_atomically(const std::string& path, WriteFn&& write);
 
+// What write_bytes_atomically gives the file: Executable adds execute permission for everyone,
+// set on the temporary before the rename, so the file never appears without it.
+enum class FileMode { Regular, Executable };
+
 // Writes `bytes` to `path` atomically; throws dofcache::Error ("cannot write '<path>'", one line)
 // if the temporary file cannot be written or renamed.
-void write_bytes_atomically(const std::string& path, std::string_view bytes);
+void write_bytes_atomically(const std::string& path, std::string_view bytes,
+                            FileMode mode = FileMode::Regular);
 
 // "<dir>/.<stem>.tmp-<pid>-<counter><ext>": the target's directory (so the rename is atomic) and
 // extension (so writers that choose the format by extension still can), unique in the process.
