@@ -282,7 +282,8 @@ Runner add_render_command(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "on", "off"}));
   cmd->add_option("--adaptive-pilot", o->adaptive_settings.pilot_fraction,
                   "Adaptive sampling: the pilot's fraction of the samples (rounded down to a "
-                  "power of two, at least 8 per pixel; below 16 spp sampling stays uniform)")
+                  "power of two, at least 8 per pixel, or half the samples below 16 spp; below 4 spp "
+                  "sampling stays uniform)")
       ->capture_default_str()->check(CLI::Range(1e-3, 1.0));
   cmd->add_option("--adaptive-min", o->adaptive_settings.min_factor,
                   "Adaptive sampling: every pixel takes at least this fraction of --spp")

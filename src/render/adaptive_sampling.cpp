@@ -35,11 +35,14 @@ void AdaptiveSampling::validate() const {
 }
 
 std::uint32_t pilot_samples(const AdaptiveSampling& a, int spp) {
-  if (!a.enabled || spp < 2 * a.min_pilot) return 0;
-  const double wanted = std::max<double>(a.min_pilot, std::floor(spp * double(a.pilot_fraction)));
+  if (!a.enabled || spp < 4) return 0;
+  // Below 2 * min_pilot the pilot is half the samples: read over a 3x3 neighbourhood, a pilot of
+  // 2 or 4 still finds the few pixels that hold most of the noise (docs/design.md).
+  const double wanted = std::max<double>(std::min(a.min_pilot, spp / 2),
+                                         std::floor(spp * double(a.pilot_fraction)));
   std::uint32_t pilot = 1;
   while (2.0 * pilot <= wanted) pilot *= 2;  // a power of two: a whole prefix of the Sobol points
-  return pilot < static_cast<std::uint32_t>(spp) ? pilot : 0;
+  return pilot >= 2 && pilot < static_cast<std::uint32_t>(spp) ? pilot : 0;
 }
 
 std::vector<std::uint32_t> allocate_samples(const std::vector<PixelMoments>& pilot,

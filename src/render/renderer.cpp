@@ -157,19 +157,29 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
   return c.shader.shade(p, e, rng, work.rays);
 }
 
-// The film position and lens point of sample `s` of pixel (x, y).
-void sample_point(const Context& c, int x, int y, std::uint32_t s, glm::vec2* film,
-                  glm::vec2* lens_u) {
-  const RenderSettings& st = c.settings;
-  *film = glm::vec2(x, y) + sobol_2d(s, pixel_key(st.seed, x, y, Dimension::Film));
-  switch (st.mode) {
-    case Mode::Pinhole: *lens_u = glm::vec2(0.5f); break;
-    case Mode::Drt: *lens_u = sobol_2d(s, pixel_key(st.seed, x, y, Dimension::Lens)); break;
-    case Mode::Accumulation:  // one lens point per pass, shared by all pixels
-      *lens_u = sobol_2d(s, hash_combine(st.seed, static_cast<std::uint64_t>(Dimension::Lens)));
-      break;
+// Where the samples of one pixel fall on the film and on the lens: the pixel's two Sobol
+// patterns, their scrambles derived once for all its samples.
+class PixelSamples {
+ public:
+  PixelSamples(const RenderSettings& st, int x, int y)
+      : pixel_(x, y),
+        mode_(st.mode),
+        film_(pixel_key(st.seed, x, y, Dimension::Film)),
+        // Accumulation: one lens point per pass, shared by all pixels.
+        lens_(st.mode == Mode::Accumulation
+                  ? hash_combine(st.seed, static_cast<std::uint64_t>(Dimension::Lens))
+                  : pixel_key(st.seed, x, y, Dimension::Lens)) {}
+
+  glm::vec2 film(std::uint32_t s) const { return pixel_ + film_(s); }
+  glm::vec2 lens(std::uint32_t s) const {
+    return mode_ == Mode::Pinhole ? glm::vec2(0.5f) : lens_(s);
   }
-}
+
+ private:
+  glm::vec2 pixel_;
+  Mode mode_;
+  Sobol2D film_, lens_;
+};
 
 // What the ray through the centre of pixel (x, y) sees first (render()'s depth, normal and id).
 struct CentreHit {
@@ -218,11 +228,10 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
                      TileWork& work, float* density, PixelMoments* moments) {
   const RenderSettings& st = c.settings;
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
+  const PixelSamples samples(st, x, y);
   glm::dvec3 acc(0.0);
   for (std::uint32_t s = s0; s < end; ++s) {
-    glm::vec2 film, lens_u;
-    sample_point(c, x, y, s, &film, &lens_u);
-    scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(film, lens_u));
+    scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(samples.film(s), samples.lens(s)));
     std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
     Rng rng(key, s);

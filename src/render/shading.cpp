@@ -317,13 +317,13 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
   const float n_light = has_sampled_lights() ? static_cast<float>(light_samples) : 0.0f;
   const float n_gather = static_cast<float>(gather_rays);
   if (n_light > 0.0f) {
-    const std::uint64_t light_key = hash_combine(key, 11);
+    const Sobol2D pattern(hash_combine(key, 11));
     glm::vec3 acc(0.0f);
     for (int k = 0; k < light_samples; ++k) {
       LightSample ls;
       const auto index =
           static_cast<std::uint32_t>(k) + round * static_cast<std::uint32_t>(light_samples);
-      if (!sample_light(p, rng.uniform(), sobol_2d(index, light_key), &ls)) continue;
+      if (!sample_light(p, rng.uniform(), pattern(index), &ls)) continue;
       if (glm::dot(p.n, ls.wi) <= 0.0f || glm::dot(p.ng, ls.wi) <= 0.0f) continue;
       if (!visible(x, p.ng, ls.wi, ls.distance, counters)) continue;
       acc += diffuse_light(p, ls, n_light, n_gather);
@@ -354,11 +354,11 @@ glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDep
   const float survival = max_component(diffuse_reflectance(p));
   const float n_gather = static_cast<float>(rays);
   Frame frame(p.n);
+  const Sobol2D pattern(key);
   glm::vec3 acc(0.0f);
   float inverse_sum = 0.0f;
   for (int k = 0; k < rays; ++k) {
-    const glm::vec3 local =
-        cosine_hemisphere(sobol_2d(first_index + static_cast<std::uint32_t>(k), key));
+    const glm::vec3 local = cosine_hemisphere(pattern(first_index + static_cast<std::uint32_t>(k)));
     const glm::vec3 dir = frame.to_world(local);
     if (moments) ++moments->count;  // a ray below the surface or escaping counts as 0
     if (glm::dot(dir, p.ng) <= 0.0f) continue;

@@ -107,7 +107,7 @@ TEST_F(Cli, CacheSampleQualityFollowsSppUnlessGiven) {
   EXPECT_EQ(quality(" --spp 96 --cache-sample-quality 5"), 5);
 }
 
-// drt renders sample adaptively by default from 16 spp on; --adaptive off and other modes do not,
+// drt renders sample adaptively by default from 4 spp on; --adaptive off and other modes do not,
 // and asking for it in accumulation mode is refused in one line.
 TEST_F(Cli, AdaptiveSamplingIsTheDrtDefault) {
   auto adaptive = [&](const std::string& extra) {
@@ -118,7 +118,8 @@ TEST_F(Cli, AdaptiveSamplingIsTheDrtDefault) {
     return slurp(dir_ / "d.json").find("\"adaptive\": true") != std::string::npos;
   };
   EXPECT_TRUE(adaptive(" --spp 16"));
-  EXPECT_FALSE(adaptive(" --spp 8"));  // too few samples for a pilot: uniform
+  EXPECT_TRUE(adaptive(" --spp 4"));   // a pilot of 2
+  EXPECT_FALSE(adaptive(" --spp 3"));  // too few samples for a pilot: uniform
   EXPECT_FALSE(adaptive(" --spp 16 --adaptive off"));
   EXPECT_FALSE(adaptive(" --spp 16 --mode accumulation"));
   fs::remove(dir_ / "d.png");

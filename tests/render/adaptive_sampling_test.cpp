@@ -52,7 +52,10 @@ std::uint64_t total(const std::vector<std::uint32_t>& n) {
 
 TEST(AdaptiveSampling, PilotIsAPowerOfTwoAndLeavesRoom) {
   const AdaptiveSampling a = enabled();
-  EXPECT_EQ(pilot_samples(a, 15), 0u);  // below twice the minimum pilot: uniform
+  EXPECT_EQ(pilot_samples(a, 3), 0u);   // too few to measure a variance and keep some back
+  EXPECT_EQ(pilot_samples(a, 4), 2u);   // below twice the minimum pilot: half the samples
+  EXPECT_EQ(pilot_samples(a, 8), 4u);
+  EXPECT_EQ(pilot_samples(a, 15), 4u);  // half is 7, rounded down to 4
   EXPECT_EQ(pilot_samples(a, 16), 8u);  // a quarter is 4, the minimum pilot 8
   EXPECT_EQ(pilot_samples(a, 64), 16u);
   EXPECT_EQ(pilot_samples(a, 100), 16u);  // a quarter is 25, rounded down to 16
@@ -121,7 +124,7 @@ TEST(AdaptiveSampling, RejectsAbsurdSettings) {
 
 // The Cornell box at f/0.7 with the cache, where the noise left is the lens's at blurred edges:
 // for the same lens rays, adaptive sampling's error against a converged reference is well below
-// uniform sampling's, and the image's mean does not move.
+// uniform sampling's, from a few samples per pixel on, and the image's mean does not move.
 TEST(AdaptiveSampling, CachedRenderBeatsUniformAtEqualRays) {
   scene::Scene s = scene::load_gltf(std::string(DOFCACHE_SOURCE_DIR) + "/scenes/cornell_box.gltf");
   scene::Accel accel(s);
@@ -143,20 +146,29 @@ TEST(AdaptiveSampling, CachedRenderBeatsUniformAtEqualRays) {
     return render(s, accel, camera, r);
   };
   const image::Image reference = render_with(512, false, 11).color;
-  const RenderOutput uniform = render_with(32, false, 12);
-  const RenderOutput adaptive = render_with(32, true, 12);
-  EXPECT_NEAR(double(adaptive.stats.camera_rays), double(uniform.stats.camera_rays),
-              0.01 * double(uniform.stats.camera_rays));
-  ASSERT_EQ(adaptive.samples.width(), base.width);
-  const double e_uniform = image::compare(uniform.color, reference).rel_mse;
-  const double e_adaptive = image::compare(adaptive.color, reference).rel_mse;
-  EXPECT_LT(e_adaptive, 0.8 * e_uniform) << "uniform " << e_uniform << ", adaptive " << e_adaptive;
   auto mean = [](const image::Image& img) {
     double m = 0;
     for (float v : img.data()) m += v;
     return m / static_cast<double>(img.data().size());
   };
-  EXPECT_NEAR(mean(adaptive.color), mean(reference), 0.01 * mean(reference));
+  // 8 spp: a pilot of 4 (half the samples); 32 spp: a pilot of 8. At this size a few lens rays
+  // that meet the lamp make much of a render's error, so it varies from seed to seed: the errors
+  // are summed over three seeds.
+  for (int spp : {8, 32}) {
+    double e_uniform = 0.0, e_adaptive = 0.0;
+    for (std::uint64_t seed : {12, 13, 14}) {
+      const RenderOutput uniform = render_with(spp, false, seed);
+      const RenderOutput adaptive = render_with(spp, true, seed);
+      EXPECT_NEAR(double(adaptive.stats.camera_rays), double(uniform.stats.camera_rays),
+                  0.01 * double(uniform.stats.camera_rays));
+      ASSERT_EQ(adaptive.samples.width(), base.width);
+      e_uniform += image::compare(uniform.color, reference).rel_mse;
+      e_adaptive += image::compare(adaptive.color, reference).rel_mse;
+      EXPECT_NEAR(mean(adaptive.color), mean(reference), 0.01 * mean(reference)) << spp << " spp";
+    }
+    EXPECT_LT(e_adaptive, 0.8 * e_uniform)
+        << spp << " spp: uniform " << e_uniform << ", adaptive " << e_adaptive;
+  }
 }
 
 }  // namespace

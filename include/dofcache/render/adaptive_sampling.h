@@ -18,7 +18,7 @@ namespace dofcache::render {
 
 struct AdaptiveSampling {
   bool enabled = false;
-  int min_pilot = 8;         // pilot samples per pixel at least; adaptive only from 2x this spp
+  int min_pilot = 8;  // pilot samples per pixel at least, or half the samples if fewer (from 4 spp)
   float pilot_fraction = 0.25f;  // of the budget; rounded down to a power of two
   float max_factor = 8.0f;   // no pixel gets more than max_factor x the mean samples per pixel
   float min_factor = 0.5f;   // nor fewer than min_factor x the mean (or the pilot if more)

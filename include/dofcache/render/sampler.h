@@ -64,18 +64,31 @@ constexpr std::uint32_t owen_scramble(std::uint32_t x, std::uint32_t seed) {
   return reverse_bits(laine_karras_permutation(reverse_bits(x), seed));
 }
 
-// Point `index` of a scrambled, shuffled (0,2)-sequence identified by `key`: the scrambled
-// owen_scramble(sobol_dim0(i), k1) and owen_scramble(sobol_dim1(i), k2), written with the bit
-// reversals that cancel removed (this runs for every camera, light and gather sample).
-inline glm::vec2 sobol_2d(std::uint32_t index, std::uint64_t key) {
-  auto k0 = static_cast<std::uint32_t>(mix64(key));
-  auto k1 = static_cast<std::uint32_t>(mix64(key ^ 0x5851f42d4c957f2dULL));
-  auto k2 = static_cast<std::uint32_t>(mix64(key ^ 0x14057b7ef767814fULL));
-  std::uint32_t i = owen_scramble(index, k0);  // shuffle: decorrelates patterns of one pixel
-  std::uint32_t x = reverse_bits(laine_karras_permutation(i, k1));
-  std::uint32_t y = reverse_bits(laine_karras_permutation(sobol_dim1_reversed(i), k2));
-  return {static_cast<float>(x >> 8) * 0x1p-24f, static_cast<float>(y >> 8) * 0x1p-24f};
-}
+// The points of a scrambled, shuffled (0,2)-sequence identified by a key: point i is
+// owen_scramble(sobol_dim0(i'), k1) and owen_scramble(sobol_dim1(i'), k2) of the shuffled index
+// i' = owen_scramble(i, k0), written with the bit reversals that cancel removed. The three
+// scramble seeds are derived from the key once, so loops that draw many points of one pattern (a
+// pixel's lens samples, a point's gather rays) pay for the hashing once.
+class Sobol2D {
+ public:
+  explicit Sobol2D(std::uint64_t key)
+      : k0_(static_cast<std::uint32_t>(mix64(key))),
+        k1_(static_cast<std::uint32_t>(mix64(key ^ 0x5851f42d4c957f2dULL))),
+        k2_(static_cast<std::uint32_t>(mix64(key ^ 0x14057b7ef767814fULL))) {}
+
+  glm::vec2 operator()(std::uint32_t index) const {
+    std::uint32_t i = owen_scramble(index, k0_);  // shuffle: decorrelates patterns of one pixel
+    std::uint32_t x = reverse_bits(laine_karras_permutation(i, k1_));
+    std::uint32_t y = reverse_bits(laine_karras_permutation(sobol_dim1_reversed(i), k2_));
+    return {static_cast<float>(x >> 8) * 0x1p-24f, static_cast<float>(y >> 8) * 0x1p-24f};
+  }
+
+ private:
+  std::uint32_t k0_, k1_, k2_;
+};
+
+// Point `index` of the pattern identified by `key` (Sobol2D(key)(index)).
+inline glm::vec2 sobol_2d(std::uint32_t index, std::uint64_t key) { return Sobol2D(key)(index); }
 
 // What a 2-D pattern is used for; part of its key so that the patterns are independent.
 enum class Dimension : std::uint64_t { Film = 1, Lens = 2, Gather = 3, Light = 4 };
