@@ -30,10 +30,6 @@ std::string chunk_file_name(int index, int count, const char* ext) {
   return fmt::format("chunk-{:0{}d}{}", index, digits, ext);
 }
 
-void write_text(const std::string& path, const std::string& text, bool executable) {
-  write_bytes_atomically(path, text, executable ? FileMode::Executable : FileMode::Regular);
-}
-
 }  // namespace
 
 std::vector<std::string> without_option(const std::vector<std::string>& argv,
@@ -250,11 +246,11 @@ void FarmPlan::write() const {
     fs::create_directories(work / sub, ec);
     if (ec) throw Error("cannot create '" + (work / sub).string() + "': " + ec.message());
   }
-  write_text(script_file("warm"), warm_script(), true);
-  write_text(script_file("render"), render_script(), true);
-  write_text(script_file("verify"), verify_script(), true);
-  write_text(commands_file(), commands_script(), true);
-  write_text(plan_file(), to_json().dump(2) + "\n", false);  // last: a plan is complete
+  write_bytes_atomically(script_file("warm"), warm_script(), FileMode::Executable);
+  write_bytes_atomically(script_file("render"), render_script(), FileMode::Executable);
+  write_bytes_atomically(script_file("verify"), verify_script(), FileMode::Executable);
+  write_bytes_atomically(commands_file(), commands_script(), FileMode::Executable);
+  write_bytes_atomically(plan_file(), to_json().dump(2) + "\n");  // last: a plan is complete
 }
 
 nlohmann::json FarmPlan::to_json() const {
