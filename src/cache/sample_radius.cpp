@@ -7,10 +7,13 @@
 
 namespace dofcache::cache {
 
+double sample_radius_pixels(const lens::LensImaging& imaging, double depth, double min_factor) {
+  return std::max(imaging.coc_radius_pixels(depth), min_factor);  // eq. (4.2), CoC in pixels
+}
+
 double sample_radius(const lens::LensImaging& imaging, double depth, double min_factor) {
-  double factor1 = imaging.pixel_footprint(depth);     // eq. (4.1)
-  double factor2 = imaging.coc_radius_pixels(depth);   // eq. (4.2), read as CoC radius in pixels
-  return factor1 * std::max(factor2, min_factor);
+  // eq. (4.1): the pixel footprint, times eq. (4.2)'s factor
+  return imaging.pixel_footprint(depth) * sample_radius_pixels(imaging, depth, min_factor);
 }
 
 RadiusRule parse_radius_rule(const std::string& name) {

@@ -99,6 +99,17 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache) {
                   "per-ray shade (it is reused by many lens rays); 0: chosen from --spp, "
                   "round(spp / 32) for the default --gather-rays, at least 1 (docs/cache.md)")
       ->capture_default_str()->check(CLI::Range(0, 256));
+  cmd->add_option("--cache-direct-below", cache.direct_below,
+                  "Hits a new cache sample would serve to fewer lens rays than this (spp times "
+                  "its area in pixels: in focus at few samples) are shaded per ray instead; "
+                  "0: cache every hit (docs/cache.md)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1e6));
+  cmd->add_option("--cache-direct-gather-rays", cache.direct_gather_rays,
+                  "Gather rays of a hit shaded per ray in a cached render")
+      ->capture_default_str()->check(CLI::Range(0, 4096));
+  cmd->add_option("--cache-direct-light-samples", cache.direct_light_samples,
+                  "Light samples of a hit shaded per ray in a cached render")
+      ->capture_default_str()->check(CLI::Range(0, 4096));
   cmd->add_option("--cache-sample-rounds", cache.max_sample_rounds,
                   "A cache sample whose gather rays disagree (their mean's standard error above "
                   "--cache-sample-error of its value) takes them again, in doubling rounds up "
@@ -182,6 +193,9 @@ nlohmann::json cache_settings_json(const std::string& backend,
           {"sample_quality", render::effective_sample_quality(settings)},
           {"sample_error", cache.sample_error},
           {"max_sample_rounds", cache.max_sample_rounds},
+          {"direct_below", cache.direct_below},
+          {"direct_light_samples", cache.direct_light_samples},
+          {"direct_gather_rays", cache.direct_gather_rays},
           {"max_normal_angle_deg", cache.lookup.max_normal_angle_deg},
           {"min_samples", cache.lookup.min_samples}};
 }

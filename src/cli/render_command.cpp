@@ -221,6 +221,7 @@ int run_render(const RenderOptions& o) {
         {"cache", cache_settings_json(backend, s)}};
     j["cache"].update({{"lookups", st.cache_lookups}, {"hits", st.cache_hits},
                        {"tile_hits", st.cache_tile_hits}, {"hit_rate", st.cache_hit_rate()},
+                       {"direct", st.cache_direct},
                        {"inserted", st.cache_inserted}, {"samples", st.cache_samples},
                        {"memory_bytes", st.cache_memory_bytes},
                        {"lookup_seconds", st.cache_lookup_seconds},
@@ -233,12 +234,14 @@ int run_render(const RenderOptions& o) {
                 st.rays_per_second() * 1e-6, st.rays * 1e-6);
   if (!o.quiet && radiance_cache)
     std::printf("cache   %s: %.1f%% of %llu lookups served (%.1f%% from earlier passes), "
-                "%llu samples, %.2f MB, lookup %.2f s, insert %.3f s (thread-seconds)\n",
+                "%llu samples, %.2f MB, lookup %.2f s, insert %.3f s (thread-seconds); "
+                "%llu hits shaded per ray\n",
                 backend.c_str(), 100.0 * st.cache_hit_rate(),
                 static_cast<unsigned long long>(st.cache_lookups),
                 st.cache_lookups ? 100.0 * st.cache_hits / st.cache_lookups : 0.0,
                 static_cast<unsigned long long>(st.cache_samples), st.cache_memory_bytes / 1e6,
-                st.cache_lookup_seconds, st.cache_insert_seconds);
+                st.cache_lookup_seconds, st.cache_insert_seconds,
+                static_cast<unsigned long long>(st.cache_direct));
   std::printf("wrote   %s\n", std::filesystem::absolute(o.out).lexically_normal().c_str());
   return 0;
 }
@@ -301,6 +304,7 @@ Runner add_render_command(CLI::App& app) {
   // best at equal quality); sequences keep a fixed default, since cache files record it.
   o->cache_settings.sample_quality = render::kAutoSampleQuality;
   o->cache_settings.radius.min_factor = cache::kSingleImageMinFactor;
+  o->cache_settings.direct_below = render::kSingleImageDirectBelow;
   add_cache_tuning_options(cmd, o->cache_settings);
   cmd->add_option("--cache-debug", o->cache_debug,
                   "Write PREFIX-hits.png (fraction of lookups served) and PREFIX-density.png "

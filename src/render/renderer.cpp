@@ -48,6 +48,7 @@ struct Context {
   ThinLensCamera camera;
   Shader shader;
   Shader sample_shader;  // for cache samples: more light and gather samples
+  Shader direct_shader;  // for hits too few lens rays would reuse (CacheSettings::direct_below)
   // Adaptive lens sampling: each pixel's sample count (null: settings.spp everywhere), and the
   // pilot's luminance moments to fill (null: none kept). A pixel is written by its own tile only.
   const std::uint32_t* pixel_samples = nullptr;
@@ -65,7 +66,7 @@ struct TileWork {
   RayCounters rays;
   cache::TileSampleBuffer buffer;  // samples created by this tile in this pass
   std::vector<cache::TraceLookup> traced;
-  std::uint64_t lookups = 0, hits = 0, tile_hits = 0;
+  std::uint64_t lookups = 0, hits = 0, tile_hits = 0, direct = 0;
   double lookup_seconds = 0.0;
 };
 
@@ -142,6 +143,16 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
   return e;
 }
 
+// Whether a cached render shades the hit at x per ray (CacheSettings::direct_below): a sample
+// made there would be reached by about spp * pi r^2 lens rays, r its radius in pixel footprints.
+bool shaded_directly(const Context& c, glm::vec3 x) {
+  const CacheSettings& cs = c.settings.cache;
+  if (cs.direct_below <= 0.0f) return false;
+  const double r =
+      cache::sample_radius_pixels(c.camera.imaging(), c.camera.depth(x), cs.radius.min_factor);
+  return c.settings.spp * M_PI * r * r < cs.direct_below;
+}
+
 // Radiance along one camera ray.
 glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_t key, Rng& rng,
                            TileWork& work, float* density) {
@@ -151,8 +162,12 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
   ShadingPoint p = c.shader.prepare(ray, hit);
   glm::vec3 e(0.0f);
   if (Shader::has_diffuse(p)) {
-    e = c.settings.cache.cache ? cached_diffuse(c, p, key, rng, work, density)
-                               : c.shader.diffuse_illumination(p, key, rng, work.rays);
+    if (!c.settings.cache.cache)
+      e = c.shader.diffuse_illumination(p, key, rng, work.rays);
+    else if (shaded_directly(c, p.surface.position))
+      ++work.direct, e = c.direct_shader.diffuse_illumination(p, key, rng, work.rays);
+    else
+      e = cached_diffuse(c, p, key, rng, work, density);
   }
   return c.shader.shade(p, e, rng, work.rays);
 }
@@ -283,6 +298,27 @@ ShadingSettings cache_sample_shading(const ShadingSettings& per_ray, int sample_
   return q;
 }
 
+namespace {
+Context make_context(const scene::Scene& scene, const scene::Accel& accel,
+                     const scene::Camera& camera, const RenderSettings& settings) {
+  return Context{scene,
+                 accel,
+                 settings,
+                 make_camera(camera, settings),
+                 Shader(scene, accel, settings.shading),
+                 Shader(scene, accel,
+                        cache_sample_shading(settings.shading, effective_sample_quality(settings))),
+                 Shader(scene, accel, direct_shading(settings))};
+}
+}  // namespace
+
+ShadingSettings direct_shading(const RenderSettings& settings) {
+  ShadingSettings d = settings.shading;
+  d.light_samples = settings.cache.direct_light_samples;
+  d.gather_rays = settings.cache.direct_gather_rays;
+  return d;
+}
+
 int recommended_sample_quality(int spp, int gather_rays) {
   const long default_gather = ShadingSettings{}.gather_rays;
   const long scaled = std::max(static_cast<long>(std::max(spp, 0)) * default_gather /
@@ -343,6 +379,13 @@ void RenderSettings::validate() const {
       throw Error("cache samples (" + std::to_string(effective_sample_quality(*this)) +
                   " times the per-ray shading): " + e.what());
     }
+    if (!(cache.direct_below >= 0.0f && cache.direct_below <= 1e6f))
+      throw Error("cache: lens rays below which hits are shaded per ray must be in [0, 1e6]");
+    try {
+      direct_shading(*this).validate();
+    } catch (const Error& e) {
+      throw Error(std::string("per-ray shading of hits the cache skips: ") + e.what());
+    }
     if (cache.lookup.min_samples < 1 || cache.lookup.min_samples > 1024)
       throw Error("cache: samples needed per lookup must be in [1, 1024]");
     if (!(cache.lookup.max_normal_angle_deg > 0.0f && cache.lookup.max_normal_angle_deg <= 90.0f))
@@ -365,14 +408,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   settings.validate();
   auto start = std::chrono::steady_clock::now();
   cache::RadianceCache* cache = settings.cache.cache;
-  const ShadingSettings sample_shading =
-      cache_sample_shading(settings.shading, effective_sample_quality(settings));
-  Context c{scene,
-            accel,
-            settings,
-            make_camera(camera, settings),
-            Shader(scene, accel, settings.shading),
-            Shader(scene, accel, sample_shading)};
+  Context c = make_context(scene, accel, camera, settings);
   const int w = settings.width, h = settings.height;
   RenderOutput out;
   out.color = image::Image(w, h, 3, 0.0f);
@@ -429,9 +465,10 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
     st.cache_lookups += tw.lookups;
     st.cache_hits += tw.hits;
     st.cache_tile_hits += tw.tile_hits;
+    st.cache_direct += tw.direct;
     st.cache_lookup_seconds += tw.lookup_seconds;
     tw.rays = RayCounters{};
-    tw.lookups = tw.hits = tw.tile_hits = 0;
+    tw.lookups = tw.hits = tw.tile_hits = tw.direct = 0;
     tw.lookup_seconds = 0.0;
   };
   const std::uint64_t total_work = shaded ? rendered_count * spp : rendered_count;
@@ -534,12 +571,7 @@ std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::A
   if (settings.cache.cache || settings.adaptive.enabled || settings.visibility_only)
     throw Error("render_pixels: no radiance cache, adaptive sampling or visibility-only render");
   check_pixel_indices(settings, pixels, "render_pixels");
-  Context c{scene,
-            accel,
-            settings,
-            make_camera(camera, settings),
-            Shader(scene, accel, settings.shading),
-            Shader(scene, accel, settings.shading)};
+  Context c = make_context(scene, accel, camera, settings);
   std::vector<PixelRender> out(pixels.size());
   const auto w = static_cast<std::uint32_t>(settings.width);
   const auto spp = static_cast<std::uint32_t>(settings.spp);

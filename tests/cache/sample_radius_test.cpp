@@ -46,6 +46,11 @@ TEST(SampleRadius, OutOfFocusCoversTheCircleOfConfusionEq4_2) {
   EXPECT_NEAR(sample_radius(imaging(), 4.0, 2.0), 0.016, 1e-12);
   // D = 1 m (in front): r = 0.5 * 0.025 * 1 / 2 = 0.00625 m; factor1 = 0.002 m; 3.125 px.
   EXPECT_NEAR(sample_radius(imaging(), 1.0), 0.00625, 1e-12);
+  // The same radii in pixel footprints: factor2 or min_factor, whichever is larger.
+  EXPECT_NEAR(sample_radius_pixels(imaging(), 4.0), 1.5625, 1e-9);
+  EXPECT_NEAR(sample_radius_pixels(imaging(), 4.0, 2.0), 2.0, 1e-12);
+  EXPECT_NEAR(sample_radius_pixels(imaging(), 1.0), 3.125, 1e-9);
+  EXPECT_NEAR(sample_radius_pixels(imaging(), 2.0), 0.5, 1e-12);
 }
 
 TEST(SampleRadius, GrowsAwayFromTheFocalPlane) {

@@ -128,6 +128,28 @@ TEST_F(Cli, AdaptiveSamplingIsTheDrtDefault) {
                            (dir_ / "o.png").string() + kTiny, "adaptive");
 }
 
+// At few lens samples `render` shades in-focus hits per ray rather than caching them
+// (kSingleImageDirectBelow); --cache-direct-below 0 caches every hit, as the paper does.
+TEST_F(Cli, FewSamplesShadeInFocusHitsPerRay) {
+  auto stats = [&](const std::string& extra) {
+    testing::CliResult r = run("render --out " + (dir_ / "d.png").string() +
+                               " --width 8 --height 6 --spp 4 -q --stats-json " +
+                               (dir_ / "d.json").string() + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return slurp(dir_ / "d.json");
+  };
+  const std::string by_default = stats("");
+  EXPECT_NE(by_default.find("\"direct_below\": 50.0"), std::string::npos) << by_default;
+  EXPECT_EQ(by_default.find("\"direct\": 0,"), std::string::npos) << by_default;
+  const std::string off = stats(" --cache-direct-below 0");
+  EXPECT_NE(off.find("\"direct\": 0,"), std::string::npos) << off;
+  EXPECT_EQ(off.find("\"lookups\": 0,"), std::string::npos) << off;
+  fs::remove(dir_ / "d.png");
+  fs::remove(dir_ / "d.json");
+  expect_clean_failure("render --cache-direct-below -1 --out " + (dir_ / "o.png").string() + kTiny,
+                       "direct");
+}
+
 TEST_F(Cli, CompareIdenticalImagesIsExact) {
   ASSERT_EQ(run("render --out " + (dir_ / "a.exr").string() + kTiny).exit_code, 0);
   testing::CliResult r = run("compare --json " + (dir_ / "a.exr").string() + " " + (dir_ / "a.exr").string());

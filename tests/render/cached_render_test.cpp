@@ -153,6 +153,58 @@ TEST(CachedRender, RecommendedSampleQualityIsSppOver32) {
   EXPECT_EQ(recommended_sample_quality(1 << 20), 256);
 }
 
+// Hits a sample would serve to too few lens rays are shaded per ray with the direct budget: when
+// that is every hit, the cached render is the uncached render of that budget, sample for sample,
+// and the cache stays empty.
+TEST(CachedRender, HitsBelowTheDirectThresholdAreShadedPerRay) {
+  scene::Scene s = diffuse_scene();
+  scene::Accel accel(s);
+  RenderSettings uncached = settings(2, 4, nullptr);
+  uncached.shading.light_samples = 1, uncached.shading.gather_rays = 3;
+  const RenderOutput reference = render(s, accel, s.cameras[0], uncached);
+
+  auto vdb = cache::make_radiance_cache("vdb");
+  RenderSettings st = settings(2, 4, vdb.get());
+  st.cache.direct_light_samples = 1, st.cache.direct_gather_rays = 3;
+  st.cache.direct_below = 1e6f;
+  const RenderOutput direct = render(s, accel, s.cameras[0], st);
+  EXPECT_EQ(direct.color.data(), reference.color.data());
+  EXPECT_EQ(direct.stats.rays, reference.stats.rays);
+  EXPECT_EQ(direct.stats.cache_lookups, 0u);
+  EXPECT_EQ(vdb->size(), 0u);
+
+  // At f/0.1 the circle of confusion is about 1.4 pixels on the back wall (D = 4 m, eq. 2.5),
+  // none on the box face at the focus (2.5 m) and 2.1 pixels on the panel at 1.6 m. A threshold
+  // of a 2-pixel radius at 16 spp caches only the panel, and the image still matches a
+  // converged render.
+  auto some = cache::make_radiance_cache("vdb");
+  st = settings(2, 16, some.get());
+  st.lens.fstop = 0.1;
+  st.cache.radius.min_factor = 1.0;
+  st.cache.direct_below = 16 * 3.14159f * 2.0f * 2.0f;
+  const RenderOutput mixed = render(s, accel, s.cameras[0], st);
+  auto all = cache::make_radiance_cache("vdb");
+  st.cache.cache = all.get();
+  st.cache.direct_below = 0.0f;
+  const RenderOutput cached = render(s, accel, s.cameras[0], st);
+  EXPECT_GT(mixed.stats.cache_inserted, 0u);
+  EXPECT_LT(mixed.stats.cache_inserted, cached.stats.cache_inserted / 2);
+  EXPECT_LT(mixed.stats.cache_lookups, cached.stats.cache_lookups / 2);
+  RenderSettings converged_settings = settings(2, 256, nullptr);
+  converged_settings.lens.fstop = 0.1;
+  const RenderOutput converged = render(s, accel, s.cameras[0], converged_settings);
+  const double mixed_error = image::compare(mixed.color, converged.color).rel_mse;
+  const double cached_error = image::compare(cached.color, converged.color).rel_mse;
+  EXPECT_LT(mixed_error, 0.02);
+  EXPECT_LT(cached_error, 0.02);
+
+  st.cache.direct_below = -1.0f;
+  EXPECT_THROW(st.validate(), Error);
+  st.cache.direct_below = 50.0f;
+  st.cache.direct_gather_rays = -1;
+  EXPECT_THROW(st.validate(), Error);
+}
+
 TEST(CachedRender, PinholeWithCacheIsRefused) {
   scene::Scene s = diffuse_scene();
   scene::Accel accel(s);

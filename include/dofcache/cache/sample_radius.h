@@ -16,6 +16,9 @@ namespace dofcache::cache {
 // In focus a sample therefore covers min_factor of a pixel footprint (0.5: "only within one
 // pixel"); out of focus it covers its circle of confusion, so blurred regions are cached sparsely.
 double sample_radius(const lens::LensImaging& imaging, double depth, double min_factor = 0.5);
+// The same radius in pixel footprints: max(factor2(D), min_factor).
+double sample_radius_pixels(const lens::LensImaging& imaging, double depth,
+                            double min_factor = 0.5);
 
 // How far a new cache sample may be reused.
 //   paper:    sample_radius above: in focus, min_factor pixel footprints, so every in-focus pixel

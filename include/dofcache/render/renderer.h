@@ -58,6 +58,15 @@ struct CacheSettings {
   // (Shader::refined_diffuse_illumination). 1 round: no refinement.
   float sample_error = 0.2f;
   int max_sample_rounds = 8;
+  // A sample costs about as much as forty per-ray shades, so it pays only where many lens rays
+  // reach it. Hits where fewer than `direct_below` would (spp times the area of the sample's
+  // paper radius in pixel footprints, pi r^2, eqs. 4.1-4.2: at a few lens samples in focus) are
+  // shaded per ray, with direct_light_samples and direct_gather_rays (the fastest uncached
+  // budget the peer benchmark found), and nothing is stored.
+  // 0: every hit goes through the cache (the paper; camera paths, whose samples serve many
+  // frames). `render` uses kSingleImageDirectBelow.
+  float direct_below = 0.0f;
+  int direct_light_samples = 1, direct_gather_rays = 2;
   std::uint32_t frame = 0;                // stamped on new samples (camera paths)
   bool insert = true;                     // false: use the cache read only
   cache::TraceWriter* trace = nullptr;    // if set, records lookups and inserts for replay
@@ -65,6 +74,11 @@ struct CacheSettings {
 
 // CacheSettings::sample_quality meaning "choose from the lens samples" (the `render` default).
 constexpr int kAutoSampleQuality = 0;
+
+// CacheSettings::direct_below for single images. Measured at 320x240 (docs/cache.md, "Few lens
+// samples in focus"): at 4 spp the Cornell box reaches Cycles' 16-spp error with 1.5x fewer rays
+// than with every hit cached or none; from 16 spp on every in-focus hit is cached as before.
+constexpr float kSingleImageDirectBelow = 50.0f;
 
 // The cache sample quality that balances a cached render's two error sources at `spp` lens
 // samples per pixel: round(spp / 32) for the default 32 gather rays, clamped to [1, 256]; for
@@ -83,6 +97,11 @@ int recommended_sample_quality(int spp, int gather_rays = ShadingSettings{}.gath
 // The shading of a cache sample: `per_ray` with its light samples and gather rays multiplied by
 // `sample_quality` (CacheSettings::sample_quality).
 ShadingSettings cache_sample_shading(const ShadingSettings& per_ray, int sample_quality);
+
+struct RenderSettings;
+// The shading of hits a cached render shades per ray (CacheSettings::direct_below): the render's
+// shading with the cache's direct light samples and gather rays.
+ShadingSettings direct_shading(const RenderSettings& settings);
 
 struct RenderSettings {
   int width = 640, height = 480;
@@ -128,6 +147,7 @@ struct RenderStats {
   std::uint64_t cache_lookups = 0;      // primary hits that needed diffuse illumination
   std::uint64_t cache_hits = 0;         // served by the cache as it was at the start of a pass
   std::uint64_t cache_tile_hits = 0;    // served by samples the same tile made in this pass
+  std::uint64_t cache_direct = 0;       // shaded per ray instead (CacheSettings::direct_below)
   std::uint64_t cache_inserted = 0;     // new samples
   std::uint64_t cache_samples = 0;      // samples in the cache at the end
   std::uint64_t cache_memory_bytes = 0;
