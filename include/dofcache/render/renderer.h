@@ -61,12 +61,12 @@ struct CacheSettings {
   // A sample costs about as much as forty per-ray shades, so it pays only where many lens rays
   // reach it. Hits where fewer than `direct_below` would (spp times the area of the sample's
   // paper radius in pixel footprints, pi r^2, eqs. 4.1-4.2: at a few lens samples in focus) are
-  // shaded per ray, with direct_light_samples and direct_gather_rays (the fastest uncached
-  // budget the peer benchmark found), and nothing is stored.
+  // shaded per ray, with direct_light_samples and direct_gather_rays (the budget the peer
+  // benchmark most often finds fastest uncached), and nothing is stored.
   // 0: every hit goes through the cache (the paper; camera paths, whose samples serve many
   // frames). `render` uses kSingleImageDirectBelow.
   float direct_below = 0.0f;
-  int direct_light_samples = 1, direct_gather_rays = 2;
+  int direct_light_samples = 2, direct_gather_rays = 2;
   std::uint32_t frame = 0;                // stamped on new samples (camera paths)
   bool insert = true;                     // false: use the cache read only
   cache::TraceWriter* trace = nullptr;    // if set, records lookups and inserts for replay
@@ -75,9 +75,10 @@ struct CacheSettings {
 // CacheSettings::sample_quality meaning "choose from the lens samples" (the `render` default).
 constexpr int kAutoSampleQuality = 0;
 
-// CacheSettings::direct_below for single images. Measured at 320x240 (docs/cache.md, "Few lens
-// samples in focus"): at 4 spp the Cornell box reaches Cycles' 16-spp error with 1.5x fewer rays
-// than with every hit cached or none; from 16 spp on every in-focus hit is cached as before.
+// CacheSettings::direct_below for single images: at 4 spp hits with a circle of confusion under 2
+// pixels, at 8 under 1.4, from 16 on none (a sample covers at least one pixel footprint there).
+// Measured at 320x240 (docs/cache.md, "In focus at a few lens samples"): 1.26-1.30x fewer rays
+// at the error of 4 cached lens samples, 1.11-1.15x at that of 8.
 constexpr float kSingleImageDirectBelow = 50.0f;
 
 // The cache sample quality that balances a cached render's two error sources at `spp` lens
