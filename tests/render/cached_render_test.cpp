@@ -109,6 +109,9 @@ TEST(CachedRender, ErrorFallsWithSamplesOnEveryShippedScene) {
       r.spp = spp;
       r.cache.cache = vdb.get();
       r.cache.sample_quality = recommended_sample_quality(spp);
+      // As `render` does: whole-footprint samples in focus, and at 8 spp in-focus hits per ray.
+      r.cache.radius.min_factor = cache::kSingleImageMinFactor;
+      r.cache.direct_below = kSingleImageDirectBelow;
       const double error = image::compare(render(s, accel, camera, r).color, reference).rel_mse;
       EXPECT_LT(error, previous) << file << " at " << spp << " spp";
       previous = error;
