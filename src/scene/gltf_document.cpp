@@ -322,7 +322,10 @@ bool image_header_size(const unsigned char* p, std::size_t size, std::uint32_t* 
   return false;
 }
 
-std::string quoted(const std::string& name) { return name.empty() ? "" : " '" + name + "'"; }
+// Names come from the file and may hold line breaks; errors quoting them stay one line.
+std::string quoted(const std::string& name) {
+  return name.empty() ? "" : " '" + one_line(name) + "'";
+}
 
 const char* type_name(int type) {
   switch (type) {
@@ -338,7 +341,7 @@ const char* type_name(int type) {
 }
 
 void Document::fail(const std::string& element, const std::string& problem) const {
-  throw Error(name_ + ": " + element + ": " + problem);
+  throw Error(one_line(name_ + ": " + element + ": " + problem));  // problems may quote the file
 }
 
 std::string Document::node_label(int node) const {

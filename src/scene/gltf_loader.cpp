@@ -151,7 +151,7 @@ class Loader : gltf::Document {
 
  private:
   void warn(const std::string& element, const std::string& note) {
-    scene_.warnings.push_back(name_ + ": " + element + ": " + note);
+    scene_.warnings.push_back(one_line(name_ + ": " + element + ": " + note));
   }
 
   void check_extensions() {

@@ -577,6 +577,12 @@ TEST_F(GltfLoaderTest, BadReferencesAndNoGeometry) {
                                      "\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
                                      triangle_mesh(pos) + "]"));
   expect_error([&] { load_gltf(extension); }, {extension, "EXT_meshopt_compression"});
+  // An extension name with a line break (found by fuzzing): the error stays one line.
+  std::string broken =
+      write("broken_extension.gltf", g.json("\"extensionsRequired\":[\"KHR_mesh_qu\\ntization\"],"
+                                            "\"nodes\":[{\"mesh\":0}],\"meshes\":[" +
+                                            triangle_mesh(pos) + "]"));
+  expect_error([&] { load_gltf(broken); }, {broken, "KHR_mesh_qu", "tization"});
   expect_error([&] { load_gltf_from_memory("", "empty input"); }, {"empty input"});
 }
 
