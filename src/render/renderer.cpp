@@ -162,12 +162,14 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
   ShadingPoint p = c.shader.prepare(ray, hit);
   glm::vec3 e(0.0f);
   if (Shader::has_diffuse(p)) {
-    if (!c.settings.cache.cache)
+    if (!c.settings.cache.cache) {
       e = c.shader.diffuse_illumination(p, key, rng, work.rays);
-    else if (shaded_directly(c, p.surface.position))
-      ++work.direct, e = c.direct_shader.diffuse_illumination(p, key, rng, work.rays);
-    else
+    } else if (shaded_directly(c, p.surface.position)) {
+      ++work.direct;
+      e = c.direct_shader.diffuse_illumination(p, key, rng, work.rays);
+    } else {
       e = cached_diffuse(c, p, key, rng, work, density);
+    }
   }
   return c.shader.shade(p, e, rng, work.rays);
 }

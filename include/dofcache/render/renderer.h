@@ -99,11 +99,6 @@ int recommended_sample_quality(int spp, int gather_rays = ShadingSettings{}.gath
 // `sample_quality` (CacheSettings::sample_quality).
 ShadingSettings cache_sample_shading(const ShadingSettings& per_ray, int sample_quality);
 
-struct RenderSettings;
-// The shading of hits a cached render shades per ray (CacheSettings::direct_below): the render's
-// shading with the cache's direct light samples and gather rays.
-ShadingSettings direct_shading(const RenderSettings& settings);
-
 struct RenderSettings {
   int width = 640, height = 480;
   int spp = 16;  // samples per pixel (lens samples for drt, passes for accumulation)
@@ -136,6 +131,10 @@ struct RenderSettings {
 // The cache sample quality a render uses: CacheSettings::sample_quality, or for kAutoSampleQuality
 // recommended_sample_quality(spp, gather rays). The one place "auto" is resolved.
 int effective_sample_quality(const RenderSettings& settings);
+
+// The shading of hits a cached render shades per ray (CacheSettings::direct_below): the render's
+// shading with the cache's direct light samples and gather rays.
+ShadingSettings direct_shading(const RenderSettings& settings);
 
 struct RenderStats {
   double seconds = 0.0;
