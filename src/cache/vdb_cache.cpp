@@ -11,7 +11,7 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tree/ValueAccessor.h>
 
-#if defined(__x86_64__)
+#if defined(__SSE2__)
 #include <immintrin.h>
 #endif
 
@@ -54,10 +54,10 @@ struct Level {
   // voxels too: their run is empty), so a run of voxels along z is one contiguous range, read
   // from two values of one leaf. Voxels with samples are active.
   Tree tree{0};
-  BlockSamples samples;                   // sorted by VoxelKey
-  std::vector<std::uint32_t> leaf_begin;  // first sample of each leaf, increasing
-  float r_max = 0.0f;                     // largest radius on the level
-  double reach = 0.0;                     // r_max * kRadiusPad: how far a lookup searches
+  BlockSamples samples;                   // copies, sorted by VoxelKey
+  std::vector<std::uint32_t> leaf_begin;  // first copy of each leaf, increasing
+  std::vector<openvdb::Coord> leaf_origin;  // origin of each leaf, in the same order
+  std::size_t homes = 0;                  // samples (each has one home copy)
   glm::dvec3 lo{0.0}, hi{0.0};            // bounds of the level's (padded) spheres
   glm::vec3 lo_f{0.0f}, hi_f{0.0f};       // the same, rounded outwards to float
 
@@ -68,10 +68,33 @@ struct Level {
     }
   }
 
-  // End of the run that stops at a leaf's last voxel: the start of the next leaf's block.
+  // End of the run of a leaf's last voxel: the start of the next leaf's block.
   std::uint32_t leaf_end(std::uint32_t begin) const {
     auto it = std::upper_bound(leaf_begin.begin(), leaf_begin.end(), begin);
     return it == leaf_begin.end() ? static_cast<std::uint32_t>(samples.size()) : *it;
+  }
+
+  // The copies of the voxel at `offset` in `leaf`: [begin, end).
+  void voxel_run(const LeafT& leaf, openvdb::Index offset, std::uint32_t* begin,
+                 std::uint32_t* end) const {
+    const openvdb::Int32* start = leaf.buffer().data();
+    *begin = static_cast<std::uint32_t>(start[offset]);
+    *end = offset + 1 < LeafT::SIZE ? static_cast<std::uint32_t>(start[offset + 1])
+                                    : leaf_end(static_cast<std::uint32_t>(start[0]));
+  }
+
+  // Calls fn(key, copy) for every copy in storage order, with the key of the voxel it is filed in.
+  template <typename Fn>
+  void for_each_copy(Fn&& fn) const {
+    openvdb::tree::ValueAccessor<const Tree> acc(tree);
+    for (std::size_t l = 0; l < leaf_origin.size(); ++l) {
+      const LeafT& leaf = *acc.probeConstLeaf(leaf_origin[l]);
+      for (openvdb::Index offset = 0; offset < LeafT::SIZE; ++offset) {
+        std::uint32_t begin, end;
+        voxel_run(leaf, offset, &begin, &end);
+        for (std::uint32_t i = begin; i < end; ++i) fn(VoxelKey{leaf_origin[l], offset}, i);
+      }
+    }
   }
 };
 
@@ -95,37 +118,6 @@ inline __attribute__((always_inline)) openvdb::Coord voxel_of(glm::dvec3 p, doub
   return openvdb::Coord(floor_to_int(p.x * inv_h + kVoxelShift),
                         floor_to_int(p.y * inv_h + kVoxelShift),
                         floor_to_int(p.z * inv_h + kVoxelShift));
-}
-
-#if defined(__SSE2__)
-// floor_to_int of two doubles at once, as the two low int32 lanes.
-inline __attribute__((always_inline)) __m128i floor_to_int(__m128d x) {
-  const __m128i i = _mm_cvttpd_epi32(x);
-  const __m128i rounded_up = _mm_castpd_si128(_mm_cmplt_pd(x, _mm_cvtepi32_pd(i)));
-  return _mm_add_epi32(i, _mm_shuffle_epi32(rounded_up, _MM_SHUFFLE(3, 3, 2, 0)));  // -1 there
-}
-#endif
-
-// The voxels of the box [q - reach, q + reach], q = p in double, at the level with inverse voxel
-// size inv_h: from *lo = voxel_of(q - reach) to *hi = voxel_of(q + reach).
-inline __attribute__((always_inline)) void voxel_box(glm::vec3 p, double reach, double inv_h,
-                                                     openvdb::Coord* lo, openvdb::Coord* hi) {
-#if defined(__SSE2__)
-  const __m128d r = _mm_set1_pd(reach), s = _mm_set1_pd(inv_h), shift = _mm_set1_pd(kVoxelShift);
-  const __m128d xy = _mm_setr_pd(p.x, p.y);
-  const double z = p.z;
-  auto voxels = [&](__m128d x) { return floor_to_int(_mm_add_pd(_mm_mul_pd(x, s), shift)); };
-  alignas(16) openvdb::Int32 v[3][4];
-  _mm_store_si128(reinterpret_cast<__m128i*>(v[0]), voxels(_mm_sub_pd(xy, r)));
-  _mm_store_si128(reinterpret_cast<__m128i*>(v[1]), voxels(_mm_add_pd(xy, r)));
-  _mm_store_si128(reinterpret_cast<__m128i*>(v[2]), voxels(_mm_setr_pd(z - reach, z + reach)));
-  *lo = openvdb::Coord(v[0][0], v[0][1], v[2][0]);
-  *hi = openvdb::Coord(v[1][0], v[1][1], v[2][1]);
-#else
-  const glm::dvec3 q(p);
-  *lo = voxel_of(q - reach, inv_h);
-  *hi = voxel_of(q + reach, inv_h);
-#endif
 }
 
 // Every mutation of any cache takes a fresh, globally unique epoch; a thread's cached accessors
@@ -165,11 +157,19 @@ class VdbRadianceCache final : public RadianceCache {
     const SampleTest test(p, n, options);
     if (std::uint64_t in = levels_containing(p)) {
       const Reader& reader = this->reader();
-      RangeScanner scanner(test, &sum, /*bridge_gaps=*/true);
+      // One run per level: the copies filed in p's voxel.
+      RangeScanner scanner(test, &sum, /*bridge_gaps=*/false);
+      const glm::dvec3 q(p);
       do {
         const auto k = static_cast<unsigned>(__builtin_ctzll(in));
         in &= in - 1;
-        add_runs(*active_[k], reader.accessors[k], p, &scanner);
+        const Level& level = *active_[k];
+        const openvdb::Coord c = voxel_of(q, level.inv_h);
+        if (const LeafT* leaf = reader.accessors[k].probeConstLeaf(c)) {
+          std::uint32_t begin, end;
+          level.voxel_run(*leaf, LeafT::coordToOffset(c), &begin, &end);
+          if (begin < end) scanner.add(&level.samples, begin, end);
+        }
       } while (in);
       scanner.flush();
     }
@@ -178,7 +178,7 @@ class VdbRadianceCache final : public RadianceCache {
 
   std::size_t size() const override {
     std::size_t n = 0;
-    for (const Level* level : active_) n += level->samples.size();
+    for (const Level* level : active_) n += level->homes;
     return n;
   }
 
@@ -186,7 +186,8 @@ class VdbRadianceCache final : public RadianceCache {
     std::size_t bytes = heap_bytes(active_) + heap_bytes(bounds_);
     for (const Level* level : active_)
       bytes += sizeof(Level) + static_cast<std::size_t>(level->tree.memUsage()) +
-               heap_bytes(level->leaf_begin) + level->samples.memory_bytes();
+               heap_bytes(level->leaf_begin) + heap_bytes(level->leaf_origin) +
+               level->samples.memory_bytes();
     return bytes;
   }
 
@@ -196,10 +197,13 @@ class VdbRadianceCache final : public RadianceCache {
     };
     std::vector<Ref> refs;
     refs.reserve(size());
-    for (std::size_t k = 0; k < active_.size(); ++k)
-      for (std::size_t i = 0; i < active_[k]->samples.size(); ++i)
-        refs.push_back({active_[k]->samples.id(i), static_cast<std::uint32_t>(k),
-                        static_cast<std::uint32_t>(i)});
+    for (std::size_t k = 0; k < active_.size(); ++k) {
+      const Level& level = *active_[k];
+      level.for_each_copy([&](const VoxelKey& key, std::uint32_t i) {
+        if (is_home(level, key, i))
+          refs.push_back({level.samples.id(i), static_cast<std::uint32_t>(k), i});
+      });
+    }
     std::sort(refs.begin(), refs.end(), [](const Ref& x, const Ref& y) { return x.id < y.id; });
     for (const Ref& r : refs) fn(active_[r.level]->samples.get(r.index));
   }
@@ -265,49 +269,16 @@ class VdbRadianceCache final : public RadianceCache {
     return active_.size() < 64 ? in & ((std::uint64_t{1} << active_.size()) - 1) : in;
   }
 
-  // Hands the scanner the voxel runs of the level that the ball of the level's largest radius
-  // around p touches: any sample that can accept p has its centre, hence its voxel, inside that
-  // ball. With cell_scale >= 2 the box spans at most 2 voxels per axis, so it usually lies in one
-  // leaf: probe each leaf it touches once, then read the runs along z straight from the leaf's
-  // start indices.
-  static void add_runs(const Level& level, const ConstAccessor& acc, glm::vec3 p,
-                       RangeScanner* scanner) {
-    openvdb::Coord a, b;
-    voxel_box(p, level.reach, level.inv_h, &a, &b);
-    constexpr openvdb::Int32 kMask = LeafT::DIM - 1;
-    const auto spread = static_cast<std::uint32_t>((a.x() ^ b.x()) | (a.y() ^ b.y()) |
-                                                   (a.z() ^ b.z()));
-    if (spread <= static_cast<std::uint32_t>(kMask)) {  // one leaf: the common case
-      if (const LeafT* leaf = acc.probeConstLeaf(a))
-        add_leaf_runs(level, *leaf, a & kMask, b & kMask, scanner);
-      return;
-    }
-    for (openvdb::Int32 lx = a.x() & ~kMask; lx <= b.x(); lx += LeafT::DIM)
-      for (openvdb::Int32 ly = a.y() & ~kMask; ly <= b.y(); ly += LeafT::DIM)
-        for (openvdb::Int32 lz = a.z() & ~kMask; lz <= b.z(); lz += LeafT::DIM) {
-          const openvdb::Coord origin(lx, ly, lz);
-          if (const LeafT* leaf = acc.probeConstLeaf(origin))
-            add_leaf_runs(level, *leaf, openvdb::Coord::maxComponent(a, origin) & kMask,
-                          openvdb::Coord::minComponent(b, origin.offsetBy(kMask)) & kMask, scanner);
-        }
+  static VoxelKey key_of(const Level& level, glm::dvec3 p) {
+    const openvdb::Coord c = voxel_of(p, level.inv_h);
+    return VoxelKey{c & ~(LeafT::DIM - 1), LeafT::coordToOffset(c)};
   }
 
-  // The runs (x, y, lo.z..hi.z) of one leaf, x and y from lo to hi (offsets within the leaf).
-  static void add_leaf_runs(const Level& level, const LeafT& leaf, openvdb::Coord lo,
-                            openvdb::Coord hi, RangeScanner* scanner) {
-    const openvdb::Int32* start = leaf.buffer().data();
-    for (openvdb::Int32 x = lo.x(); x <= hi.x(); ++x)
-      for (openvdb::Int32 y = lo.y(); y <= hi.y(); ++y) {
-        // Samples [start[first], start[last + 1]).
-        const auto first = static_cast<openvdb::Index>(
-            (x << (2 * LeafT::LOG2DIM)) | (y << LeafT::LOG2DIM) | lo.z());
-        const openvdb::Index last = first + static_cast<openvdb::Index>(hi.z() - lo.z());
-        const auto begin = static_cast<std::uint32_t>(start[first]);
-        const auto end = last + 1 < LeafT::SIZE
-                             ? static_cast<std::uint32_t>(start[last + 1])
-                             : level.leaf_end(static_cast<std::uint32_t>(start[0]));
-        if (begin < end) scanner->add(&level.samples, begin, end);
-      }
+  // Whether copy i, filed under key, is its sample's home copy: the one in the voxel of its
+  // centre.
+  static bool is_home(const Level& level, const VoxelKey& key, std::uint32_t i) {
+    const VoxelKey home = key_of(level, glm::dvec3(level.samples.position(i)));
+    return home.leaf == key.leaf && home.offset == key.offset;
   }
 
   const Reader& reader() const {
@@ -332,25 +303,27 @@ class VdbRadianceCache final : public RadianceCache {
     return std::clamp(e - kMinExponent, 0, kLevelCount - 1);
   }
 
-  // Adds samples[indices] to the level: merges them, sorted by VoxelKey, with the level's sorted
-  // arrays and rewrites the start indices of every leaf. One pass over the level (between render
-  // passes, so bandwidth, not latency, bound).
+  // Adds samples[indices] to the level: a copy of each in every voxel its padded sphere's box
+  // touches, merged, sorted by VoxelKey, with the level's sorted copies; then rewrites the start
+  // indices of every leaf. One pass over the level (between render passes, so bandwidth, not
+  // latency, bound).
   static void merge_into(Level& level, const std::vector<CacheSample>& samples,
                          const std::vector<std::uint32_t>& indices) {
-    auto key_of = [&](glm::vec3 p) {
-      openvdb::Coord c = voxel_of(glm::dvec3(p), level.inv_h);
-      return VoxelKey{c & ~(LeafT::DIM - 1), LeafT::coordToOffset(c)};
-    };
     std::vector<std::pair<VoxelKey, std::uint32_t>> added;  // (key, index into samples)
-    added.reserve(indices.size());
+    added.reserve(indices.size() * 4);
     for (std::uint32_t i : indices) {
       const CacheSample& s = samples[i];
-      added.push_back({key_of(s.position), i});
-      level.r_max = std::max(level.r_max, s.radius);
-      level.reach = level.r_max * kRadiusPad;
-      glm::dvec3 p(s.position);
-      double r = s.radius * kRadiusPad;
-      bool first = level.samples.empty() && added.size() == 1;
+      const glm::dvec3 p(s.position);
+      const double r = s.radius * kRadiusPad;
+      const openvdb::Coord a = voxel_of(p - r, level.inv_h), b = voxel_of(p + r, level.inv_h);
+      for (openvdb::Int32 x = a.x(); x <= b.x(); ++x)
+        for (openvdb::Int32 y = a.y(); y <= b.y(); ++y)
+          for (openvdb::Int32 z = a.z(); z <= b.z(); ++z) {
+            const openvdb::Coord c(x, y, z);
+            added.push_back({VoxelKey{c & ~(LeafT::DIM - 1), LeafT::coordToOffset(c)}, i});
+          }
+      const bool first = level.homes == 0;
+      ++level.homes;
       level.lo = first ? p - r : glm::min(level.lo, p - r);
       level.hi = first ? p + r : glm::max(level.hi, p + r);
     }
@@ -358,25 +331,26 @@ class VdbRadianceCache final : public RadianceCache {
     std::stable_sort(added.begin(), added.end(),
                      [](const auto& x, const auto& y) { return x.first < y.first; });
 
-    // Merge, and note each sample's key for the start indices below.
+    // The existing copies' keys, in storage order (sorted).
+    std::vector<VoxelKey> old_keys;
+    old_keys.reserve(level.samples.size());
+    level.for_each_copy([&](const VoxelKey& key, std::uint32_t) { old_keys.push_back(key); });
+
+    // Merge (a voxel's existing copies first), and note each copy's key for the start indices.
     BlockSamples merged;
-    merged.reserve(level.samples.size() + added.size());
+    merged.reserve(old_keys.size() + added.size());
     std::vector<VoxelKey> keys;
-    keys.reserve(level.samples.size() + added.size());
+    keys.reserve(old_keys.size() + added.size());
     std::size_t old = 0, next = 0;
-    VoxelKey old_key{};
-    if (old < level.samples.size()) old_key = key_of(level.samples.position(old));
-    while (old < level.samples.size() || next < added.size()) {
-      bool take_new = old == level.samples.size() ||
-                      (next < added.size() && added[next].first < old_key);
-      if (take_new) {
+    while (old < old_keys.size() || next < added.size()) {
+      if (old == old_keys.size() || (next < added.size() && added[next].first < old_keys[old])) {
         merged.push_back(samples[added[next].second]);
         keys.push_back(added[next].first);
         ++next;
       } else {
         merged.append_from(level.samples, old);
-        keys.push_back(old_key);
-        if (++old < level.samples.size()) old_key = key_of(level.samples.position(old));
+        keys.push_back(old_keys[old]);
+        ++old;
       }
     }
     level.samples.swap(merged);
@@ -384,11 +358,13 @@ class VdbRadianceCache final : public RadianceCache {
     // Start indices: for each leaf, a running count over its 512 voxels.
     openvdb::tree::ValueAccessor<Tree> acc(level.tree);
     level.leaf_begin.clear();
+    level.leaf_origin.clear();
     for (std::size_t i = 0; i < keys.size();) {
       std::size_t end = i;
       while (end < keys.size() && keys[end].leaf == keys[i].leaf) ++end;
       LeafT* leaf = acc.touchLeaf(keys[i].leaf);
       level.leaf_begin.push_back(static_cast<std::uint32_t>(i));
+      level.leaf_origin.push_back(keys[i].leaf);
       std::size_t j = i;
       for (openvdb::Index offset = 0; offset < LeafT::SIZE; ++offset) {
         leaf->setValueOnly(offset, static_cast<openvdb::Int32>(j));

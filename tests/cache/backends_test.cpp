@@ -192,16 +192,27 @@ TEST(Backends, MatchBruteForceAndEachOtherBitForBit) {
 }
 
 TEST(Backends, EveryVdbCellScaleMatchesBruteForce) {
-  // Voxels 1, 2, 4 and 8 times the radius: runs of 1 to 3 voxels per axis, crossing leaf nodes.
+  // Voxels 1, 2, 4 and 8 times the radius: a sample copied into 1 to 27 voxels, across leaf
+  // nodes; still counted and returned once.
   std::vector<CacheSample> batch = random_samples(4000, 21);
   std::vector<Query> queries = random_queries(batch, 3000, 22);
   auto reference = make_radiance_cache("octree");
-  reference->insert(batch);
+  reference->insert({batch.begin(), batch.begin() + 1000});
+  reference->insert({batch.begin() + 1000, batch.end()});
   std::vector<CacheSample> stored = reference->samples();
   for (float scale : {1.0f, 2.0f, 4.0f, 8.0f}) {
     auto c = make_vdb_radiance_cache({scale});
     c->insert({batch.begin(), batch.begin() + 1000});
     c->insert({batch.begin() + 1000, batch.end()});
+    ASSERT_EQ(c->size(), stored.size()) << scale;
+    std::vector<CacheSample> got = c->samples();
+    ASSERT_EQ(got.size(), stored.size()) << scale;
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      ASSERT_EQ(got[i].id, stored[i].id) << scale;
+      ASSERT_EQ(got[i].position, stored[i].position) << scale;
+      ASSERT_EQ(got[i].radius, stored[i].radius) << scale;
+      ASSERT_EQ(got[i].value, stored[i].value) << scale;
+    }
     for (const Query& q : queries) {
       LookupResult ref, r;
       bool ok = brute_force(stored, q.p, q.n, {}, &ref);
