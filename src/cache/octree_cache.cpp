@@ -168,7 +168,7 @@ bool OctreeRadianceCache::lookup(glm::vec3 p, glm::vec3 n, const LookupOptions& 
     if (glm::all(glm::greaterThanEqual(q, origin)) &&
         glm::all(glm::lessThanEqual(q, origin + edge))) {
       SampleTest test(p, n, options);
-      RangeScanner scanner(test, &sum, /*bridge_gaps=*/false);
+      RangeScanner scanner(test, &sum);
       std::uint32_t node = 0;
       for (;;) {
         const Node& nd = nodes_[node];

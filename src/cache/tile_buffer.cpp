@@ -26,7 +26,7 @@ bool TileSampleBuffer::lookup(glm::vec3 p, glm::vec3 n, const LookupOptions& opt
   if (!samples_.empty() && glm::all(glm::greaterThanEqual(p, lo_)) &&
       glm::all(glm::lessThanEqual(p, hi_))) {
     SampleTest test(p, n, options);
-    RangeScanner scanner(test, &sum, /*bridge_gaps=*/true);
+    RangeScanner scanner(test, &sum);
     scanner.add(&blocks_, 0, static_cast<std::uint32_t>(blocks_.size()));
     scanner.flush();
   }

@@ -158,7 +158,7 @@ class VdbRadianceCache final : public RadianceCache {
     if (std::uint64_t in = levels_containing(p)) {
       const Reader& reader = this->reader();
       // One run per level: the copies filed in p's voxel.
-      RangeScanner scanner(test, &sum, /*bridge_gaps=*/false);
+      RangeScanner scanner(test, &sum);
       const glm::dvec3 q(p);
       do {
         const auto k = static_cast<unsigned>(__builtin_ctzll(in));

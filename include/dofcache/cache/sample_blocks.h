@@ -126,7 +126,7 @@ class BlockSamples {
   std::vector<std::uint32_t> frames_;
 };
 
-// Samples [begin, end) of one BlockSamples: the candidates of one or more voxel runs or nodes.
+// Samples [begin, end) of one BlockSamples: the candidates of a voxel or of one or more nodes.
 struct Range {
   const BlockSamples* samples;
   std::uint32_t begin, end;
@@ -137,27 +137,18 @@ struct Range {
 void scan_ranges(const Range* ranges, unsigned count, const SampleTest& test, WeightedSum* sum);
 
 // Collects the ranges a lookup must test and tests them in batches, so that a lookup enters the
-// SIMD kernel once rather than once per voxel run.
+// SIMD kernel once rather than once per level or node.
 class RangeScanner {
  public:
-  // bridge_gaps: the samples between two ranges may be tested too, because none of them is one
-  // of the ranges' samples again (a vdb level holds each sample once); the octree's copies of a
-  // sample in neighbouring nodes forbid it.
-  RangeScanner(const SampleTest& test, WeightedSum* sum, bool bridge_gaps)
-      : test_(test), sum_(sum), bridge_gaps_(bridge_gaps) {}
+  RangeScanner(const SampleTest& test, WeightedSum* sum) : test_(test), sum_(sum) {}
 
-  // A range that starts where the previous one ends extends it. With bridge_gaps, so does one
-  // that starts after it in the block where it ends or in the next: the samples in between lie
-  // outside the query's reach (other voxels of a vdb level), which the test rejects, and a shared
-  // block is tested once. (A vdb level's runs arrive in increasing order; the octree's nodes
-  // along a path need not.)
+  // A range that starts where the previous one ends extends it. (Ranges that merely lie close are
+  // not joined: both backends keep copies of a sample in neighbouring voxels or nodes, which the
+  // samples in between could then hold.)
   void add(const BlockSamples* samples, std::uint32_t begin, std::uint32_t end) {
     if (count_ > 0) {
       Range& last = ranges_[count_ - 1];
-      if (last.samples == samples && begin >= last.end &&
-          (begin == last.end ||
-           (bridge_gaps_ &&
-            begin / BlockSamples::kLanes <= (last.end - 1) / BlockSamples::kLanes + 1))) {
+      if (last.samples == samples && begin == last.end) {
         last.end = end;
         return;
       }
@@ -175,7 +166,6 @@ class RangeScanner {
   static constexpr unsigned kMaxRanges = 16;
   const SampleTest& test_;
   WeightedSum* sum_;
-  bool bridge_gaps_;
   std::array<Range, kMaxRanges> ranges_;
   unsigned count_ = 0;
 };
