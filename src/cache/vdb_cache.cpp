@@ -34,12 +34,17 @@ constexpr int kLevelCount = 64;
 // bounds of its samples' spheres, so its voxel coordinates are in range too.
 constexpr int kCoordBits = 27;
 
-// Where a sample sits on a level: its leaf (origin) and voxel within the leaf. The level's arrays
-// are sorted by this key, so each leaf's samples form one block and, inside it, each voxel's
-// samples one run, in the leaves' own voxel order (z fastest).
+// Where a copy sits on a level: its leaf (origin) and voxel within the leaf. The level's arrays
+// are sorted by this key, so each leaf's copies form one block and, inside it, each voxel's
+// copies one run, in the leaves' own voxel order (z fastest).
 struct VoxelKey {
   openvdb::Coord leaf;
   openvdb::Index offset;
+
+  static VoxelKey of(const openvdb::Coord& voxel) {
+    return {voxel & ~(LeafT::DIM - 1), LeafT::coordToOffset(voxel)};
+  }
+  bool operator==(const VoxelKey& o) const { return leaf == o.leaf && offset == o.offset; }
   bool operator<(const VoxelKey& o) const {
     return leaf < o.leaf || (leaf == o.leaf && offset < o.offset);
   }
@@ -50,9 +55,9 @@ struct Level {
 
   int exponent;
   double h, inv_h;
-  // Every voxel of an allocated leaf holds the index of its first sample in `samples` (empty
-  // voxels too: their run is empty), so a run of voxels along z is one contiguous range, read
-  // from two values of one leaf. Voxels with samples are active.
+  // Every voxel of an allocated leaf holds the index of its first copy in `samples` (empty
+  // voxels too: their run is empty), so a voxel's copies are one contiguous range, read from two
+  // values of one leaf. Voxels with copies are active.
   Tree tree{0};
   BlockSamples samples;                   // copies, sorted by VoxelKey
   std::vector<std::uint32_t> leaf_begin;  // first copy of each leaf, increasing
@@ -269,16 +274,10 @@ class VdbRadianceCache final : public RadianceCache {
     return active_.size() < 64 ? in & ((std::uint64_t{1} << active_.size()) - 1) : in;
   }
 
-  static VoxelKey key_of(const Level& level, glm::dvec3 p) {
-    const openvdb::Coord c = voxel_of(p, level.inv_h);
-    return VoxelKey{c & ~(LeafT::DIM - 1), LeafT::coordToOffset(c)};
-  }
-
   // Whether copy i, filed under key, is its sample's home copy: the one in the voxel of its
   // centre.
   static bool is_home(const Level& level, const VoxelKey& key, std::uint32_t i) {
-    const VoxelKey home = key_of(level, glm::dvec3(level.samples.position(i)));
-    return home.leaf == key.leaf && home.offset == key.offset;
+    return VoxelKey::of(voxel_of(glm::dvec3(level.samples.position(i)), level.inv_h)) == key;
   }
 
   const Reader& reader() const {
@@ -319,8 +318,7 @@ class VdbRadianceCache final : public RadianceCache {
       for (openvdb::Int32 x = a.x(); x <= b.x(); ++x)
         for (openvdb::Int32 y = a.y(); y <= b.y(); ++y)
           for (openvdb::Int32 z = a.z(); z <= b.z(); ++z) {
-            const openvdb::Coord c(x, y, z);
-            added.push_back({VoxelKey{c & ~(LeafT::DIM - 1), LeafT::coordToOffset(c)}, i});
+            added.push_back({VoxelKey::of(openvdb::Coord(x, y, z)), i});
           }
       const bool first = level.homes == 0;
       ++level.homes;
