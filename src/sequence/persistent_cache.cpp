@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -28,15 +29,22 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
  public:
   explicit Tracked(std::unique_ptr<cache::RadianceCache> inner) : inner_(std::move(inner)) {}
 
-  // Marks ids below next_id() as "older than the frame" and clears the counters.
+  // Marks ids below next_id() as "older than the frame", clears the counters and starts noting
+  // the samples added from now on.
   void start_frame() {
     first_id_ = next_id();
+    added_.clear();
+    tracking_ = true;
     used_.reset(new std::atomic<std::uint8_t>[first_id_]);
     for (std::uint32_t i = 0; i < first_id_; ++i) used_[i].store(0, std::memory_order_relaxed);
     counters_.clear();
   }
 
   std::uint32_t first_id() const { return first_id_; }
+  // The samples added since start_frame, as stored (ids assigned), in increasing id order (each
+  // insert assigns increasing ids to its batch): the frame's new samples, without enumerating the
+  // whole cache.
+  const std::vector<cache::CacheSample>& added() const { return added_; }
   bool used(std::uint32_t id) const {
     return id < first_id_ && used_[id].load(std::memory_order_relaxed) != 0;
   }
@@ -85,8 +93,17 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
  protected:
   void add_samples(const std::vector<cache::CacheSample>& samples) override {
     inner_->restore(samples);  // ids already assigned by RadianceCache::insert or restore
+    if (tracking_)
+      for (const cache::CacheSample& s : samples)
+        if (s.id >= first_id_) {
+          assert(added_.empty() || s.id > added_.back().id);
+          added_.push_back(s);
+        }
   }
-  void remove_all() override { inner_->clear(); }
+  void remove_all() override {
+    inner_->clear();
+    added_.clear();
+  }
 
  private:
   struct Counters {
@@ -94,6 +111,8 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
   };
   std::unique_ptr<cache::RadianceCache> inner_;
   std::uint32_t first_id_ = 0;
+  bool tracking_ = false;
+  std::vector<cache::CacheSample> added_;  // since start_frame (inserts are never concurrent)
   std::unique_ptr<std::atomic<std::uint8_t>[]> used_;  // indexed by id < first_id_
   mutable tbb::enumerable_thread_specific<Counters> counters_;
 };
@@ -158,14 +177,12 @@ FrameCacheStats PersistentCache::end_frame() {
   auto t0 = std::chrono::steady_clock::now();
   FrameCacheStats& st = stats_;
   live_->totals(&st.lookups, &st.hits, &st.reused);
-  const std::uint32_t first_new = live_->first_id();
   for (SampleRecord& r : records_)
     if (live_->used(r.sample.id)) {
       r.last_used = frame_;
       ++st.used;
     }
-  live_->for_each_sample([&](const cache::CacheSample& s) {
-    if (s.id < first_new) return;  // increasing ids: the new ones come last
+  for (const cache::CacheSample& s : live_->added()) {
     SampleRecord r;
     r.sample = s;
     r.origin = cache::radius_origin(s.radius, camera_->imaging(), camera_->depth(s.position),
@@ -173,7 +190,7 @@ FrameCacheStats PersistentCache::end_frame() {
     r.last_used = frame_;
     records_.push_back(r);
     ++st.inserted;
-  });
+  }
   const std::size_t live_memory = live_->memory_bytes();
   live_.reset();
 
