@@ -11,6 +11,8 @@ find_package(fmt CONFIG REQUIRED)
 find_package(Threads REQUIRED)
 # libpng: the PNG output is encoded without loading OpenImageIO (src/image/png_encoder.cpp).
 find_package(PNG REQUIRED)
+# OpenEXR: EXR output is encoded without loading OpenImageIO (src/image/exr_encoder.cpp).
+find_package(OpenEXR 3 CONFIG REQUIRED)
 # zlib: PNG textures are inflated once before stb_image decodes them (src/scene/gltf_document.cpp).
 find_package(ZLIB REQUIRED)
 if(DOFCACHE_BUILD_TESTS)

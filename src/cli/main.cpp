@@ -19,17 +19,23 @@ void write_json_file(const std::string& path, const nlohmann::json& json) {
 
 namespace {
 
-// Whether a command will read or write an image file other than a PNG output (which is encoded
-// without them): then the image codecs (OpenImageIO, ~0.4 CPU-seconds to load) load while it
-// starts. compare and refocus read images; render, sequence and farm only when an argument
-// names an EXR or HDR file (output, environment map, preview inputs). The viewer shows its first
-// preview without them and loads them when asked to save. Any other use loads them on demand.
+// Whether a command will read an image file or write a multi-part EXR (OpenImageIO's work, ~0.4
+// CPU-seconds to load): then the image codecs load while it starts. PNG and EXR outputs are
+// encoded without them. compare and refocus read images; render, sequence and farm only when an
+// argument other than the output (-o, --out) names an EXR or HDR file (environment map, preview
+// inputs). The viewer shows its first preview without them and loads them when asked to save. Any
+// other use loads them on demand.
 bool needs_image_codecs(const CLI::App& command, int argc, char** argv) {
   const std::string name = command.get_name();
   if (name == "view") return false;
   if (name != "render" && name != "sequence" && name != "farm") return true;
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i];
+    if (arg == "-o" || arg == "--out") {
+      ++i;  // the output's value
+      continue;
+    }
+    if (arg.rfind("--out=", 0) == 0 || (arg.rfind("-o", 0) == 0 && arg.size() > 2)) continue;
     std::transform(arg.begin(), arg.end(), arg.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     for (const char* ext : {".exr", ".hdr"})

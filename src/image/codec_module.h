@@ -19,15 +19,12 @@
 
 namespace dofcache::image::codec {
 
-constexpr int kAbiVersion = 3;
+constexpr int kAbiVersion = 4;
 
 // `file` is what a writer writes (the temporary file of an atomic write), `path` the name its
 // messages give. Inputs are checked by the caller as image_io.h describes; readers do all checks.
 struct Table {
   int abi_version;
-  std::string (*write_exr)(const std::string& file, const std::string& path, const Image& color,
-                           const std::vector<NamedChannels>& extra);
-  std::string (*encode_exr)(const Image& color, std::vector<unsigned char>& bytes);
   std::string (*read_image)(const std::string& path, std::uint64_t max_values, Image& out);
   std::string (*read_channels)(const std::string& path, const std::vector<std::string>& names,
                                std::uint64_t max_values, Image& out);

@@ -1,6 +1,7 @@
 // Image files: the paths and images are checked here, every write made atomic (temporary file in
-// the target's directory, then rename); the encoding and decoding is the codec module's
-// (oiio_codec.cpp, loaded on first use: codec_module.h), except PNG encoding (png_encoder.cpp).
+// the target's directory, then rename); the decoding, and the encoding of multi-part EXRs, is the
+// codec module's (oiio_codec.cpp, loaded on first use: codec_module.h). PNG and EXR images are
+// encoded here (png_encoder.cpp, exr_encoder.cpp).
 #include "dofcache/image/image_io.h"
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <filesystem>
 
 #include "codec_module.h"
+#include "exr_encoder.h"
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 
@@ -59,24 +61,12 @@ void write_image(const std::string& path, const Image& color,
   if (color.empty()) fail_write(path, "empty image");
   if (color.channels() != 3)
     fail_write(path, "colour must have 3 channels (RGB), not " + std::to_string(color.channels()));
-  if (format_of(path) == Format::Png) {  // PNG is encoded here (png_encoder.cpp), without loading the codec module
-    const std::vector<unsigned char> bytes = encode_png(color);
-    write_bytes_atomically(
-        path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
-    return;
-  }
-  const codec::Table& codecs = codec::table();
-  write_atomically(path, [&](const std::string& tmp) {
-    check(codecs.write_exr(tmp, path, color, extra));
-  });
-}
-
-std::vector<unsigned char> encode_exr(const Image& color) {
-  if (color.empty() || color.channels() != 3)
-    throw Error("cannot encode an EXR image: colour must be a non-empty RGB image");
-  std::vector<unsigned char> bytes;
-  check(codec::table().encode_exr(color, bytes));
-  return bytes;
+  // Encoded in memory first: a bad channel fails before the file is touched.
+  const std::vector<unsigned char> bytes = format_of(path) == Format::Png
+                                               ? encode_png(color)
+                                               : exr_bytes(color, extra, "cannot write '" + path + "'");
+  write_bytes_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 Image read_image(const std::string& path, std::uint64_t max_values) {

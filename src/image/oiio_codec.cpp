@@ -1,7 +1,7 @@
 // The image codec module: every use of OpenImageIO, built as a shared module that the image
-// library loads on first use (codec_module.h says why). EXR (float, named channels, multi-part) and
-// 8-bit sRGB PNG. Writers write the file they are given; image_io.cpp makes the writes atomic and
-// checks paths first.
+// library loads on first use (codec_module.h says why): every image read (EXR with named channels
+// and parts, PNG, and what else OpenImageIO reads) and the multi-part EXR writer. The writer writes
+// the file it is given; image_io.cpp makes the write atomic and checks paths first.
 #include "codec_module.h"
 
 #include <OpenImageIO/filesystem.h>
@@ -81,22 +81,6 @@ ImageSpec exr_spec(int width, int height, const std::vector<std::string>& names)
   return spec;
 }
 
-// Interleaves several images of the same size into one buffer of all their channels.
-std::vector<float> interleave(const std::vector<const Image*>& layers) {
-  const Image& first = *layers.front();
-  int total = 0;
-  for (const Image* layer : layers) total += layer->channels();
-  std::vector<float> out(first.pixel_count() * total);
-  for (size_t p = 0; p < first.pixel_count(); ++p) {
-    float* dst = out.data() + p * total;
-    for (const Image* layer : layers) {
-      const float* src = layer->data().data() + p * layer->channels();
-      dst = std::copy(src, src + layer->channels(), dst);
-    }
-  }
-  return out;
-}
-
 void check_unique(const std::string& path, const std::vector<std::string>& names,
                   const std::string& what) {
   std::set<std::string> seen;
@@ -111,33 +95,6 @@ std::unique_ptr<ImageOutput> create_output(const std::string& tmp, const std::st
   if (!out) fail_write(path, OIIO::geterror());
   return out;
 }
-
-void write_exr(const std::string& tmp, const std::string& path, const Image& color,
-               const std::vector<NamedChannels>& extra) {
-  std::vector<std::string> names = {"R", "G", "B"};
-  std::vector<const Image*> layers = {&color};
-  for (const NamedChannels& e : extra) {
-    if (e.image.width() != color.width() || e.image.height() != color.height())
-      fail_write(path, "extra channels " + join(e.names, ",") + " are " +
-                           std::to_string(e.image.width()) + "x" +
-                           std::to_string(e.image.height()) + ", colour is " +
-                           std::to_string(color.width()) + "x" + std::to_string(color.height()));
-    if (static_cast<int>(e.names.size()) != e.image.channels())
-      fail_write(path, std::to_string(e.names.size()) + " names for an image of " +
-                           std::to_string(e.image.channels()) + " channels");
-    names.insert(names.end(), e.names.begin(), e.names.end());
-    layers.push_back(&e.image);
-  }
-  check_unique(path, names, "channel");
-  ImageSpec spec = exr_spec(color.width(), color.height(), names);
-  std::vector<float> pixels = interleave(layers);
-
-  auto out = create_output(tmp, path);
-  if (!out->open(tmp, spec) || !out->write_image(TypeDesc::FLOAT, pixels.data()))
-    fail_write(path, out->geterror());
-  if (!out->close()) fail_write(path, out->geterror());
-}
-
 
 // An open image file, its first subimage's spec already read.
 struct OpenedInput {
@@ -527,18 +484,6 @@ std::vector<ExrPart> read_multipart_exr(const std::string& path, std::uint64_t m
 }
 
 
-std::vector<unsigned char> encode_exr(const Image& color) {
-  const ImageSpec spec = exr_spec(color.width(), color.height(), {"R", "G", "B"});
-  std::vector<unsigned char> bytes;
-  OIIO::Filesystem::IOVecOutput memory(bytes);
-  auto out = ImageOutput::create("openexr");
-  if (!out || !out->set_ioproxy(&memory) || !out->open("memory.exr", spec) ||
-      !out->write_image(TypeDesc::FLOAT, color.data().data()) || !out->close())
-    throw Error(std::string("cannot encode an EXR image: ") +
-                (out ? out->geterror() : OIIO::geterror()));
-  return bytes;
-}
-
 // Every entry catches what the codec throws: exceptions do not cross the module boundary.
 template <class Fn>
 std::string guarded(Fn&& fn) noexcept {
@@ -554,13 +499,6 @@ std::string guarded(Fn&& fn) noexcept {
 
 const codec::Table kTable = {
     codec::kAbiVersion,
-    [](const std::string& tmp, const std::string& path, const Image& color,
-       const std::vector<NamedChannels>& extra) {
-      return guarded([&] { oiio::write_exr(tmp, path, color, extra); });
-    },
-    [](const Image& color, std::vector<unsigned char>& bytes) {
-      return guarded([&] { bytes = oiio::encode_exr(color); });
-    },
     [](const std::string& path, std::uint64_t max_values, Image& out) {
       return guarded([&] { out = oiio::read_image(path, max_values); });
     },

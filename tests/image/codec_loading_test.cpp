@@ -1,6 +1,6 @@
 // The image codecs (OpenImageIO and the ~260 libraries it links) are loaded on first use, not at
-// program start (src/image/codec_module.h): a program that never touches an image file never
-// pays for them, and one that does gets them transparently.
+// program start (src/image/codec_module.h): a program that only writes images (PNG, EXR) never
+// pays for them, and one that reads them gets them transparently.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -29,7 +29,7 @@ bool mapped(const std::string& name) {
 class CodecLoading : public dofcache::testing::ScratchDirTest {};
 
 // One test, in its own process: the order of the observations matters.
-TEST_F(CodecLoading, OpenImageIoIsLoadedByTheFirstExrOrImageReadNotByPngWrites) {
+TEST_F(CodecLoading, OpenImageIoIsLoadedByTheFirstImageReadNotByPngOrExrWrites) {
   EXPECT_FALSE(mapped("libOpenImageIO")) << "the image library links OpenImageIO again";
   EXPECT_FALSE(mapped("libdofcache_image_codec"));
 
@@ -42,6 +42,14 @@ TEST_F(CodecLoading, OpenImageIoIsLoadedByTheFirstExrOrImageReadNotByPngWrites) 
   EXPECT_FALSE(mapped("libdofcache_image_codec"));
   EXPECT_FALSE(mapped("libOpenImageIO"));
 
+  // So is an EXR, extra channels included (OpenEXR, linked).
+  Image depth(2, 1, 1, 0.0f);
+  depth.pixel(0, 0)[0] = 2.5f;
+  depth.pixel(1, 0)[0] = 1e30f;
+  write_image(path("red.exr"), red, {{{"Z"}, depth}});
+  EXPECT_FALSE(mapped("libdofcache_image_codec"));
+  EXPECT_FALSE(mapped("libOpenImageIO"));
+
   // Reading it back (OpenImageIO's PNG reader: an independent decoder) loads the codecs.
   const Image back = read_image(file);
   EXPECT_TRUE(mapped("libdofcache_image_codec"));
@@ -51,6 +59,13 @@ TEST_F(CodecLoading, OpenImageIoIsLoadedByTheFirstExrOrImageReadNotByPngWrites) 
   EXPECT_NEAR(back.pixel(1, 0)[0], 1.0f, 1e-6f);  // sRGB 255 decodes to exactly 1
   EXPECT_NEAR(back.pixel(1, 0)[1], 0.0f, 1e-6f);
   EXPECT_NEAR(back.pixel(0, 0)[1], srgb_to_linear(188.0f / 255.0f), 1e-6f);
+
+  // And OpenImageIO's EXR reader (OpenEXR again, but through its own code) gets the floats back.
+  const Image exr = read_image(path("red.exr"));
+  ASSERT_TRUE(exr.same_shape(red));
+  EXPECT_EQ(exr.data(), red.data());
+  const Image z = read_channels(path("red.exr"), {"Z"});
+  EXPECT_EQ(z.data(), depth.data());
 }
 
 // A program that preloads waits for the load before it exits (src/cli/main.cpp): finishing is a
@@ -82,6 +97,23 @@ TEST_F(CodecLoading, EncodedPngEqualsTheWrittenFile) {
   EXPECT_NEAR(back.pixel(0, 0)[0], srgb_to_linear(std::round(linear_to_srgb(0.25f) * 255.0f) / 255.0f),
               1e-6f);
   EXPECT_EQ(back.pixel(2, 1)[2], 0.0f);
+}
+
+// The in-memory EXR is a complete file: the same bytes as the written one.
+TEST_F(CodecLoading, EncodedExrEqualsTheWrittenFile) {
+  Image img(3, 2, 3, 0.25f);
+  img.pixel(2, 1)[2] = -7.5f;
+  const std::vector<unsigned char> bytes = encode_exr(img);
+  ASSERT_GT(bytes.size(), 4u);
+  EXPECT_EQ(std::vector<unsigned char>(bytes.begin(), bytes.begin() + 4),
+            (std::vector<unsigned char>{0x76, 0x2f, 0x31, 0x01}));  // EXR magic number
+  write_image(path("grey.exr"), img);
+  std::ifstream in(path("grey.exr"), std::ios::binary);
+  const std::vector<unsigned char> file((std::istreambuf_iterator<char>(in)),
+                                        std::istreambuf_iterator<char>());
+  EXPECT_EQ(file, bytes);
+  EXPECT_THROW(encode_exr(Image(3, 2, 1)), Error);  // not RGB
+  EXPECT_THROW(encode_exr(Image()), Error);
 }
 
 // Paths are checked without the codecs, so a bad output path is refused before a render.

@@ -1,5 +1,6 @@
 #pragma once
-// Image files through OpenImageIO (loaded on first use: src/image/codec_module.h). The format follows the extension (case-insensitive): .exr is
+// Image files: PNG and single-part EXR written with libpng and OpenEXR, everything else through
+// OpenImageIO (loaded on first use: src/image/codec_module.h). The format follows the extension (case-insensitive): .exr is
 // linear 32-bit float, colour and extra channels alike (so every value round-trips exactly; ZIP
 // compression keeps the files reasonable), .png is 8-bit sRGB colour. Writes are atomic
 // (dofcache/core/atomic_file.h): a temporary file in the same directory, renamed over the target
