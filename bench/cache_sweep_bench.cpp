@@ -8,11 +8,13 @@
 // For each size and backend, the passes are replayed as the renderer runs them: a pass's lookups
 // against the cache as it stands, then its batch inserted. Lookups and inserts are timed in CPU
 // seconds on one thread (the machine may be shared); the backends run one after the other in the
-// same process, so their ratios are side by side. Every lookup's answer (hit, count, value) is
+// same process, so their ratios are side by side, in --repeat rounds (3) whose medians are
+// reported: single runs of a few seconds scatter by up to a fifth. Every lookup's answer (hit, count, value) is
 // hashed, and the hashes of the backends must agree: they are compared as structures, on the same
 // answers.
 //
-//   cache_sweep_bench --trace FILE [--trace FILE ...] [--samples N ...] [--results NAME]
+//   cache_sweep_bench --trace FILE [--trace FILE ...] [--samples N ...] [--repeat R]
+//                     [--results NAME]
 //
 // Prints a table and writes bench/results/NAME.{json,csv}; bench/plot_cache_sweep.py draws it.
 #include <algorithm>
@@ -112,13 +114,23 @@ struct Options {
   std::vector<std::string> traces;
   std::vector<double> samples = {1e5, 3e5, 1e6, 3e6, 1e7};
   std::vector<std::string> backends = {"octree", "vdb"};
+  int repeat = 3;
   std::string results = "cache_sweep";
 };
 
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 int run(const Options& o) {
+  // Rates are medians over the rounds; a ratio is the median of the rounds' ratios (each round
+  // runs every backend once, one after the other, so a ratio compares runs close in time), with
+  // the rounds' smallest and largest beside it.
   bench::Table table({"trace", "copies", "samples", "backend", "bytes/sample",
                       "lookups/cpu-s", "inserts/cpu-s", "hit rate", "vdb/octree lookups",
-                      "vdb/octree bytes"},
+                      "ratio min", "ratio max", "vdb/octree bytes"},
                      3);
   for (const std::string& path : o.traces) {
     const CacheTrace trace = read_trace(path);
@@ -133,23 +145,33 @@ int run(const Options& o) {
       const int copies = std::max(1, static_cast<int>(std::lround(target / base)));
       if (copies == last_copies) continue;
       last_copies = copies;
-      std::vector<Measured> results;
-      for (const std::string& backend : o.backends) {
-        results.push_back(replay(backend, trace, {copies, shift}));
-        if (results.back().answers != results.front().answers)
-          throw Error(name + ": " + backend + " and " + o.backends.front() +
-                      " answer lookups differently");
-      }
-      const Measured& first = results.front();
-      for (std::size_t b = 0; b < results.size(); ++b) {
-        const Measured& m = results[b];
-        const double rate = m.lookups / m.lookup_cpu;
+      // rounds[r][b]: backend b in round r.
+      std::vector<std::vector<Measured>> rounds(static_cast<std::size_t>(o.repeat));
+      for (auto& round : rounds)
+        for (const std::string& backend : o.backends) {
+          round.push_back(replay(backend, trace, {copies, shift}));
+          if (round.back().answers != rounds.front().front().answers)
+            throw Error(name + ": " + backend + " and " + o.backends.front() +
+                        " answer lookups differently");
+        }
+      auto lookup_rate = [](const Measured& m) { return m.lookups / m.lookup_cpu; };
+      const Measured& first = rounds.front().front();
+      for (std::size_t b = 0; b < o.backends.size(); ++b) {
+        const Measured& m = rounds.front()[b];  // sizes and hits are the same in every round
+        std::vector<double> lookups, inserts, ratios;
+        for (const auto& round : rounds) {
+          lookups.push_back(lookup_rate(round[b]));
+          inserts.push_back(round[b].samples / round[b].insert_cpu);
+          ratios.push_back(lookup_rate(round[b]) / lookup_rate(round.front()));
+        }
         table.add_row({name, copies, static_cast<std::int64_t>(m.samples), o.backends[b],
                        bench::Table::Cell(static_cast<double>(m.bytes) / m.samples, 1),
-                       bench::Table::Cell(rate, 0),
-                       bench::Table::Cell(m.samples / m.insert_cpu, 0),
+                       bench::Table::Cell(median(lookups), 0),
+                       bench::Table::Cell(median(inserts), 0),
                        bench::Table::Cell(static_cast<double>(m.hits) / m.lookups, 4),
-                       bench::Table::Cell(rate / (first.lookups / first.lookup_cpu), 2),
+                       bench::Table::Cell(median(ratios), 2),
+                       bench::Table::Cell(*std::min_element(ratios.begin(), ratios.end()), 2),
+                       bench::Table::Cell(*std::max_element(ratios.begin(), ratios.end()), 2),
                        bench::Table::Cell(static_cast<double>(m.bytes) / first.bytes, 2)});
       }
       std::fflush(stdout);
@@ -157,6 +179,7 @@ int run(const Options& o) {
   }
   table.print();
   nlohmann::json results = {{"traces", o.traces},
+                            {"repeat", o.repeat},
                             {"columns", table.header()},
                             {"rows", table.to_json()}};
   std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
@@ -179,6 +202,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 1e9));
   app.add_option("--backend", o.backends, "Backends, the first the reference of the ratios")
       ->capture_default_str();
+  app.add_option("--repeat", o.repeat,
+                 "Rounds per cache size (each runs every backend once, in turn); rates are "
+                 "medians, ratios the median of the rounds' ratios")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 99));
   bench::add_results_option(app, o.results);
   bench::parse_command_line(app, argc, argv);
   return bench::run_guarded(app, [&] {
