@@ -9,9 +9,9 @@
 // against the cache as it stands, then its batch inserted. Lookups and inserts are timed in CPU
 // seconds on one thread (the machine may be shared); the backends run one after the other in the
 // same process, so their ratios are side by side, in --repeat rounds (3) whose medians are
-// reported: single runs of a few seconds scatter by up to a fifth. Every lookup's answer (hit, count, value) is
-// hashed, and the hashes of the backends must agree: they are compared as structures, on the same
-// answers.
+// reported: single runs of a few seconds scatter by up to a fifth. Every lookup's answer (hit,
+// count, value) is hashed, and the hashes of the backends must agree: they are compared as
+// structures, on the same answers.
 //
 //   cache_sweep_bench --trace FILE [--trace FILE ...] [--samples N ...] [--repeat R]
 //                     [--results NAME]

@@ -62,9 +62,9 @@ void write_image(const std::string& path, const Image& color,
   if (color.channels() != 3)
     fail_write(path, "colour must have 3 channels (RGB), not " + std::to_string(color.channels()));
   // Encoded in memory first: a bad channel fails before the file is touched.
-  const std::vector<unsigned char> bytes = format_of(path) == Format::Png
-                                               ? encode_png(color)
-                                               : exr_bytes(color, extra, "cannot write '" + path + "'");
+  const std::vector<unsigned char> bytes =
+      format_of(path) == Format::Png ? encode_png(color)
+                                     : exr_bytes(color, extra, "cannot write '" + path + "'");
   write_bytes_atomically(
       path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
