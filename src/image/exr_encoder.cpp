@@ -1,6 +1,7 @@
 // Float EXR encoding with OpenEXR, in the image library itself rather than the codec module, as PNG
 // is (png_encoder.cpp): a render that writes an EXR should not wait for OpenImageIO and the ~260
 // libraries it links (codec_module.h), which take longer to load than a quick render takes.
+#include <cstdint>
 #include <cstring>
 #include <set>
 #include <string>
