@@ -40,7 +40,6 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
     counters_.clear();
   }
 
-  std::uint32_t first_id() const { return first_id_; }
   // The samples added since start_frame, as stored (ids assigned), in increasing id order (each
   // insert assigns increasing ids to its batch): the frame's new samples, without enumerating the
   // whole cache.
