@@ -38,9 +38,6 @@ class MemoryStream final : public Imf::OStream {
   std::uint64_t position_ = 0;
 };
 
-// The first line of a message (OpenEXR's can span several).
-std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }
-
 }  // namespace
 
 std::vector<unsigned char> exr_bytes(const Image& color, const std::vector<NamedChannels>& extra,
@@ -92,7 +89,7 @@ std::vector<unsigned char> exr_bytes(const Image& color, const std::vector<Named
     file.setFrameBuffer(frame);
     file.writePixels(height);
   } catch (const std::exception& e) {
-    fail(first_line(e.what()));
+    fail(one_line(e.what()));  // OpenEXR's messages can span several lines
   }
   return bytes;
 }
