@@ -34,6 +34,7 @@ import platform
 import re
 import shutil
 import socket
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -583,26 +584,36 @@ class SceneBench:
         return path, meta
 
     # -- ladders
+    # A ladder point's times: the median of --repeat renders of it (same seed, so the same image;
+    # the runs' times are kept). One render per point shows this machine's noise: the same 4-spp
+    # render took 0.37-0.55 s five times in a row.
+    def timed(self, render):
+        runs = [render() for _ in range(self.a.repeat)]
+        t = {k: statistics.median(r[k] for r in runs) for k in ("seconds", "process_seconds")}
+        if len(runs) > 1:
+            t["seconds_runs"] = [r["seconds"] for r in runs]
+            t["process_seconds_runs"] = [r["process_seconds"] for r in runs]
+        return t
+
     def cycles_ladder(self, ref):
         pts = []
         for spp in self.plan["cycles_ladder"]:
             out = self.out("cycles_%d" % spp)
-            r = self.cyc.render(self.path, self.lens, spp, self.seed, out)
+            r = self.timed(lambda: self.cyc.render(self.path, self.lens, spp, self.seed, out))
             e = self.dof.compare(out, ref)
-            pts.append({"spp": spp, "seconds": r["seconds"],
-                        "process_seconds": r["process_seconds"], "rel_mse": e, "image": out})
+            pts.append(dict(r, spp=spp, rel_mse=e, image=out))
             log("    Cycles %5d spp: relMSE %.5g  %.2f s (process %.2f s)" % (
                 spp, e, r["seconds"], r["process_seconds"]))
         return pts
 
     def dof_point(self, config, spp, ref, stem):
         out = self.out(stem)
-        r = self.dof.render(self.path, self.lens, spp, self.seed, out, config, self.work)
+        r = self.timed(lambda: self.dof.render(self.path, self.lens, spp, self.seed, out, config,
+                                               self.work))
         e = self.dof.compare(out, ref)
         log("    dofcache %-22s %5d spp: relMSE %.5g  %.2f s (process %.2f s)" % (
             config_label(config), spp, e, r["seconds"], r["process_seconds"]))
-        return {"spp": spp, "seconds": r["seconds"], "process_seconds": r["process_seconds"],
-                "rel_mse": e, "image": out}
+        return dict(r, spp=spp, rel_mse=e, image=out)
 
     def dof_ladder(self, config, start, ref, min_target, cap_seconds, tag):
         pts, spp = [], max(1, start)
@@ -927,6 +938,8 @@ def main(argv=None):
     p.add_argument("--height", type=int, default=None, help="default 240 (60 with --quick)")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--repeat", type=int, default=1,
+                   help="renders of each ladder point; its times are their median (default 1)")
     p.add_argument("--bounces", type=int, default=1,
                    help="Cycles max bounces and dofcache --bounces (default 1)")
     p.add_argument("--fstop", type=float, default=None,
@@ -963,7 +976,8 @@ def main(argv=None):
         a.max_reference_minutes = 2.0 if a.quick else 40.0
     width = plan["size"][0] if a.width is None else a.width
     height = plan["size"][1] if a.height is None else a.height
-    for name, v in (("--width", width), ("--height", height), ("--threads", a.threads)):
+    for name, v in (("--width", width), ("--height", height), ("--threads", a.threads),
+                    ("--repeat", a.repeat)):
         if v < 1:
             p.error("%s must be at least 1" % name)
     if a.bounces < 0 or (a.fstop is not None and a.fstop <= 0) or a.fstop_scale <= 0:
@@ -1043,6 +1057,7 @@ def main(argv=None):
         "rows": rows,
         "settings": {
             "width": width, "height": height, "threads": a.threads, "seed": a.seed,
+            "repeat": a.repeat,
             "bounces": a.bounces, "lambert": a.lambert, "quick": a.quick,
             "fstop": a.fstop, "fstop_scale": a.fstop_scale, "plan": plan,
             "reference_factor": REF_FACTOR, "nice": 10,
