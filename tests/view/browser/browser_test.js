@@ -250,8 +250,8 @@ async function main() {
     await sleep(600);
     await page.screenshot({path: path.join(outDir, "view.png")});
     check(pageErrors.length === 0, "no script errors on the page " + pageErrors.join("; "));
-    const errors = await page.evaluate(() => window.dofcacheView.errors);
-    check(errors === 0, `no errors shown on the page (${errors})`);
+    const errors = await page.evaluate(() => window.dofcacheView.errorMessages);
+    check(errors.length === 0, "no errors shown on the page " + errors.join("; "));
     results.memory_bytes = await page.evaluate(() => window.dofcacheView.status.memory_bytes);
   } finally {
     await browser.close();
