@@ -25,6 +25,7 @@
 #include <tuple>
 #include <vector>
 
+#include "dofcache/core/stopwatch.h"
 #include "bench_common.h"
 #include "dofcache/preview/occlusion.h"
 #include "dofcache/preview/preview.h"
@@ -131,8 +132,7 @@ void BM_Masks(benchmark::State& state) {
       benchmark::DoNotOptimize(
           build_occlusion_masks(s.id_layers, s.inputs.depth, s.plan, s.inputs.imaging, options));
     });
-    double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    double ms = ms_since(start);
     row.sum.total_ms += ms;
     row.min_ms = std::min(row.min_ms, ms);
     ++row.calls;

@@ -41,6 +41,7 @@
 
 #include "bench_common.h"
 #include "dofcache/cache/radiance_cache.h"
+#include "dofcache/core/stopwatch.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/image/metrics.h"
 #include "dofcache/lens/thin_lens.h"
@@ -73,9 +74,6 @@ struct Options {
 };
 
 using clock_type = std::chrono::steady_clock;
-double ms_since(clock_type::time_point t0) {
-  return std::chrono::duration<double, std::milli>(clock_type::now() - t0).count();
-}
 
 struct SceneSetup {
   std::string name;

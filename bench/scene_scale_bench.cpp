@@ -23,6 +23,7 @@
 
 #include "bench_common.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/stopwatch.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
@@ -39,10 +40,6 @@ struct Options {
   int load_repeats = 3;  // the load is timed this often, the fastest kept (a shared machine)
   std::string results = "scene_scale";
 };
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // Peak resident set of the process so far (Linux reports kilobytes).
 double peak_rss_bytes() {

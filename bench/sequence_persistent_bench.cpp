@@ -37,7 +37,8 @@
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
 #include "dofcache/sequence/camera_path.h"
-#include "dofcache/sequence/persistent_cache.h"
+#include "dofcache/cache/persistent_cache.h"
+#include "dofcache/core/stopwatch.h"
 #include "dofcache/sequence/sequence_renderer.h"
 
 using namespace dofcache;
@@ -77,7 +78,7 @@ struct FrameResult {
   bool rendered = false;
   double wall = 0, cpu = 0, rel_mse = 0, flicker = -1, error_flicker = -1;
   std::uint64_t rays = 0, shading_points = 0;
-  sequence::FrameCacheStats cache;
+  cache::FrameCacheStats cache;
 };
 
 // Mean absolute difference over pixels and channels.
@@ -182,7 +183,7 @@ int run(const Options& o) {
   nlohmann::json per_frame_json = nlohmann::json::object();
   // The process's peak resident set after each path (it only grows: run one path to read its own).
   nlohmann::json peak_rss_json = nlohmann::json::object();
-  sequence::ReusePolicy policy;  // the defaults a user gets
+  cache::ReusePolicy policy;  // the defaults a user gets
 
   for (const PathCase& pc : kCases) {
     if (std::find(o.paths.begin(), o.paths.end(), pc.name) == o.paths.end()) continue;
@@ -213,7 +214,7 @@ int run(const Options& o) {
       if (has_reference(i, o))
         refs[i] = reference(scene, accel, frames[i], base, o, pc.name);
 
-    sequence::PersistentCache fresh("vdb", policy, base.cache.radius),
+    cache::PersistentCache fresh("vdb", policy, base.cache.radius),
         persistent("vdb", policy, base.cache.radius);
     std::vector<std::vector<FrameResult>> results(kMethods,
                                                   std::vector<FrameResult>(frames.size()));
@@ -228,17 +229,17 @@ int run(const Options& o) {
         r.lens = f.lens;
         r.seed = sequence::frame_seed(1, f.number);
         r.cache.frame = static_cast<std::uint32_t>(f.number);
-        sequence::PersistentCache* pcache =
+        cache::PersistentCache* pcache =
             m == kFresh ? &fresh : m == kPersistent ? &persistent : nullptr;
         auto t0 = std::chrono::steady_clock::now();
         double c0 = cpu_seconds();
         if (m == kFresh) fresh.clear();
-        if (pcache) r.cache.cache = pcache->begin_frame(f.number, render::make_camera(f.camera, r));
+        if (pcache) r.cache.cache = pcache->begin_frame(f.number, render::make_camera(f.camera, r).frame_camera());
         render::RenderOutput out = render::render(scene, accel, f.camera, r);
         FrameResult& fr = results[m][i];
         if (pcache) fr.cache = pcache->end_frame();
         fr.cpu = cpu_seconds() - c0;
-        fr.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        fr.wall = seconds_since(t0);
         fr.rendered = true;
         fr.rays = out.stats.rays;
         fr.shading_points = out.stats.shading_points;

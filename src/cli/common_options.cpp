@@ -1,14 +1,51 @@
 #include "common_options.h"
 
+#include <algorithm>
 #include <cstdio>
+#include <sstream>
+
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/cache/sample_radius.h"
+#include "dofcache/core/error.h"
 
 namespace dofcache::cli {
+namespace {
 
-void add_scene_options(CLI::App* cmd, std::string& scene_path, std::string& camera,
-                       int& scene_index, scene::LoadLimits& limits) {
-  cmd->add_option("SCENE", scene_path, ".gltf or .glb file; omit for the built-in scene");
-  cmd->add_option("--camera", camera, "Camera name (default: the scene's first camera)");
-  cmd->add_option("--scene-index", scene_index, "glTF scene to load (default: the file's default)");
+std::vector<std::string> g_command_arguments;
+
+template <class T>
+std::string text(const T& v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// A shading option: sets one field of the request's shading, starting it from the renderer's
+// defaults when it is the first one given.
+template <class T>
+void shading_option(CLI::App* cmd, request::RenderRequest& r, const char* name,
+                    T render::ShadingSettings::*field, const std::string& help,
+                    const CLI::Validator& check) {
+  cmd->add_option_function<T>(
+         name,
+         [&r, field](const T& v) {
+           if (!r.shading) r.shading = render::ShadingSettings{};
+           (*r.shading).*field = v;
+         },
+         help)
+      ->default_str(text(render::ShadingSettings{}.*field))
+      ->check(check);
+}
+
+}  // namespace
+
+void set_command_arguments(std::vector<std::string> args) { g_command_arguments = std::move(args); }
+
+void add_scene_options(CLI::App* cmd, request::RenderRequest& r) {
+  scene::LoadLimits& limits = r.limits;
+  cmd->add_option("SCENE", r.scene, ".gltf or .glb file; omit for the built-in scene");
+  cmd->add_option("--camera", r.camera, "Camera name (default: the scene's first camera)");
+  cmd->add_option("--scene-index", r.scene_index, "glTF scene to load (default: the file's default)");
   // Limits on what a scene file may make the loader allocate (docs/reliability.md).
   cmd->add_option("--max-vertices", limits.max_vertices,
                   "Refuse a scene with more vertices (all mesh instances)")
@@ -24,53 +61,60 @@ void add_scene_options(CLI::App* cmd, std::string& scene_path, std::string& came
       ->capture_default_str()->check(CLI::Range(1, 100000));
 }
 
-void add_size_options(CLI::App* cmd, int& width, int& height) {
-  cmd->add_option("--width", width, "Image width in pixels")->capture_default_str()
+void add_size_options(CLI::App* cmd, request::RenderRequest& r) {
+  cmd->add_option("--width", r.width, "Image width in pixels")->capture_default_str()
       ->check(CLI::Range(1, 16384));
-  cmd->add_option("--height", height, "Image height (default: from the camera's aspect ratio)")
+  cmd->add_option("--height", r.height, "Image height (default: from the camera's aspect ratio)")
       ->check(CLI::Range(1, 16384));
 }
 
-void add_lens_options(CLI::App* cmd, std::optional<double>& fstop,
-                      std::optional<double>& focal_length, std::optional<double>& focus_distance,
-                      const std::string& unset) {
+void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::string& unset) {
   const std::string note = unset.empty() ? "" : " (default: " + unset + ")";
-  cmd->add_option("--fstop", fstop, "f-number n (aperture diameter = focal length / n)" + note);
-  cmd->add_option("--focal-length", focal_length, "Focal length in metres (e.g. 0.05)" + note);
-  cmd->add_option("--focus-distance", focus_distance, "Distance in focus, metres" + note);
+  cmd->add_option("--fstop", lens.fstop, "f-number n (aperture diameter = focal length / n)" + note);
+  cmd->add_option("--focal-length", lens.focal_length, "Focal length in metres (e.g. 0.05)" + note);
+  cmd->add_option("--focus-distance", lens.focus_distance, "Distance in focus, metres" + note);
 }
 
-void add_seed_and_threads(CLI::App* cmd, std::uint64_t& seed, int& threads,
-                          const std::string& seed_help) {
-  cmd->add_option("--seed", seed, seed_help)->capture_default_str();
-  cmd->add_option("--threads", threads, "Worker threads (0: all cores)")->capture_default_str()
+void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help) {
+  cmd->add_option("--seed", r.seed, seed_help)->capture_default_str();
+  cmd->add_option("--threads", r.threads,
+                  r.core_policy == CorePolicy::LeaveOneCore
+                      ? "Worker threads (0: every core this process may use but one)"
+                      : "Worker threads (0: every core this process may use)")
+      ->capture_default_str()
       ->check(CLI::Range(0, 4096));
 }
 
-void add_shading_options(CLI::App* cmd, render::ShadingSettings& shading) {
-  cmd->add_option("--light-samples", shading.light_samples,
-                  "Light samples (shadow rays) per camera hit, combined with the gather rays by "
-                  "multiple importance sampling")
-      ->capture_default_str()->check(CLI::Range(0, 4096));
-  cmd->add_option("--gather-rays", shading.gather_rays,
-                  "Cosine-weighted rays per camera hit: indirect light, and direct light where "
-                  "they meet an emitter (1 with 1 light sample is a plain path tracer)")
-      ->capture_default_str()->check(CLI::Range(0, 65536));
-  cmd->add_option("--bounces", shading.bounces,
-                  "Indirect bounces, diffuse or glossy, as Blender Cycles' max bounces (0: direct "
-                  "light only)")
-      ->capture_default_str()->check(CLI::Range(0, 16));
-  cmd->add_option("--specular-depth", shading.specular_depth,
-                  "Maximum chain of glossy/mirror reflections (0: no specular lobe)")
-      ->capture_default_str()->check(CLI::Range(0, 16));
-  cmd->add_option("--rough-lobe-rate", shading.rough_lobe_rate,
-                  "At a camera hit, a rough dielectric's specular lobe (a few percent of the "
-                  "light) is evaluated on this many times its share of the lens rays, weighted "
-                  "by the inverse (unbiased; 0: on every ray)")
-      ->capture_default_str()->check(CLI::Range(0.0, 1e3));
+void add_shading_options(CLI::App* cmd, request::RenderRequest& r) {
+  using S = render::ShadingSettings;
+  shading_option(cmd, r, "--light-samples", &S::light_samples,
+                 "Light samples (shadow rays) per camera hit, combined with the gather rays by "
+                 "multiple importance sampling",
+                 CLI::Range(0, 4096));
+  shading_option(cmd, r, "--gather-rays", &S::gather_rays,
+                 "Cosine-weighted rays per camera hit: indirect light, and direct light where "
+                 "they meet an emitter (1 with 1 light sample is a plain path tracer)",
+                 CLI::Range(0, 65536));
+  shading_option(cmd, r, "--bounces", &S::bounces,
+                 "Indirect bounces, diffuse or glossy, as Blender Cycles' max bounces (0: direct "
+                 "light only)",
+                 CLI::Range(0, 16));
+  shading_option(cmd, r, "--specular-depth", &S::specular_depth,
+                 "Maximum chain of glossy/mirror reflections (0: no specular lobe)",
+                 CLI::Range(0, 16));
+  shading_option(cmd, r, "--rough-lobe-rate", &S::rough_lobe_rate,
+                 "At a camera hit, a rough dielectric's specular lobe (a few percent of the "
+                 "light) is evaluated on this many times its share of the lens rays, weighted "
+                 "by the inverse (unbiased; 0: on every ray)",
+                 CLI::Range(0.0, 1e3));
 }
 
-void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache) {
+void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::string& cache_help) {
+  std::vector<std::string> backends = cache::radiance_cache_backends();
+  backends.push_back("auto");
+  cmd->add_option("--cache", r.cache, cache_help)->capture_default_str()
+      ->check(CLI::IsMember(backends));
+  render::CacheSettings& cache = r.cache_settings;
   cmd->add_option("--min-factor", cache.radius.min_factor,
                   "Cache sample radius in focus, in pixel footprints (Algorithm 1's minFactor)")
       ->capture_default_str()->check(CLI::Range(1e-3, 1e4));
@@ -78,10 +122,11 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache) {
          "--cache-radius",
          [&cache](const std::string& name) { cache.radius.rule = cache::parse_radius_rule(name); },
          "How far a cache sample is reused: paper (eqs. 4.1-4.2: CoC out of focus, half "
-                  "a pixel in focus) or adaptive (also widened where the illumination is smooth, "
-                  "from the distances its gather rays measured)")
+         "a pixel in focus) or adaptive (also widened where the illumination is smooth, "
+         "from the distances its gather rays measured)")
       ->default_str(cache::radius_rule_name(cache.radius.rule))
-      ->check(CLI::IsMember({"paper", "adaptive"}));
+      ->check(CLI::IsMember({cache::radius_rule_name(cache::RadiusRule::Paper),
+                             cache::radius_rule_name(cache::RadiusRule::Adaptive)}));
   cmd->add_option("--cache-accuracy", cache.radius.accuracy,
                   "Adaptive radius: fraction of the harmonic mean distance to nearby geometry")
       ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
@@ -120,6 +165,28 @@ void add_cache_tuning_options(CLI::App* cmd, render::CacheSettings& cache) {
       ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
 }
 
+void add_adaptive_options(CLI::App* cmd, request::RenderRequest& r) {
+  cmd->add_option_function<std::string>(
+         "--adaptive", [&r](const std::string& v) { r.adaptive = request::parse_choice(v); },
+         "Adaptive lens sampling (drt): a pilot of --adaptive-pilot of the samples measures "
+         "each pixel's noise, the rest go where it is; --spp is then the mean per pixel. auto: "
+         "on for drt")
+      ->default_str(request::choice_name(r.adaptive))
+      ->check(CLI::IsMember(request::choice_names()));
+  render::AdaptiveSampling& a = r.adaptive_settings;
+  cmd->add_option("--adaptive-pilot", a.pilot_fraction,
+                  "Adaptive sampling: the pilot's fraction of the samples (rounded down to a "
+                  "power of two, at least 8 per pixel, or half the samples below 16 spp; below 4 "
+                  "spp sampling stays uniform)")
+      ->capture_default_str()->check(CLI::Range(1e-3, 1.0));
+  cmd->add_option("--adaptive-min", a.min_factor,
+                  "Adaptive sampling: every pixel takes at least this fraction of --spp")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--adaptive-max", a.max_factor,
+                  "Adaptive sampling: no pixel takes more than this many times --spp")
+      ->capture_default_str()->check(CLI::Range(1.0, 1024.0));
+}
+
 void add_environment_options(CLI::App* cmd, render::EnvironmentSettings& environment) {
   cmd->add_option("--env", environment.path,
                   "Environment light: a lat-long (equirectangular, 2:1) .exr or .hdr map, top "
@@ -154,66 +221,19 @@ void add_environment_options(CLI::App* cmd, render::EnvironmentSettings& environ
       "--env) is lit by a default sky, as glTF viewers do; this keeps it black instead");
 }
 
-void print_environment_notices(const render::ResolvedEnvironment& r) {
-  for (const std::string& w : r.warnings)
-    std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
-  if (r.default_sky)
-    std::fprintf(stderr,
-                 "dofcache: notice: the scene has no light; it is lit by a default sky (choose "
-                 "one with --env FILE or --env-color R,G,B, or none with --no-default-sky)\n");
-}
-
-nlohmann::json environment_json(const render::EnvironmentSettings& settings,
-                                const render::ResolvedEnvironment& environment) {
-  const render::Environment* e = environment.environment.get();
-  const char* kind = !e                       ? "none"
-                     : environment.default_sky ? "default_sky"
-                     : e->is_constant()        ? "constant"
-                                               : "map";
-  nlohmann::json j = {{"kind", kind}, {"description", environment.description}};
-  if (e) {
-    const glm::vec3 m = e->mean_radiance();
-    j.update({{"strength", settings.strength},
-              {"rotation_deg", e->rotation() * 57.29577951f},
-              {"visible", e->visible()},
-              {"mean_radiance", {m.x, m.y, m.z}}});
-    if (!settings.path.empty()) j["path"] = settings.path;
-  }
-  return j;
-}
-
-nlohmann::json cache_settings_json(const std::string& backend,
-                                   const render::RenderSettings& settings) {
-  const render::CacheSettings& cache = settings.cache;
-  return {{"backend", backend},
-          {"radius_rule", cache::radius_rule_name(cache.radius.rule)},
-          {"min_factor", cache.radius.min_factor},
-          {"accuracy", cache.radius.accuracy},
-          {"max_radius_pixels", cache.radius.max_radius_pixels},
-          {"sample_quality", render::effective_sample_quality(settings)},
-          {"sample_error", cache.sample_error},
-          {"max_sample_rounds", cache.max_sample_rounds},
-          {"direct_below", cache.direct_below},
-          {"direct_light_samples", cache.direct_light_samples},
-          {"direct_gather_rays", cache.direct_gather_rays},
-          {"max_normal_angle_deg", cache.lookup.max_normal_angle_deg},
-          {"min_samples", cache.lookup.min_samples}};
-}
-
-void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options) {
+void add_composite_options(CLI::App* cmd, preview::LayerComposite& composite, int& edge_rays) {
   cmd->add_option_function<std::string>(
          "--layer-composite",
-         [&options](const std::string& name) {
-           options.layer_composite = name == "slabs" ? preview::LayerComposite::Slabs
-                                                     : preview::LayerComposite::Over;
+         [&composite](const std::string& name) {
+           composite = preview::parse_layer_composite(name);
          },
          "Layered previews: how blurred layers are composited. over: Kraus & Strengert's "
          "trapezoid mattes composited with 'over'; slabs: each layer's hat split at its anchor "
          "and the halves sharing a slab added, so defocused silhouettes cover like the lens "
          "(2-3x less error at silhouettes; a curved surface can show a faint seam)")
-      ->check(CLI::IsMember({"over", "slabs"}))
-      ->default_str("over");
-  cmd->add_option("--edge-rays", options.edge_rays,
+      ->check(CLI::IsMember(preview::layer_composite_names()))
+      ->default_str(preview::layer_composite_name(composite));
+  cmd->add_option("--edge-rays", edge_rays,
                   "preview-occlusion: lens rays per pixel traced through the pinhole surface and "
                   "the revealed layers near occluding edges, where layers cannot tell which part "
                   "of the lens sees past an edge (rounded to a square grid; 0, or fewer than 4: "
@@ -222,10 +242,42 @@ void add_composite_options(CLI::App* cmd, preview::PreviewOptions& options) {
       ->check(CLI::Range(0, 1024));
 }
 
-void apply_composite_options(const preview::PreviewOptions& flags,
-                             preview::PreviewOptions& options) {
-  options.layer_composite = flags.layer_composite;
-  options.edge_rays = flags.edge_rays;
+void add_request_file_options(CLI::App* cmd, RequestFileOptions& o) {
+  cmd->add_option("--request", o.file,
+                  "Render the request in this JSON file (as --print-request writes it); options "
+                  "given on the command line override its fields");
+  cmd->add_flag("--print-request", o.print,
+                "Print the resolved request as JSON (what every 'auto' chose) and exit without "
+                "rendering");
+}
+
+request::RenderRequest apply_request_file(
+    const RequestFileOptions& o, const request::RenderRequest& parsed, request::Kind kind,
+    const std::function<void(CLI::App*, request::RenderRequest&)>& add_options) {
+  if (o.file.empty()) return parsed;
+  request::RenderRequest base = request::load_request(o.file);
+  if (base.kind != kind)
+    throw Error(o.file + ": a request of kind " + request::kind_name(base.kind) + ", not " +
+                request::kind_name(kind));
+  CLI::App again;
+  RequestFileOptions ignored;
+  add_options(&again, base);
+  add_request_file_options(&again, ignored);
+  std::vector<std::string> args(g_command_arguments.rbegin(), g_command_arguments.rend());
+  again.parse(args);  // the same options parsed before: cannot fail now
+  return base;
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
+}
+
+void print_environment_notices(const render::ResolvedEnvironment& r) {
+  print_warnings(r.warnings);
+  if (r.default_sky)
+    std::fprintf(stderr,
+                 "dofcache: notice: the scene has no light; it is lit by a default sky (choose "
+                 "one with --env FILE or --env-color R,G,B, or none with --no-default-sky)\n");
 }
 
 }  // namespace dofcache::cli

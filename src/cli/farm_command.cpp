@@ -11,6 +11,7 @@
 #include "dofcache/farm/plan.h"
 #include "dofcache/farm/slurm.h"
 #include "sequence_options.h"
+#include "dofcache/sequence/sequence_request.h"
 
 namespace dofcache::cli {
 namespace {
@@ -43,45 +44,41 @@ std::string self_executable() {
   return exe.string();
 }
 
-// The sequence command line given to `farm plan`, parsed as `dofcache sequence` parses it.
-SequenceOptions parse_sequence_args(std::vector<std::string> args) {
-  SequenceOptions o;
+// The sequence options given to `farm plan`, parsed as `dofcache sequence` parses them, and
+// resolved as its request.
+sequence::PreparedSequence prepare_plan_sequence(std::vector<std::string> args) {
+  request::RenderRequest r = request::default_request(request::Kind::Sequence);
   CLI::App app{"sequence"};
-  add_sequence_options(&app, o);
+  add_sequence_options(&app, r);
   std::reverse(args.begin(), args.end());  // CLI11 takes the vector last argument first
   try {
     app.parse(args);
   } catch (const CLI::ParseError& e) {
     throw Error(std::string("in the sequence options: ") + e.what());
   }
-  return o;
+  // Set per job by the plan (farm::job_owned_fields); --frames gives the plan's range.
+  for (const char* name : {"--frame-step", "--cache-in", "--cache-out", "--checkpoint",
+                           "--restart", "--stats-json", "--quiet"})
+    if (app.count(name) > 0)
+      throw Error(std::string(name) + " is set by the plan for each job; leave it out of the "
+                  "sequence options");
+  return sequence::prepare_sequence(r);
 }
 
 int run_plan(FarmOptions& f) {
-  std::vector<std::string> args = f.plan->remaining();
-  for (const std::string& r : farm::reserved_sequence_options())
-    if (r != "--frames" && farm::has_option(args, r))
-      throw Error(r + " is set by the plan for each job; leave it out of the sequence options");
-  SequenceOptions so = parse_sequence_args(args);
-  PreparedSequence seq = prepare_sequence(so);  // validates scene, path, lens and settings
-
+  sequence::PreparedSequence seq = prepare_plan_sequence(f.plan->remaining());
   farm::FarmSettings s;
   s.dofcache = f.dofcache.empty() ? self_executable() : absolute(f.dofcache);
   s.work_dir = absolute(f.work_dir);
   s.run_dir = fs::current_path().string();
-  s.sequence_args = farm::without_option(args, "--frames", true);
-  if (seq.settings.cache_mode != sequence::CacheMode::None) {
-    // The warm pass renders fewer lens samples than the frames, but its cache must have the
-    // frames' sample quality (cache files record it), so every job gets it explicitly.
-    s.sequence_args = farm::without_option(s.sequence_args, "--cache-sample-quality", true);
-    s.sequence_args.insert(s.sequence_args.end(),
-                           {"--cache-sample-quality",
-                            std::to_string(render::effective_sample_quality(seq.settings.render))});
-  }
+  // Resolved: the warm pass renders fewer lens samples than the frames, but its cache has the
+  // frames' sample quality (cache files record it), which the request now names.
+  s.request = seq.resolved.request;
+  s.request.sequence.frames.clear();
   s.first = seq.first;
   s.last = seq.last;
   s.chunk = f.chunk;
-  s.output = absolute(so.out);
+  s.output = absolute(seq.resolved.request.out);
   s.width = seq.settings.render.width;
   s.height = seq.settings.render.height;
   s.cache = seq.settings.cache_mode == sequence::CacheMode::None ? "none"

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "commands.h"
+#include "common_options.h"
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
@@ -82,6 +83,12 @@ int main(int argc, char** argv) {
   try {
     for (auto& [sub, run] : runners) {
       if (!sub->parsed()) continue;
+      // What follows the command's name, for --request (common_options.h).
+      for (int i = 1; i < argc; ++i)
+        if (sub->get_name() == argv[i]) {
+          cli::set_command_arguments(std::vector<std::string>(argv + i + 1, argv + argc));
+          break;
+        }
       if (needs_image_codecs(*sub, argc, argv)) image::preload_image_codecs();
       return run();
     }

@@ -8,6 +8,7 @@
 #include "commands.h"
 #include "common_options.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/stopwatch.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/preview/inputs_file.h"
 #include "dofcache/preview/refocus.h"
@@ -17,27 +18,24 @@ namespace {
 
 struct RefocusOptions {
   std::string input, out = "refocus.png", method;
-  std::optional<double> fstop, focal_length, focus_distance;  // add_lens_options
+  render::LensOverrides lens;
   int threads = 0;
   std::uint64_t max_image_values = image::kMaxImageValues;
-  preview::PreviewOptions composite;  // only layer_composite and edge_rays are set from flags
+  preview::LayerComposite composite = preview::LayerComposite::Over;
+  int edge_rays = preview::PreviewOptions{}.edge_rays;
   bool quiet = false;
 };
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 int run_refocus(const RefocusOptions& o) {
   image::check_output_path(o.out);
-  auto t0 = std::chrono::steady_clock::now();
+  Stopwatch watch;
   preview::SavedPreviewInputs saved = preview::load_preview_inputs(o.input, o.max_image_values);
-  const double load_ms = ms_since(t0);
+  const double load_ms = watch.ms();
 
   lens::ThinLens lens = saved.inputs.imaging.lens;
-  if (o.focal_length) lens.focal_length = *o.focal_length;
-  if (o.fstop) lens.fstop = *o.fstop;
-  if (o.focus_distance) lens.focus_distance = *o.focus_distance;
+  lens.focal_length = o.lens.focal_length.value_or(lens.focal_length);
+  lens.fstop = o.lens.fstop.value_or(lens.fstop);
+  lens.focus_distance = o.lens.focus_distance.value_or(lens.focus_distance);
   // Without --method: the occlusion fix if the file has revealed layers, else Kraus & Strengert.
   const preview::PreviewMethod method = !o.method.empty() ? preview::parse_preview_method(o.method)
                                         : saved.coverage.present
@@ -45,15 +43,16 @@ int run_refocus(const RefocusOptions& o) {
                                             : preview::PreviewMethod::Layered;
   preview::PreviewOptions options = saved.options;
   options.threads = o.threads;
-  apply_composite_options(o.composite, options);
+  options.layer_composite = o.composite;
+  options.edge_rays = o.edge_rays;
 
-  t0 = std::chrono::steady_clock::now();
+  watch.restart();
   preview::RefocusedInputs in =
       preview::refocus_inputs(std::move(saved.inputs), saved.coverage, lens, options);
   if (method == preview::PreviewMethod::LayeredOcclusion && !in.warning.empty())
     std::fprintf(stderr, "dofcache: warning: %s\n", in.warning.c_str());
   image::Image result = preview::render_preview(in.inputs, method, options);
-  const double postprocess_ms = ms_since(t0);
+  const double postprocess_ms = watch.ms();
   image::write_image(o.out, result);
   if (!o.quiet)
     std::printf(
@@ -78,15 +77,19 @@ Runner add_refocus_command(CLI::App& app) {
       ->required();
   cmd->add_option("-o,--out", o->out, "Output image: .png (sRGB) or .exr (linear)")
       ->capture_default_str();
-  add_lens_options(cmd, o->fstop, o->focal_length, o->focus_distance, "the saved lens's");
+  add_lens_options(cmd, o->lens, "the saved lens's");
   cmd->add_option("--method", o->method,
-                  "layered (Kraus & Strengert), layered-occlusion (with the paper's occlusion fix; "
-                  "the default when the file holds revealed layers), gather or scatter")
-      ->check(CLI::IsMember({"layered", "layered-occlusion", "gather", "scatter"}));
-  cmd->add_option("--threads", o->threads, "Worker threads (0: all cores)")
+                  "preview (Kraus & Strengert's layers), preview-occlusion (with the paper's "
+                  "occlusion fix; the default when the file holds revealed layers), "
+                  "preview-gather or preview-scatter, as render --mode names them (the older "
+                  "names layered, layered-occlusion, gather and scatter are accepted)")
+      ->check([](const std::string& name) {
+        return preview::find_preview_method(name) ? std::string() : "unknown method '" + name + "'";
+      });
+  cmd->add_option("--threads", o->threads, "Worker threads (0: every core this process may use)")
       ->capture_default_str()
       ->check(CLI::Range(0, 4096));
-  add_composite_options(cmd, o->composite);
+  add_composite_options(cmd, o->composite, o->edge_rays);
   cmd->add_option("--max-image-values", o->max_image_values,
                   "Refuse inputs whose images (read, and the revealed layers expanded) hold more "
                   "float values (docs/reliability.md)")

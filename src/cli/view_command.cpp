@@ -25,10 +25,8 @@ namespace dofcache::cli {
 namespace {
 
 struct ViewOptions {
-  std::string scene_path, camera, keyframes;
-  int scene_index = -1, width = 640, height = 0, port = 0;
-  scene::LoadLimits limits;
-  std::optional<double> fstop, focal_length, focus_distance;
+  std::string keyframes;
+  int port = 0;
   view::ViewSettings settings;
   bool open = false, no_reference = false;
 };
@@ -71,20 +69,16 @@ int run_view(ViewOptions& o) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  scene::Scene scene = render::load_scene(o.scene_path, o.scene_index, o.limits);
-  for (const std::string& w : scene.warnings)
-    std::fprintf(stderr, "dofcache: warning: %s\n", w.c_str());
-  o.settings.width = o.width;
-  o.settings.height = o.height;
-  o.settings.camera = o.camera;
+  const request::RenderRequest& q = o.settings.request;
+  scene::Scene scene = render::load_scene(q.scene, q.scene_index, q.limits);
+  print_warnings(scene.warnings);
   o.settings.reference = !o.no_reference;
   const std::string source = scene.source;
-  view::ViewSession session(std::move(scene), {o.focal_length, o.fstop, o.focus_distance},
-                            o.settings);
+  view::ViewSession session(std::move(scene), q.lens, o.settings);
   // A keyframe file the page would append to must be one already: say so now, not at the click.
   if (!o.keyframes.empty() && std::filesystem::exists(o.keyframes))
     sequence::load_keyframe_path(o.keyframes, session.camera());
-  view::ViewServer server(session, view::ServerSettings{o.port, "", o.keyframes, source});
+  view::ViewServer server(session, view::ServerSettings{o.port, "", o.keyframes, source, sequence::append_keyframe});
   session.start();
   server.start();
   std::printf("scene   %s, %dx%d\n", source.c_str(), session.width(), session.height());
@@ -117,17 +111,19 @@ Runner add_view_command(CLI::App& app) {
       "refocused where you click, and refines the reference (distributed ray tracing with the "
       "radiance cache) in the background. Listens on 127.0.0.1 only; the printed address holds a "
       "random access token. See docs/view.md.");
-  add_scene_options(cmd, o->scene_path, o->camera, o->scene_index, o->limits);
-  add_size_options(cmd, o->width, o->height);
+  request::RenderRequest& r = o->settings.request;
+  add_scene_options(cmd, r);
+  add_size_options(cmd, r);
   cmd->add_option("--port", o->port, "TCP port on 127.0.0.1 (0: any free port)")
       ->capture_default_str()
       ->check(CLI::Range(0, 65535));
   cmd->add_flag("--open", o->open, "Also open the address in the browser ($BROWSER or xdg-open)");
-  add_lens_options(cmd, o->fstop, o->focal_length, o->focus_distance,
-                   "the camera's extras.lens");
-  add_seed_and_threads(cmd, o->settings.seed, o->settings.threads,
-                       "Random seed of the inputs and the reference");
-  add_shading_options(cmd, o->settings.shading);
+  add_lens_options(cmd, r.lens, "the camera's extras.lens");
+  add_seed_and_threads(cmd, r, "Random seed of the inputs and the reference");
+  add_shading_options(cmd, r);
+  add_environment_options(cmd, r.environment);
+  add_adaptive_options(cmd, r);
+  add_cache_options(cmd, r, "The reference's radiance cache: none, octree or vdb (auto: vdb)");
   cmd->add_option("--input-spp", o->settings.input_spp,
                   "Pinhole samples per pixel of the refined preview inputs (the first inputs "
                   "take 1, with cheaper shading)")
@@ -141,10 +137,6 @@ Runner add_view_command(CLI::App& app) {
                   "The reference stops refining at this many lens samples per pixel")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 20));
-  cmd->add_option("--cache", o->settings.cache,
-                  "The reference's radiance cache: none, octree or vdb")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"none", "octree", "vdb"}));
   cmd->add_option("--keyframes", o->keyframes,
                   "Keyframe file the page's 'Append keyframe' adds the camera and lens to (created "
                   "if missing), for 'dofcache sequence --path'");

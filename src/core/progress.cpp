@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "dofcache/core/stopwatch.h"
+
 namespace dofcache {
 namespace {
 
@@ -25,9 +27,7 @@ Progress::Progress(std::string label, std::uint64_t total, Display display)
 
 Progress::~Progress() { finish(); }
 
-double Progress::elapsed_seconds() const {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-}
+double Progress::elapsed_seconds() const { return seconds_since(start_); }
 
 std::string Progress::format_line(const std::string& label, std::uint64_t done, std::uint64_t total,
                                   double elapsed, int bar_width) {

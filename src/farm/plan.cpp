@@ -17,12 +17,7 @@ namespace dofcache::farm {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr int kPlanVersion = 1;
-
-// Is `arg` the option `name`, alone ("--spp") or with its value ("--spp=4")?
-bool is_option(const std::string& arg, const std::string& name) {
-  return arg == name || arg.rfind(name + "=", 0) == 0;
-}
+constexpr int kPlanVersion = 2;  // 2: the sequence as a request, not a command line
 
 // "chunk-007.vdb": the index zero-padded to 3 digits, or as many as the last chunk's needs.
 std::string chunk_file_name(int index, int count, const char* ext) {
@@ -32,29 +27,18 @@ std::string chunk_file_name(int index, int count, const char* ext) {
 
 }  // namespace
 
-std::vector<std::string> without_option(const std::vector<std::string>& argv,
-                                        const std::string& name, bool takes_value) {
-  std::vector<std::string> out;
-  for (std::size_t i = 0; i < argv.size(); ++i) {
-    if (is_option(argv[i], name)) {
-      if (takes_value && argv[i] == name) ++i;
-      continue;
-    }
-    out.push_back(argv[i]);
-  }
-  return out;
-}
-
-bool has_option(const std::vector<std::string>& argv, const std::string& name) {
-  return std::any_of(argv.begin(), argv.end(),
-                     [&](const std::string& a) { return is_option(a, name); });
-}
-
-const std::vector<std::string>& reserved_sequence_options() {
-  static const std::vector<std::string> names = {"--frames",     "--frame-step", "--cache-in",
-                                                 "--cache-out",  "--checkpoint", "--restart",
-                                                 "--stats-json", "-q",           "--quiet"};
-  return names;
+std::vector<std::string> job_owned_fields(const request::RenderRequest& r) {
+  const request::SequenceChoices& q = r.sequence;
+  const request::SequenceChoices defaults;
+  std::vector<std::string> set;
+  if (q.frame_step != defaults.frame_step) set.push_back("frame_step");
+  if (!q.cache_in.empty()) set.push_back("cache_in");
+  if (!q.cache_out.empty()) set.push_back("cache_out");
+  if (!q.checkpoint.empty()) set.push_back("checkpoint");
+  if (q.restart) set.push_back("restart");
+  if (!r.stats_json.empty()) set.push_back("stats_json");
+  if (r.quiet) set.push_back("quiet");
+  return set;
 }
 
 void FarmSettings::validate() const {
@@ -89,10 +73,10 @@ void FarmSettings::validate() const {
   if (slurm.job_name.empty() ||
       slurm.job_name.find_first_of(" \t\n'\"\\$`") != std::string::npos)
     throw Error("farm plan: job name '" + slurm.job_name + "' must be one plain word");
-  for (const std::string& r : reserved_sequence_options())
-    if (has_option(sequence_args, r))
-      throw Error("farm plan: the sequence options must not contain " + r +
-                  " (the plan sets it per job)");
+  if (request.kind != request::Kind::Sequence)
+    throw Error("farm plan: the request must be a sequence's");
+  for (const std::string& f : job_owned_fields(request))
+    throw Error("farm plan: the sequence request must not set " + f + " (the plan sets it per job)");
   for (const std::string& e : slurm.extra)
     if (e.rfind("-", 0) != 0 || e.find('\n') != std::string::npos)
       throw Error("farm plan: sbatch option '" + e + "' must be one option starting with '-'");
@@ -136,38 +120,54 @@ std::string FarmPlan::stats_file(const Chunk& c) const {
   return (fs::path(settings_.work_dir) / "stats" / chunk_file_name(c.index, n, ".json")).string();
 }
 
-std::vector<std::string> FarmPlan::warm_command() const {
+std::string FarmPlan::request_file(const std::string& job) const {
+  return (fs::path(settings_.work_dir) / "jobs" / (job + ".json")).string();
+}
+std::string FarmPlan::chunk_request_file(const Chunk& c) const {
+  const int n = static_cast<int>(chunks_.size());
+  return (fs::path(settings_.work_dir) / "jobs" / chunk_file_name(c.index, n, ".json")).string();
+}
+
+namespace {
+
+// The plan's request with what every job sets: the cluster's CPUs as threads (unless the request
+// names a count), and the job's statistics file.
+request::RenderRequest job_request(const FarmSettings& s, std::string stats) {
+  request::RenderRequest r = s.request;
+  if (s.slurm.cpus_per_task > 0 && r.threads == 0) r.threads = s.slurm.cpus_per_task;
+  r.stats_json = std::move(stats);
+  return r;
+}
+
+}  // namespace
+
+request::RenderRequest FarmPlan::warm_request() const {
   const FarmSettings& s = settings_;
-  std::vector<std::string> argv = {s.dofcache, "sequence"};
-  std::vector<std::string> args = without_option(s.sequence_args, "--out", true);
-  args = without_option(args, "-o", true);
-  if (s.warm_spp > 0) args = without_option(args, "--spp", true);
-  argv.insert(argv.end(), args.begin(), args.end());
-  if (s.warm_spp > 0) argv.insert(argv.end(), {"--spp", std::to_string(s.warm_spp)});
-  if (!s.carry) argv.push_back("--persistent");
-  if (s.slurm.cpus_per_task > 0 && !has_option(s.sequence_args, "--threads"))
-    argv.insert(argv.end(), {"--threads", std::to_string(s.slurm.cpus_per_task)});
   const fs::path work(s.work_dir);
-  int step = s.warm_step > 0 ? s.warm_step : s.chunk;
-  argv.insert(argv.end(),
-              {"--frames", fmt::format("{}-{}", s.first, s.last), "--frame-step",
-               std::to_string(step), "--out", (work / "warm" / "####.png").string(),
-               "--cache-out", warm_cache_file(), "--stats-json",
-               (work / "stats" / "warm.json").string()});
-  return argv;
+  request::RenderRequest r = job_request(s, (work / "stats" / "warm.json").string());
+  r.out = (work / "warm" / "####.png").string();
+  if (s.warm_spp > 0) r.spp = s.warm_spp;
+  r.sequence.persistent = true;
+  r.sequence.frames = fmt::format("{}-{}", s.first, s.last);
+  r.sequence.frame_step = s.warm_step > 0 ? s.warm_step : s.chunk;
+  r.sequence.cache_out = warm_cache_file();
+  return r;
+}
+
+request::RenderRequest FarmPlan::chunk_request(const Chunk& c) const {
+  request::RenderRequest r = job_request(settings_, stats_file(c));
+  r.sequence.frames = fmt::format("{}-{}", c.first, c.last);
+  if (has_warm_pass()) r.sequence.cache_in = warm_cache_file();
+  if (settings_.carry) r.sequence.checkpoint = checkpoint_file(c);
+  return r;
+}
+
+std::vector<std::string> FarmPlan::warm_command() const {
+  return {settings_.dofcache, "sequence", "--request", request_file("warm")};
 }
 
 std::vector<std::string> FarmPlan::chunk_command(const Chunk& c) const {
-  const FarmSettings& s = settings_;
-  std::vector<std::string> argv = {s.dofcache, "sequence"};
-  argv.insert(argv.end(), s.sequence_args.begin(), s.sequence_args.end());
-  if (s.slurm.cpus_per_task > 0 && !has_option(s.sequence_args, "--threads"))
-    argv.insert(argv.end(), {"--threads", std::to_string(s.slurm.cpus_per_task)});
-  argv.insert(argv.end(), {"--frames", fmt::format("{}-{}", c.first, c.last)});
-  if (has_warm_pass()) argv.insert(argv.end(), {"--cache-in", warm_cache_file()});
-  if (s.carry) argv.insert(argv.end(), {"--checkpoint", checkpoint_file(c)});
-  argv.insert(argv.end(), {"--stats-json", stats_file(c)});
-  return argv;
+  return {settings_.dofcache, "sequence", "--request", chunk_request_file(c)};
 }
 
 std::vector<std::string> FarmPlan::verify_command() const {
@@ -242,10 +242,15 @@ std::string FarmPlan::commands_script() const {
 void FarmPlan::write() const {
   const fs::path work(settings_.work_dir);
   std::error_code ec;
-  for (const char* sub : {"logs", "checkpoints", "stats", "warm"}) {
+  for (const char* sub : {"logs", "checkpoints", "stats", "warm", "jobs"}) {
     fs::create_directories(work / sub, ec);
     if (ec) throw Error("cannot create '" + (work / sub).string() + "': " + ec.message());
   }
+  if (has_warm_pass())
+    write_bytes_atomically(request_file("warm"), request::to_json(warm_request()).dump(2) + "\n");
+  for (const Chunk& c : chunks_)
+    write_bytes_atomically(chunk_request_file(c),
+                           request::to_json(chunk_request(c)).dump(2) + "\n");
   write_bytes_atomically(script_file("warm"), warm_script(), FileMode::Executable);
   write_bytes_atomically(script_file("render"), render_script(), FileMode::Executable);
   write_bytes_atomically(script_file("verify"), verify_script(), FileMode::Executable);
@@ -262,7 +267,7 @@ nlohmann::json FarmPlan::to_json() const {
           {"dofcache", s.dofcache},
           {"work_dir", s.work_dir},
           {"run_dir", s.run_dir},
-          {"sequence_args", s.sequence_args},
+          {"request", request::to_json(s.request)},
           {"frames", {s.first, s.last}},
           {"chunk", s.chunk},
           {"output", s.output},
@@ -290,7 +295,7 @@ FarmPlan FarmPlan::from_json(const nlohmann::json& j) {
     s.dofcache = j.at("dofcache").get<std::string>();
     s.work_dir = j.at("work_dir").get<std::string>();
     s.run_dir = j.at("run_dir").get<std::string>();
-    s.sequence_args = j.at("sequence_args").get<std::vector<std::string>>();
+    s.request = request::request_from_json(j.at("request"));
     s.first = j.at("frames").at(0).get<int>();
     s.last = j.at("frames").at(1).get<int>();
     s.chunk = j.at("chunk").get<int>();

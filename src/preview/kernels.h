@@ -1,6 +1,7 @@
 #pragma once
 // Internal building blocks of the preview: an RGBA value type, row-parallel loops, per-thread
 // scratch rows, the pyramid reduce/expand on RGBA buffers and the pull-push levels.
+#include "dofcache/core/stopwatch.h"
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -52,10 +53,6 @@ inline int ctz64(std::uint64_t v) { return __builtin_ctzll(v); }
 template <class T>
 void ensure_size(std::vector<T>& v, size_t n) {
   if (v.size() < n) v.resize(n);
-}
-
-inline double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 // A 2D window into a row-major RGBA buffer.

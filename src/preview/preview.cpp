@@ -7,9 +7,12 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <string>
 #include <utility>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/threads.h"
 #include "dofcache/preview/baselines.h"
 #include "pipeline.h"
 
@@ -18,26 +21,64 @@ namespace dofcache::preview {
 PreviewWorkspace::PreviewWorkspace() : impl_(std::make_unique<Impl>()) {}
 PreviewWorkspace::~PreviewWorkspace() = default;
 
+namespace {
+
+// The one name table of the methods: the names `render --mode` spells, and the older names that
+// `refocus --method` and saved viewer state used, still accepted.
+struct MethodName {
+  PreviewMethod method;
+  const char* name;
+  const char* old_name;
+};
+constexpr MethodName kMethodNames[] = {
+    {PreviewMethod::Layered, "preview", "layered"},
+    {PreviewMethod::LayeredOcclusion, "preview-occlusion", "layered-occlusion"},
+    {PreviewMethod::Gather, "preview-gather", "gather"},
+    {PreviewMethod::Scatter, "preview-scatter", "scatter"},
+};
+
+}  // namespace
+
 const char* preview_method_name(PreviewMethod method) {
-  switch (method) {
-    case PreviewMethod::Gather:
-      return "gather";
-    case PreviewMethod::Scatter:
-      return "scatter";
-    case PreviewMethod::Layered:
-      return "layered";
-    case PreviewMethod::LayeredOcclusion:
-      return "layered-occlusion";
-  }
+  for (const MethodName& m : kMethodNames)
+    if (m.method == method) return m.name;
   return "?";
 }
 
+std::optional<PreviewMethod> find_preview_method(const std::string& name) {
+  for (const MethodName& m : kMethodNames)
+    if (name == m.name || name == m.old_name) return m.method;
+  return std::nullopt;
+}
+
 PreviewMethod parse_preview_method(const std::string& name) {
-  for (PreviewMethod m : {PreviewMethod::Gather, PreviewMethod::Scatter, PreviewMethod::Layered,
-                          PreviewMethod::LayeredOcclusion})
-    if (name == preview_method_name(m)) return m;
+  if (auto m = find_preview_method(name)) return *m;
   throw Error("unknown preview method '" + name +
-              "' (expected gather, scatter, layered or layered-occlusion)");
+              "' (expected preview, preview-occlusion, preview-gather or preview-scatter)");
+}
+
+const std::vector<std::string>& preview_method_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const MethodName& m : kMethodNames) n.push_back(m.name);
+    return n;
+  }();
+  return names;
+}
+
+const char* layer_composite_name(LayerComposite composite) {
+  return composite == LayerComposite::Slabs ? "slabs" : "over";
+}
+
+LayerComposite parse_layer_composite(const std::string& name) {
+  if (name == "over") return LayerComposite::Over;
+  if (name == "slabs") return LayerComposite::Slabs;
+  throw Error("unknown layer composite '" + name + "' (expected over or slabs)");
+}
+
+const std::vector<std::string>& layer_composite_names() {
+  static const std::vector<std::string> names = {"over", "slabs"};
+  return names;
 }
 
 namespace {
@@ -78,16 +119,6 @@ void check_inputs(const image::Image& color, const image::Image& depth) {
                 std::to_string(color.width()) + "x" + std::to_string(color.height()) + ")");
 }
 
-template <class F>
-void run_in_arena(int threads, const F& f) {
-  if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(f);
-  } else {
-    f();
-  }
-}
-
 // CoC at most one pixel wide everywhere: nothing to blur.
 bool all_sharp(Range r) { return std::max(std::abs(r.first), std::abs(r.second)) <= 1.0f; }
 
@@ -108,31 +139,31 @@ image::Image render_preview(const PreviewInputs& inputs, PreviewMethod method,
   PreviewTimings t;
   image::Image out;
   PreviewWorkspace::Impl& ws = workspace.impl();
-  run_in_arena(options.threads, [&] {
+  run_with_threads(options.threads, [&] {
     auto t0 = clock::now();
     Range range = compute_coc(inputs.depth, inputs.imaging, options, ws);
     if (all_sharp(range)) {
       out = inputs.color;
-      t.setup_ms = detail::ms_since(t0);
+      t.setup_ms = ms_since(t0);
       return;
     }
     out = image::Image(inputs.color.width(), inputs.color.height(), 3);
     if (method == PreviewMethod::Gather || method == PreviewMethod::Scatter) {
-      t.setup_ms = detail::ms_since(t0);
+      t.setup_ms = ms_since(t0);
       auto t1 = clock::now();
       if (method == PreviewMethod::Gather)
         detail::gather_preview(inputs.color, options, ws, out);
       else
         detail::scatter_preview(inputs.color, options, ws, out);
-      t.filter_ms = detail::ms_since(t1);
+      t.filter_ms = ms_since(t1);
       return;
     }
     LayerPlan plan = plan_layers_for_range(range.first, range.second, inputs.imaging, options);
-    t.setup_ms = detail::ms_since(t0);
+    t.setup_ms = ms_since(t0);
     detail::layered_preview(inputs, options, plan, method == PreviewMethod::LayeredOcclusion, ws,
                             out, t);
   });
-  t.total_ms = detail::ms_since(start);
+  t.total_ms = ms_since(start);
   if (timings) *timings = t;
   return out;
 }

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/stopwatch.h"
 #include "dofcache/preview/occlusion.h"
 
 namespace dofcache::preview {
@@ -16,9 +17,6 @@ namespace {
 
 using clock = std::chrono::steady_clock;
 
-double ms_since(clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
-}
 
 // Ids are stored as floats: exact below 2^24.
 constexpr std::size_t kMaxExactId = std::size_t{1} << 24;

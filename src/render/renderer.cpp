@@ -15,6 +15,8 @@
 #include "dofcache/cache/sample_radius.h"
 #include "dofcache/cache/tile_buffer.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/stopwatch.h"
+#include "dofcache/core/threads.h"
 #include "dofcache/render/adaptive_sampling.h"
 #include "dofcache/render/sampler.h"
 
@@ -70,23 +72,12 @@ struct TileWork {
   double lookup_seconds = 0.0;
 };
 
-// RenderSettings::threads, 0 meaning every core.
-int worker_threads(const RenderSettings& settings) {
-  return settings.threads > 0
-             ? settings.threads
-             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-}
-
 // Throws unless every pixel index (y * width + x) lies inside the image; `what` names the caller.
 void check_pixel_indices(const RenderSettings& settings, const std::vector<std::uint32_t>& pixels,
                          const char* what) {
   const std::uint64_t count = static_cast<std::uint64_t>(settings.width) * settings.height;
   for (std::uint32_t p : pixels)
     if (p >= count) throw Error(std::string(what) + ": pixel index outside the image");
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
 scene::Ray clipped(const ThinLensCamera& camera, const RenderSettings& settings, scene::Ray ray) {
@@ -341,6 +332,11 @@ Mode parse_mode(const std::string& name) {
   throw Error("unknown render mode '" + name + "' (valid: pinhole, drt, accumulation)");
 }
 
+const std::vector<std::string>& mode_names() {
+  static const std::vector<std::string> names = {"pinhole", "drt", "accumulation"};
+  return names;
+}
+
 const char* mode_name(Mode mode) {
   switch (mode) {
     case Mode::Pinhole: return "pinhole";
@@ -425,7 +421,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   }
 
   const std::vector<Tile> tiles = make_tiles(w, h);
-  const int threads = worker_threads(settings);
+  const int threads = resolve_threads(settings.threads);
   // Passes of sample ranges. Accumulation: one lens position per pass. With a cache: doubling
   // passes, so early passes fill the cache that later (larger) passes read. Otherwise: one pass.
   // Adaptive sampling (drt): the passes up to the pilot's count, the allocation, then the passes
@@ -577,7 +573,7 @@ std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::A
   std::vector<PixelRender> out(pixels.size());
   const auto w = static_cast<std::uint32_t>(settings.width);
   const auto spp = static_cast<std::uint32_t>(settings.spp);
-  const int threads = worker_threads(settings);
+  const int threads = resolve_threads(settings.threads);
   tbb::task_arena arena(threads);
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, pixels.size(), 16), [&](const auto& r) {
@@ -608,7 +604,7 @@ std::vector<PixelVisibility> trace_pixel_centres(const scene::Scene& scene,
   const std::uint32_t w = static_cast<std::uint32_t>(settings.width);
   check_pixel_indices(settings, pixels, "trace_pixel_centres");
   std::vector<PixelVisibility> out(pixels.size());
-  const int threads = worker_threads(settings);
+  const int threads = resolve_threads(settings.threads);
   tbb::task_arena arena(threads);
   arena.execute([&] {
     // Chunks of a few hundred pixels: a ray costs about a microsecond.

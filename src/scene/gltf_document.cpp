@@ -13,6 +13,7 @@
 #include <zlib.h>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/file.h"
 
 namespace dofcache::scene::gltf {
 namespace {
@@ -224,14 +225,6 @@ void drop_optional_channel_node_notes(std::string& notes) {
 }
 
 }  // namespace
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open file (" + std::strerror(errno) + ")");
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error(path + ": read error");
-  return data;
-}
 
 std::string base_dir_of(const std::string& path) {
   std::filesystem::path base = std::filesystem::path(path).parent_path();

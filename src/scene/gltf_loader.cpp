@@ -15,6 +15,7 @@
 
 #include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/file.h"
 #include "dofcache/core/rng.h"
 #include "dofcache/scene/gltf_document.h"
 #include "dofcache/scene/gltf_materials.h"
@@ -781,7 +782,7 @@ Scene load_model(const std::string& data, const std::string& name, const std::st
 }  // namespace
 
 Scene load_gltf(const std::string& path, const LoadOptions& options) {
-  return load_model(gltf::read_file(path), path, gltf::base_dir_of(path), options);
+  return load_model(read_file(path), path, gltf::base_dir_of(path), options);
 }
 
 Scene load_gltf_from_memory(const std::string& data, const std::string& name,

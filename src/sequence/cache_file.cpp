@@ -23,6 +23,7 @@
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/file.h"
 #include "dofcache/core/rng.h"
 
 namespace dofcache::sequence {
@@ -57,14 +58,6 @@ bool parse_hex64(const std::string& s, std::uint64_t* v) {
   return true;
 }
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open cache file (" + std::strerror(errno) + ")");
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error(path + ": read error");
-  return data;
-}
-
 // The voxel size of the point grid: a power of two (so P, stored relative to its voxel, converts
 // back to exactly the same float) giving about 256 voxels across the samples' extent.
 double voxel_size_for(const std::vector<vdb::Vec3f>& positions) {
@@ -90,7 +83,7 @@ void write_vdb(const std::string& path, const CacheFile& file) {
   std::vector<float> radius(n), base_radius(n), view_radius(n), footprint(n);
   std::vector<std::int32_t> id(n), frame(n), last_used(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const SampleRecord& r = file.records[i];
+    const cache::SampleRecord& r = file.records[i];
     const cache::CacheSample& s = r.sample;
     position[i] = {s.position.x, s.position.y, s.position.z};
     normal[i] = {s.normal.x, s.normal.y, s.normal.z};
@@ -153,7 +146,7 @@ void write_vdb(const std::string& path, const CacheFile& file) {
 }  // namespace
 
 void append_cache_file_trailer(const std::string& path) {
-  std::string data = slurp(path);
+  std::string data = read_file(path, "cache file");
   std::uint64_t length = data.size();
   std::uint64_t hash = hash_bytes(data.data(), data.size(), kTrailerHashSeed);
   char trailer[kTrailerSize];
@@ -170,7 +163,7 @@ namespace {
 
 // Checks the trailer: the file is complete and unchanged since it was written. Returns the file.
 std::string check_integrity(const std::string& path) {
-  std::string data = slurp(path);
+  std::string data = read_file(path, "cache file");
   if (data.size() < kTrailerSize || std::memcmp(data.data() + data.size() - kTrailerSize,
                                                 kTrailerMagic, 8) != 0)
     throw Error(path + ": not a dofcache cache file, or truncated (no dofcache trailer)");
@@ -292,7 +285,7 @@ CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
         throw Error(path + ": cache file is damaged (more samples than its metadata says)");
       const vdb::Index i = *idx;
       vdb::Vec3d w = xform.indexToWorld(idx.getCoord().asVec3d() + vdb::Vec3d(p->get(i)));
-      SampleRecord r;
+      cache::SampleRecord r;
       cache::CacheSample& s = r.sample;
       s.position = glm::vec3(static_cast<float>(w.x()), static_cast<float>(w.y()),
                              static_cast<float>(w.z()));
@@ -318,7 +311,7 @@ CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
 
 void validate_records(CacheFile& file, const std::string& path) {
   std::sort(file.records.begin(), file.records.end(),
-            [](const SampleRecord& a, const SampleRecord& b) { return a.sample.id < b.sample.id; });
+            [](const cache::SampleRecord& a, const cache::SampleRecord& b) { return a.sample.id < b.sample.id; });
   for (std::size_t i = 0; i < file.records.size(); ++i) {
     const cache::CacheSample& s = file.records[i].sample;
     if (!valid_sample_record(file.records[i]))
@@ -331,7 +324,7 @@ void validate_records(CacheFile& file, const std::string& path) {
 
 }  // namespace
 
-bool valid_sample_record(const SampleRecord& r) {
+bool valid_sample_record(const cache::SampleRecord& r) {
   auto finite3 = [](glm::vec3 v) {
     return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
   };

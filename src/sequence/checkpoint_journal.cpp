@@ -14,6 +14,7 @@
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/content_hash.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/file.h"
 #include "dofcache/sequence/cache_file.h"
 
 namespace dofcache::sequence {
@@ -61,7 +62,7 @@ float get_float(const char* p) {
 }
 
 // The 64-byte encoding of a sample (checkpoint_journal.h).
-void store_sample(char* p, const SampleRecord& r) {
+void store_sample(char* p, const cache::SampleRecord& r) {
   const cache::CacheSample& s = r.sample;
   for (const glm::vec3* v : {&s.position, &s.normal, &s.value})
     for (int k = 0; k < 3; ++k, p += 4) store_float(p, (*v)[k]);
@@ -73,14 +74,14 @@ void store_sample(char* p, const SampleRecord& r) {
   store32(p + 20, s.frame);
   store32(p + 24, static_cast<std::uint32_t>(r.last_used));
 }
-void put_sample(std::string& out, const SampleRecord& r) {
+void put_sample(std::string& out, const cache::SampleRecord& r) {
   char b[kSampleBytes];
   store_sample(b, r);
   out.append(b, kSampleBytes);
 }
 
-SampleRecord get_sample(const char* p) {
-  SampleRecord r;
+cache::SampleRecord get_sample(const char* p) {
+  cache::SampleRecord r;
   cache::CacheSample& s = r.sample;
   for (glm::vec3* v : {&s.position, &s.normal, &s.value})
     for (int k = 0; k < 3; ++k, p += 4) (*v)[k] = get_float(p);
@@ -96,7 +97,7 @@ SampleRecord get_sample(const char* p) {
 
 // Equal in every bit but last_used (what the encoding holds; compared field by field, since this
 // runs for every sample of every frame).
-bool same_but_last_used(const SampleRecord& a, const SampleRecord& b) {
+bool same_but_last_used(const cache::SampleRecord& a, const cache::SampleRecord& b) {
   const cache::CacheSample &x = a.sample, &y = b.sample;
   auto same = [](const auto& u, const auto& v) { return std::memcmp(&u, &v, sizeof u) == 0; };
   return same(x.position, y.position) && same(x.normal, y.normal) && same(x.value, y.value) &&
@@ -138,25 +139,17 @@ JournalRecord parse_payload(const char* p, std::uint64_t length) {
   d.added.reserve(added);
   for (std::uint64_t i = 0; i < added; ++i, q += kSampleBytes) {
     d.added.push_back(get_sample(q));
-    const SampleRecord& s = d.added.back();
+    const cache::SampleRecord& s = d.added.back();
     if (!valid_sample_record(s)) throw bad("an invalid sample, id " + std::to_string(s.sample.id));
     if (i > 0 && s.sample.id <= d.added[i - 1].sample.id) throw bad("added ids out of order");
   }
   return r;
 }
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open the checkpoint journal (" + std::strerror(errno) + ")");
-  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error(path + ": read error");
-  return data;
-}
-
 }  // namespace
 
-FrameDelta frame_delta(const std::vector<SampleRecord>& before,
-                       const std::vector<SampleRecord>& after, std::int32_t frame) {
+FrameDelta frame_delta(const std::vector<cache::SampleRecord>& before,
+                       const std::vector<cache::SampleRecord>& after, std::int32_t frame) {
   FrameDelta d;
   std::vector<bool> used;
   std::size_t i = 0, j = 0;
@@ -170,7 +163,7 @@ FrameDelta frame_delta(const std::vector<SampleRecord>& before,
       d.added.push_back(after[j]);
       ++j;
     } else {
-      const SampleRecord &x = before[i], &y = after[j];
+      const cache::SampleRecord &x = before[i], &y = after[j];
       if (same_but_last_used(x, y) && (y.last_used == x.last_used || y.last_used == frame)) {
         used.push_back(y.last_used != x.last_used);
       } else {  // changed otherwise: stored whole
@@ -187,15 +180,15 @@ FrameDelta frame_delta(const std::vector<SampleRecord>& before,
   return d;
 }
 
-void apply_frame_delta(std::vector<SampleRecord>& records, const FrameDelta& delta,
+void apply_frame_delta(std::vector<cache::SampleRecord>& records, const FrameDelta& delta,
                        std::int32_t frame) {
   if (delta.used.size() != (std::size_t{delta.kept} + 7) / 8)
     throw Error("the frame's changes are malformed (used bits for " +
                 std::to_string(delta.kept) + " samples)");
-  std::vector<SampleRecord> kept;
+  std::vector<cache::SampleRecord> kept;
   kept.reserve(records.size());
   std::size_t r = 0;
-  for (const SampleRecord& s : records) {
+  for (const cache::SampleRecord& s : records) {
     if (r < delta.removed.size() && delta.removed[r] < s.sample.id) break;  // missing: below
     if (r < delta.removed.size() && delta.removed[r] == s.sample.id) {
       ++r;
@@ -214,7 +207,7 @@ void apply_frame_delta(std::vector<SampleRecord>& records, const FrameDelta& del
   if (kept.size() != delta.kept)
     throw Error("the frame's changes keep " + std::to_string(delta.kept) + " samples, the cache " +
                 "has " + std::to_string(records.size() - delta.removed.size()) + " left");
-  std::vector<SampleRecord> out;
+  std::vector<cache::SampleRecord> out;
   out.reserve(kept.size() + delta.added.size());
   std::size_t k = 0, a = 0;
   while (k < kept.size() || a < delta.added.size()) {
@@ -231,10 +224,10 @@ void apply_frame_delta(std::vector<SampleRecord>& records, const FrameDelta& del
   records = std::move(out);
 }
 
-std::uint64_t state_hash(const std::vector<SampleRecord>& records) {
+std::uint64_t state_hash(const std::vector<cache::SampleRecord>& records) {
   char b[kSampleBytes];
   std::uint64_t h = kStateSeed;
-  for (const SampleRecord& r : records) {
+  for (const cache::SampleRecord& r : records) {
     store_sample(b, r);
     h = hash_bytes(b, kSampleBytes, h);
   }
@@ -266,7 +259,7 @@ std::string encode_journal_record(const JournalRecord& record) {
   put32(payload, 0);
   for (std::uint32_t id : d.removed) put32(payload, id);
   payload.append(d.used.begin(), d.used.end());
-  for (const SampleRecord& r : d.added) put_sample(payload, r);
+  for (const cache::SampleRecord& r : d.added) put_sample(payload, r);
   std::string out;
   out.reserve(kRecordPrefixBytes + payload.size());
   put64(out, payload.size());
@@ -324,7 +317,7 @@ CheckpointJournal parse_checkpoint_journal(const std::string& bytes, const std::
 }
 
 CheckpointJournal read_checkpoint_journal(const std::string& path) {
-  return parse_checkpoint_journal(slurp(path), path);
+  return parse_checkpoint_journal(read_file(path, "the checkpoint journal"), path);
 }
 
 void seal_checkpoint_journal(std::string& bytes) {

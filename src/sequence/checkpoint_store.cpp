@@ -20,8 +20,8 @@ void CheckpointStore::continue_journal(std::uint64_t base_bytes, std::uint64_t c
   base_bytes_ = base_bytes;
 }
 
-CheckpointStore::Saved CheckpointStore::save(const std::vector<SampleRecord>& after,
-                                             const std::vector<SampleRecord>* before,
+CheckpointStore::Saved CheckpointStore::save(const std::vector<cache::SampleRecord>& after,
+                                             const std::vector<cache::SampleRecord>* before,
                                              const SequenceCheckpoint& checkpoint) {
   if (journal_ && before) {
     JournalRecord r;
@@ -36,7 +36,7 @@ CheckpointStore::Saved CheckpointStore::save(const std::vector<SampleRecord>& af
   return write_base(after, checkpoint);
 }
 
-CheckpointStore::Saved CheckpointStore::write_base(const std::vector<SampleRecord>& after,
+CheckpointStore::Saved CheckpointStore::write_base(const std::vector<cache::SampleRecord>& after,
                                                    const SequenceCheckpoint& checkpoint) {
   CacheFile file = header_;
   file.records = after;

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/file.h"
 #include "dofcache/scene/gltf_document.h"
 #include "dofcache/sequence/camera_path.h"
 
@@ -186,7 +187,7 @@ CameraPath load_gltf_camera_path(const std::string& gltf_file, const scene::Came
                                  const std::string& animation) {
   // Only the node hierarchy and the animations matter here: images are not decoded.
   scene::gltf::Parsed parsed =
-      scene::gltf::parse(scene::gltf::read_file(gltf_file), gltf_file,
+      scene::gltf::parse(read_file(gltf_file), gltf_file,
                          scene::gltf::base_dir_of(gltf_file), /*load_images=*/false);
   return AnimationReader(parsed.model, gltf_file).read(camera, animation);
 }

@@ -17,6 +17,7 @@
 
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/file.h"
 #include "dofcache/sequence/camera_path.h"
 
 namespace dofcache::sequence {
@@ -231,10 +232,7 @@ CameraPath parse_keyframe_path(const std::string& json_text, const std::string& 
 }
 
 CameraPath load_keyframe_path(const std::string& json_file, const scene::Camera& base) {
-  std::ifstream in(json_file, std::ios::binary);
-  if (!in) throw Error(json_file + ": cannot open file (" + std::strerror(errno) + ")");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return parse_keyframe_path(text, json_file, base);
+  return parse_keyframe_path(read_file(json_file), json_file, base);
 }
 
 int append_keyframe(const std::string& json_file, const scene::Camera& camera,

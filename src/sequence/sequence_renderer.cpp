@@ -14,6 +14,7 @@
 #include "dofcache/core/error.h"
 #include "dofcache/core/progress.h"
 #include "dofcache/core/rng.h"
+#include "dofcache/core/stopwatch.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/sequence/cache_file.h"
 #include "dofcache/sequence/checkpoint_store.h"
@@ -22,10 +23,6 @@ namespace dofcache::sequence {
 namespace {
 
 namespace fs = std::filesystem;
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 // Seed of the sequence key and the records hash ("sequence"); floats hash as the doubles they
 // equal (ContentHasher::add(float)).
@@ -118,10 +115,10 @@ std::pair<int, int> parse_frame_range(const std::string& text) {
   return {a, b};
 }
 
-std::uint64_t records_hash(const std::vector<SampleRecord>& records) {
+std::uint64_t records_hash(const std::vector<cache::SampleRecord>& records) {
   ContentHasher h(kSequenceHashSeed);
   h.add(static_cast<std::uint64_t>(records.size()));
-  for (const SampleRecord& r : records) {
+  for (const cache::SampleRecord& r : records) {
     const cache::CacheSample& s = r.sample;
     for (int k = 0; k < 3; ++k) {
       h.add(s.position[k]);
@@ -208,7 +205,7 @@ SequenceRenderer::SequenceRenderer(const scene::Scene& scene, const scene::Accel
 std::size_t SequenceRenderer::replay_journal(const CheckpointJournal& journal, std::size_t at,
                                              const std::vector<std::string>& paths,
                                              std::uint64_t initial_hash,
-                                             std::vector<SampleRecord>& records,
+                                             std::vector<cache::SampleRecord>& records,
                                              std::string* why) const {
   const std::size_t n = frames_.size();
   const double min_factor = settings_.render.cache.radius.min_factor;
@@ -234,8 +231,8 @@ std::size_t SequenceRenderer::replay_journal(const CheckpointJournal& journal, s
     }
     // The frame's reuse rule, then its recorded changes, on a copy: a record that does not fit
     // leaves the cache as the previous one made it.
-    std::vector<SampleRecord> next = records;
-    apply_reuse_rule(next, render::make_camera(spec.camera, frame_settings(settings_, spec)),
+    std::vector<cache::SampleRecord> next = records;
+    cache::apply_reuse_rule(next, render::make_camera(spec.camera, frame_settings(settings_, spec)).frame_camera(),
                      min_factor);
     try {
       apply_frame_delta(next, r.delta, r.frame);
@@ -278,20 +275,20 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
   }
 
   // The initial cache: --cache-in, its samples counted as last used just before the first frame.
-  std::vector<SampleRecord> initial;
+  std::vector<cache::SampleRecord> initial;
   if (!s.cache_in.empty()) {
     CacheFile in = read_cache_file(s.cache_in);
     check_cache_identity(in, identity, s.cache_in);
     initial = std::move(in.records);
-    for (SampleRecord& r : initial) r.last_used = frames_.front().number - 1;
+    for (cache::SampleRecord& r : initial) r.last_used = frames_.front().number - 1;
     say("loaded " + std::to_string(initial.size()) + " cache samples from " + s.cache_in);
   }
   const std::uint64_t initial_hash = records_hash(initial);
   if (s.cache_mode != CacheMode::None) {
-    ReusePolicy policy;
+    cache::ReusePolicy policy;
     policy.evict_after = s.evict_after;
     policy.memory_limit = static_cast<std::size_t>(s.cache_memory_mb * 1e6);
-    cache_ = std::make_unique<PersistentCache>(s.cache_backend, policy, s.render.cache.radius);
+    cache_ = std::make_unique<cache::PersistentCache>(s.cache_backend, policy, s.render.cache.radius);
     cache_->assign(initial);
   }
 
@@ -416,11 +413,11 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
     progress.set_label("frame " + std::to_string(spec.number) + " (" + std::to_string(i + 1) +
                        "/" + std::to_string(n) + ")");
     render::RenderSettings rs = frame_settings(s, spec);
-    std::vector<SampleRecord> before;  // the cache after the reuse rule, for the journal
+    std::vector<cache::SampleRecord> before;  // the cache after the reuse rule, for the journal
     double before_seconds = 0.0, before_cpu = 0.0;
     if (cache_) {
       if (s.cache_mode == CacheMode::Fresh) cache_->assign(initial);
-      rs.cache.cache = cache_->begin_frame(spec.number, render::make_camera(spec.camera, rs));
+      rs.cache.cache = cache_->begin_frame(spec.number, render::make_camera(spec.camera, rs).frame_camera());
       if (store && store->journaling()) {
         auto t = std::chrono::steady_clock::now();
         const double cpu = cpu_seconds();

@@ -11,8 +11,8 @@
 #include <tbb/parallel_for.h>
 
 #include "dofcache/core/error.h"
+#include "dofcache/lens/lens_json.h"
 #include "dofcache/image/image_io.h"
-#include "dofcache/sequence/camera_path.h"
 #include "dofcache/view/page.h"
 #include "dofcache/view/server.h"
 #include "dofcache/view/session.h"
@@ -40,21 +40,14 @@ ApiResponse json_response(const json& body, int status = 200) {
   return res;
 }
 
-json lens_json(const lens::ThinLens& lens) {
-  return {{"focal_length", lens.focal_length},
-          {"fstop", lens.fstop},
-          {"focus_distance", lens.focus_distance}};
-}
-
-const char* composite_name(preview::LayerComposite c) {
-  return c == preview::LayerComposite::Slabs ? "slabs" : "over";
-}
+using lens::lens_json;
+using preview::layer_composite_name;
 
 // The lens, the preview method and composite, as GET and POST /api/lens answer.
 json lens_and_method_json(const ViewStatus& s) {
   json j = lens_json(s.lens);
   j["method"] = preview::preview_method_name(s.method);
-  j["composite"] = composite_name(s.composite);
+  j["composite"] = layer_composite_name(s.composite);
   return j;
 }
 
@@ -74,7 +67,7 @@ json status_json(const ViewStatus& s) {
           {"height", s.height},
           {"lens", lens_json(s.lens)},
           {"method", preview::preview_method_name(s.method)},
-          {"composite", composite_name(s.composite)},
+          {"composite", layer_composite_name(s.composite)},
           {"lens_version", s.lens_version},
           {"camera_version", s.camera_version},
           {"stage", input_stage_name(s.stage)},
@@ -169,11 +162,12 @@ std::string rgba8(const image::Image& color) {
 }  // namespace
 
 ViewApi::ViewApi(ViewSession& session, std::string token, std::string keyframes,
-                 std::string scene_name)
+                 std::string scene_name, KeyframeWriter append)
     : session_(session),
       token_(std::move(token)),
       keyframes_(std::move(keyframes)),
-      scene_name_(std::move(scene_name)) {}
+      scene_name_(std::move(scene_name)),
+      append_keyframe_(std::move(append)) {}
 
 ApiResponse ViewApi::error(int status, const std::string& message) {
   return json_response({{"error", one_line(message)}}, status);
@@ -270,9 +264,8 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     }
     std::optional<preview::LayerComposite> composite;
     if (auto it = body.find("composite"); it != body.end()) {
-      const std::string c = it->is_string() ? it->get<std::string>() : "";
-      if (c != "over" && c != "slabs") throw Error("'composite' must be \"over\" or \"slabs\"");
-      composite = c == "slabs" ? preview::LayerComposite::Slabs : preview::LayerComposite::Over;
+      if (!it->is_string()) throw Error("'composite' must be a string");
+      composite = preview::parse_layer_composite(it->get<std::string>());
     }
     session_.set_lens(lens);  // validates first, so a bad lens changes nothing
     if (method) session_.set_method(*method);
@@ -316,11 +309,11 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
   // Appends the camera and the lens as a key of the keyframe file given with --keyframes, for
   // `dofcache sequence --path`.
   if (post && path == "/api/keyframe") {
-    if (keyframes_.empty())
+    if (keyframes_.empty() || !append_keyframe_)
       return error(409, "no keyframe file: start dofcache view with --keyframes FILE");
     const lens::ThinLens lens = session_.lens();
-    const int keys = sequence::append_keyframe(keyframes_, session_.camera(), lens,
-                                               "keys from dofcache view of " + scene_name_);
+    const int keys = append_keyframe_(keyframes_, session_.camera(), lens,
+                                      "keys from dofcache view of " + scene_name_);
     return json_response({{"keys", keys}, {"file", keyframes_}, {"lens", lens_json(lens)}});
   }
   // The lens as a glTF camera node's extras (docs/scenes.md), ready to paste.

@@ -59,7 +59,7 @@ std::size_t resident_memory_bytes() {
 struct ViewServer::Impl {
   Impl(ViewSession& s, const ServerSettings& settings)
       : api(s, settings.token.empty() ? random_token() : settings.token, settings.keyframes,
-            settings.scene_name) {}
+            settings.scene_name, settings.append_keyframe) {}
 
   void configure();
   void add_routes();

@@ -14,34 +14,25 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "dofcache/cache/persistent_cache.h"
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/stopwatch.h"
+#include "dofcache/core/threads.h"
 #include "dofcache/preview/preview_renderer.h"
 #include "dofcache/preview/refocus.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
-#include "dofcache/sequence/persistent_cache.h"
 
 namespace dofcache::view {
 namespace {
 
 using clock = std::chrono::steady_clock;
 
-double ms_since(clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(clock::now() - t0).count();
-}
 
 // The reference's radiance cache is capped (least recently used samples go first).
 constexpr std::size_t kReferenceCacheBytes = std::size_t{1} << 30;
-
-// Background work (the refined inputs, the reference) leaves one core to the post-process, so a
-// click is answered while they run.
-int background_threads(int requested) {
-  if (requested > 0) return requested;
-  const int cores = static_cast<int>(std::thread::hardware_concurrency());
-  return std::max(1, cores - 1);
-}
 
 // Lowers the calling thread's scheduling priority (Linux: nice is per thread). The background
 // renders run on the worker thread itself when they have one thread (two cores), so a click's
@@ -64,18 +55,24 @@ const char* input_stage_name(InputStage stage) {
   return "none";
 }
 
+std::uint64_t reference_pass_seed(std::uint64_t seed, std::uint64_t pass) {
+  return seed + 7919 * pass;
+}
+
 void ViewSettings::validate() const {
-  if (width < 16 || width > 8192) throw Error("view: width must be in [16, 8192]");
-  if (height != 0 && (height < 16 || height > 8192))
+  if (request.kind != request::Kind::View) throw Error("view: the request must be the viewer's");
+  if (request.width < 16 || request.width > 8192)
+    throw Error("view: width must be in [16, 8192]");
+  if (request.height != 0 && (request.height < 16 || request.height > 8192))
     throw Error("view: height must be in [16, 8192] (or 0: from the camera)");
-  if (threads < 0) throw Error("view: threads must be >= 0");
+  if (request.threads < 0) throw Error("view: threads must be >= 0");
   if (input_spp < 1 || input_spp > 4096) throw Error("view: input spp must be in [1, 4096]");
   if (reference_pass_spp < 1 || reference_pass_spp > 4096)
     throw Error("view: reference pass spp must be in [1, 4096]");
   if (reference_max_spp < reference_pass_spp)
     throw Error("view: reference max spp must be at least the pass spp");
-  cache::check_radiance_cache_backend(cache, true);
-  shading.validate();
+  if (request.mode.preview || request.mode.integrator != render::Mode::Drt)
+    throw Error("view: the reference is a drt render");
 }
 
 struct ViewSession::Render {
@@ -129,14 +126,18 @@ ViewSession::ViewSession(scene::Scene scene, const render::LensOverrides& lens,
       settings_(settings),
       state_(std::make_unique<State>()) {
   settings_.validate();
-  render_ = std::make_unique<Render>(*scene_, settings_.camera);
+  render_ = std::make_unique<Render>(*scene_, settings_.request.camera);
   state_->camera = render_->camera;
-  state_->lens = render::resolve_lens(*scene_, render_->accel, render_->camera, lens).lens;
+  request::RenderRequest q = settings_.request;
+  q.lens = lens;
+  q.spp = settings_.reference_pass_spp;
+  resolved_ = request::resolve(q, *scene_, render_->accel, render_->camera);
+  state_->lens = resolved_.settings.lens;
   state_->lens.validate();
-  width_ = settings_.width;
-  height_ = settings_.height > 0 ? settings_.height
-                                 : render::height_for_width(render_->camera, settings_.width);
-  options_.threads = settings_.threads;
+  width_ = resolved_.settings.width;
+  height_ = resolved_.settings.height;
+  options_ = resolved_.preview_options;
+  options_.threads = resolve_threads(settings_.request.threads);  // a click's post-process: all
   state_->started = clock::now();
 }
 
@@ -199,19 +200,17 @@ void ViewSession::run_worker() {
 }
 
 bool ViewSession::render_inputs(InputStage stage, std::uint64_t camera_version) {
-  render::RenderSettings s;
-  s.width = width_;
-  s.height = height_;
+  render::RenderSettings s = resolved_.settings;  // background threads, shading, environment
   s.mode = render::Mode::Pinhole;
-  s.seed = settings_.seed;
   s.progress = Progress::Display::Never;
+  s.adaptive.enabled = false;
+  s.cache = render::CacheSettings{};
   const bool draft = stage == InputStage::Draft;
   const bool quick = stage != InputStage::Refined;
   s.spp = quick ? preview::kQuickInputSpp : settings_.input_spp;
-  s.shading =
-      quick ? preview::quick_input_shading(settings_.shading, !draft) : settings_.shading;
+  if (quick) s.shading = preview::quick_input_shading(resolved_.settings.shading, !draft);
   // The user waits for the draft: it takes every core.
-  s.threads = draft ? settings_.threads : background_threads(settings_.threads);
+  if (draft) s.threads = resolve_threads(settings_.request.threads);
   if (draft) {  // a quarter of the pixels (rounded up, so the upscale covers every pixel)
     s.width = (width_ + 1) / 2;
     s.height = (height_ + 1) / 2;
@@ -244,11 +243,10 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
   // One cache for every lens and camera of the session: each pass is a frame of the persistent
   // cache, whose reuse rule gives every sample the radius the current lens and camera allow
   // (sequence/persistent_cache.h), so a lens change keeps the samples that stay valid.
-  cache::RadiusSettings radius;
-  radius.min_factor = cache::kSingleImageMinFactor;  // as `render` uses
-  if (!persistent_ && settings_.cache != "none")
-    persistent_ = std::make_unique<sequence::PersistentCache>(
-        settings_.cache, sequence::ReusePolicy{0, kReferenceCacheBytes}, radius);
+  const cache::RadiusSettings& radius = resolved_.settings.cache.radius;
+  if (!persistent_ && resolved_.cache_backend != "none")
+    persistent_ = std::make_unique<cache::PersistentCache>(
+        resolved_.cache_backend, cache::ReusePolicy{0, kReferenceCacheBytes}, radius);
   image::Image sum;
   int spp = 0;
   std::uint64_t pass = 0, lens_version = 0;
@@ -276,26 +274,17 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
         ++state_->reference_version;
       }
     }
-    render::RenderSettings s;
-    s.width = width_;
-    s.height = height_;
-    s.mode = render::Mode::Drt;
-    s.spp = settings_.reference_pass_spp;
-    s.seed = settings_.seed + 7919 * ++pass;  // each pass its own samples
-    s.threads = background_threads(settings_.threads);
-    s.shading = settings_.shading;
+    render::RenderSettings s = resolved_.settings;
+    s.seed = reference_pass_seed(settings_.request.seed, ++pass);
     s.lens = lens;
     s.progress = Progress::Display::Never;
-    s.cache.radius = radius;
     s.cache.frame = static_cast<std::uint32_t>(pass);
-    // The cache outlives the passes, so its samples are shaded for the total, not one pass.
-    s.cache.sample_quality = render::recommended_sample_quality(64, s.shading.gather_rays);
     const auto t0 = clock::now();
     if (persistent_)
       s.cache.cache = persistent_->begin_frame(static_cast<std::int32_t>(pass),
-                                               render::make_camera(camera, s));
+                                               render::make_camera(camera, s).frame_camera());
     render::RenderOutput out = render::render(*scene_, render_->accel, camera, s);
-    sequence::FrameCacheStats cache_stats;
+    cache::FrameCacheStats cache_stats;
     if (persistent_) cache_stats = persistent_->end_frame();
     const double seconds = ms_since(t0) * 1e-3;
 

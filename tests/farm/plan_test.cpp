@@ -44,12 +44,6 @@ std::string frame_name(int frame) {
 }
 
 // Index of `value` in argv, or -1.
-int index_of(const std::vector<std::string>& argv, const std::string& value) {
-  for (std::size_t i = 0; i < argv.size(); ++i)
-    if (argv[i] == value) return static_cast<int>(i);
-  return -1;
-}
-
 class FarmPlanTest : public dofcache::testing::ScratchDirTest {
  protected:
   FarmSettings settings() const {
@@ -57,8 +51,12 @@ class FarmPlanTest : public dofcache::testing::ScratchDirTest {
     s.dofcache = "/opt/dofcache/bin/dofcache";
     s.work_dir = (dir_ / "work").string();
     s.run_dir = dir_.string();
-    s.sequence_args = {"scene.gltf", "--width", "64", "--spp", "16", "--out", "f/####.exr",
-                       "--cache", "vdb", "--persistent"};
+    s.request.scene = "scene.gltf";
+    s.request.width = 64;
+    s.request.spp = 16;
+    s.request.out = "f/####.exr";
+    s.request.cache = "vdb";
+    s.request.sequence.persistent = true;
     s.first = 10;
     s.last = 15;
     s.chunk = 4;
@@ -127,9 +125,10 @@ TEST_F(FarmPlanTest, SettingsAreValidated) {
   expect_bad([](FarmSettings& s) { s.chunk = 0; }, "--chunk");
   expect_bad([](FarmSettings& s) { s.last = s.first - 1; }, "frame range");
   expect_bad([](FarmSettings& s) { s.cache = "none"; }, "--persistent needs a cache");
-  expect_bad([](FarmSettings& s) { s.sequence_args.push_back("--cache-in=x.vdb"); },
-             "--cache-in");
-  expect_bad([](FarmSettings& s) { s.sequence_args.push_back("--frames"); }, "--frames");
+  expect_bad([](FarmSettings& s) { s.request.sequence.cache_in = "x.vdb"; }, "cache_in");
+  expect_bad([](FarmSettings& s) { s.request.sequence.frame_step = 2; }, "frame_step");
+  expect_bad([](FarmSettings& s) { s.request.stats_json = "s.json"; }, "stats_json");
+  expect_bad([](FarmSettings& s) { s.request.kind = request::Kind::Image; }, "sequence");
   expect_bad([](FarmSettings& s) { s.slurm.job_name = "two words"; }, "job name");
   expect_bad([](FarmSettings& s) { s.slurm.extra = {"qos=low"}; }, "sbatch option");
   // A plan of two billion frames would be two billion chunks (and script lines): refused
@@ -141,58 +140,60 @@ TEST_F(FarmPlanTest, SettingsAreValidated) {
   expect_bad([](FarmSettings& s) { s.first = 0, s.last = kMaxFarmFrames; }, "more than");
 }
 
-TEST_F(FarmPlanTest, ChunkCommandsStartFromTheWarmCacheWithTheirOwnCheckpoint) {
+TEST_F(FarmPlanTest, ChunkRequestsStartFromTheWarmCacheWithTheirOwnCheckpoint) {
   FarmSettings s = settings();
   s.slurm.cpus_per_task = 8;
   FarmPlan plan(s);
   ASSERT_EQ(plan.chunks().size(), 2u);
-  std::vector<std::string> a = plan.chunk_command(plan.chunks()[0]);
-  std::vector<std::string> b = plan.chunk_command(plan.chunks()[1]);
-  EXPECT_EQ(a[0], s.dofcache);
-  EXPECT_EQ(a[1], "sequence");
-  // The sequence options verbatim, then what the plan adds.
-  for (std::size_t i = 0; i < s.sequence_args.size(); ++i) EXPECT_EQ(a[2 + i], s.sequence_args[i]);
-  EXPECT_EQ(a[index_of(a, "--frames") + 1], "10-13");
-  EXPECT_EQ(b[index_of(b, "--frames") + 1], "14-15");
-  EXPECT_EQ(a[index_of(a, "--cache-in") + 1], plan.warm_cache_file());
-  EXPECT_EQ(a[index_of(a, "--threads") + 1], "8");
-  ASSERT_GE(index_of(a, "--checkpoint"), 0);
-  EXPECT_NE(a[index_of(a, "--checkpoint") + 1], b[index_of(b, "--checkpoint") + 1]);
-  EXPECT_NE(a[index_of(a, "--stats-json") + 1], b[index_of(b, "--stats-json") + 1]);
+  const request::RenderRequest a = plan.chunk_request(plan.chunks()[0]);
+  const request::RenderRequest b = plan.chunk_request(plan.chunks()[1]);
+  // Each job runs its stored request, nothing else.
+  EXPECT_EQ(plan.chunk_command(plan.chunks()[0]),
+            (std::vector<std::string>{s.dofcache, "sequence", "--request",
+                                      plan.chunk_request_file(plan.chunks()[0])}));
+  // The plan's request, with what the plan sets per job.
+  EXPECT_EQ(a.scene, "scene.gltf");
+  EXPECT_EQ(a.width, 64);
+  EXPECT_EQ(a.out, "f/####.exr");
+  EXPECT_TRUE(a.sequence.persistent);
+  EXPECT_EQ(a.sequence.frames, "10-13");
+  EXPECT_EQ(b.sequence.frames, "14-15");
+  EXPECT_EQ(a.sequence.cache_in, plan.warm_cache_file());
+  EXPECT_EQ(a.threads, 8);
+  EXPECT_FALSE(a.sequence.checkpoint.empty());
+  EXPECT_NE(a.sequence.checkpoint, b.sequence.checkpoint);
+  EXPECT_NE(a.stats_json, b.stats_json);
 
-  // --threads given in the sequence options wins; no warm pass, no --cache-in.
-  s.sequence_args.insert(s.sequence_args.end(), {"--threads", "3"});
+  // threads named in the request win; no warm pass, no cache_in.
+  s.request.threads = 3;
   s.warm = false;
   FarmPlan cold(s);
-  std::vector<std::string> c = cold.chunk_command(cold.chunks()[0]);
-  EXPECT_EQ(std::count(c.begin(), c.end(), "--threads"), 1);
-  EXPECT_EQ(index_of(c, "--cache-in"), -1);
+  const request::RenderRequest c = cold.chunk_request(cold.chunks()[0]);
+  EXPECT_EQ(c.threads, 3);
+  EXPECT_TRUE(c.sequence.cache_in.empty());
   EXPECT_FALSE(cold.has_warm_pass());
 }
 
-TEST_F(FarmPlanTest, WarmCommandRendersKeyframesAtFewSamplesIntoTheWarmCache) {
+TEST_F(FarmPlanTest, WarmRequestRendersKeyframesAtFewSamplesIntoTheWarmCache) {
   FarmSettings s = settings();
   s.carry = false;  // fresh cache per frame: the warm pass must still carry its own cache
-  s.sequence_args = {"scene.gltf", "--spp=16", "--cache", "vdb", "-o", "f/####.exr"};
+  s.request.sequence.persistent = false;
   s.warm_spp = 2;
   FarmPlan plan(s);
-  std::vector<std::string> w = plan.warm_command();
-  EXPECT_EQ(w[index_of(w, "--frames") + 1], "10-15");
-  EXPECT_EQ(w[index_of(w, "--frame-step") + 1], "4");  // one keyframe per chunk by default
-  EXPECT_EQ(w[index_of(w, "--cache-out") + 1], plan.warm_cache_file());
-  EXPECT_EQ(w[index_of(w, "--spp") + 1], "2");
-  EXPECT_EQ(index_of(w, "--spp=16"), -1);
-  EXPECT_EQ(index_of(w, "-o"), -1);  // its keyframes go to the work directory
-  EXPECT_GE(index_of(w, "--persistent"), 0);
-  EXPECT_TRUE(contains(w[index_of(w, "--out") + 1], s.work_dir));
+  const request::RenderRequest w = plan.warm_request();
+  EXPECT_EQ(w.sequence.frames, "10-15");
+  EXPECT_EQ(w.sequence.frame_step, 4);  // one keyframe per chunk by default
+  EXPECT_EQ(w.sequence.cache_out, plan.warm_cache_file());
+  EXPECT_EQ(w.spp, 2);
+  EXPECT_TRUE(w.sequence.persistent);
+  EXPECT_TRUE(contains(w.out, s.work_dir));  // its keyframes go to the work directory
 
   s.warm_step = 3;
   s.warm_spp = 0;  // the frames' own sample count
   FarmPlan plan3(s);
-  std::vector<std::string> w3 = plan3.warm_command();
-  EXPECT_EQ(w3[index_of(w3, "--frame-step") + 1], "3");
-  EXPECT_GE(index_of(w3, "--spp=16"), 0);
-  EXPECT_EQ(index_of(w3, "--spp"), -1);
+  const request::RenderRequest w3 = plan3.warm_request();
+  EXPECT_EQ(w3.sequence.frame_step, 3);
+  EXPECT_EQ(w3.spp, 16);
 }
 
 TEST_F(FarmPlanTest, ScriptsCarryTheClusterOptionsGiven) {
@@ -240,8 +241,8 @@ TEST_F(FarmPlanTest, ScriptsRunExactlyThePlannedCommands) {
   fs::permissions(fake, fs::perms::owner_all);
   FarmSettings s = settings();
   s.dofcache = fake.string();
-  s.sequence_args = {"my scene's.gltf", "--width", "64", "--camera", "$cam #1", "--out",
-                     "f/####.exr", "--cache", "vdb", "--persistent"};
+  s.request.scene = "my scene's.gltf";
+  s.request.camera = "$cam #1";
   FarmPlan plan(s);
   plan.write();
 
@@ -292,7 +293,13 @@ TEST_F(FarmPlanTest, PlanFileRoundTripsAndBadFilesAreRefused) {
   plan.write();
   FarmPlan back = FarmPlan::load(s.work_dir);
   EXPECT_EQ(back.to_json(), plan.to_json());
-  EXPECT_EQ(back.settings().sequence_args, s.sequence_args);
+  EXPECT_EQ(request::to_json(back.settings().request), request::to_json(s.request));
+  // The jobs' requests are stored beside the plan, read back as written.
+  const Chunk& c0 = plan.chunks()[0];
+  EXPECT_EQ(request::to_json(request::load_request(plan.chunk_request_file(c0))),
+            request::to_json(plan.chunk_request(c0)));
+  EXPECT_EQ(request::to_json(request::load_request(plan.request_file("warm"))),
+            request::to_json(plan.warm_request()));
   EXPECT_EQ(back.chunks().size(), plan.chunks().size());
 
   auto expect_load_error = [&](const std::string& text, const std::string& needle) {

@@ -51,7 +51,9 @@ class SubmitTest : public dofcache::testing::ScratchDirTest {
     s.dofcache = "/usr/bin/dofcache";
     s.work_dir = (dir_ / "work").string();
     s.run_dir = dir_.string();
-    s.sequence_args = {"scene.gltf", "--cache", "vdb", "--persistent"};
+    s.request.scene = "scene.gltf";
+    s.request.cache = "vdb";
+    s.request.sequence.persistent = true;
     s.first = 0;
     s.last = 5;
     s.chunk = 2;  // chunks 0-1, 2-3, 4-5

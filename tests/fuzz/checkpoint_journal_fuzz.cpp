@@ -24,8 +24,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (j.records.empty()) return;
     const sequence::FrameDelta& first = j.records.front().delta;
     std::unordered_set<std::uint32_t> taken(first.removed.begin(), first.removed.end());
-    for (const sequence::SampleRecord& r : first.added) taken.insert(r.sample.id);
-    std::vector<sequence::SampleRecord> cache(first.removed.size());
+    for (const cache::SampleRecord& r : first.added) taken.insert(r.sample.id);
+    std::vector<cache::SampleRecord> cache(first.removed.size());
     for (std::size_t i = 0; i < cache.size(); ++i) cache[i].sample.id = first.removed[i];
     for (std::uint32_t id = 0, kept = 0; kept < first.kept; ++id) {
       if (taken.count(id)) continue;

@@ -25,7 +25,7 @@ void cache_file_seed(const fs::path& dir, int samples, bool checkpoint) {
   f.identity = {0x0123456789abcdefULL, 1, 4, 1, 2};
   f.scene_source = "seed.gltf";
   for (int i = 0; i < samples; ++i) {
-    sequence::SampleRecord r;
+    cache::SampleRecord r;
     r.sample.position = {0.1f * i, 0.05f * i, -1.0f};
     r.sample.normal = {0.0f, 0.0f, 1.0f};
     r.sample.value = {0.5f, 0.25f, 0.125f};
@@ -80,7 +80,10 @@ void farm_plan_seed(const fs::path& dir) {
   s.dofcache = "/opt/dofcache/bin/dofcache";
   s.work_dir = "/farm/work";
   s.run_dir = "/farm";
-  s.sequence_args = {"scene.gltf", "--width", "64", "--cache", "vdb", "--persistent"};
+  s.request.scene = "scene.gltf";
+  s.request.width = 64;
+  s.request.cache = "vdb";
+  s.request.sequence.persistent = true;
   s.first = 10;
   s.last = 15;
   s.chunk = 4;

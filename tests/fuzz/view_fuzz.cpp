@@ -48,13 +48,14 @@ scene::Scene two_planes() {
 
 view::ViewSettings settings() {
   view::ViewSettings s;
-  s.width = kWidth;
-  s.height = kHeight;
-  s.threads = 1;
+  s.request.width = kWidth;
+  s.request.height = kHeight;
+  s.request.threads = 1;
   s.input_spp = 1;
   s.reference = false;  // no background work: every answer depends on the request alone
-  s.shading.gather_rays = 0;
-  s.shading.light_samples = 1;
+  s.request.shading = render::ShadingSettings{};
+  s.request.shading->gather_rays = 0;
+  s.request.shading->light_samples = 1;
   return s;
 }
 

@@ -26,12 +26,12 @@ namespace {
 
 class CacheFileTest : public dofcache::testing::ScratchDirTest {};
 
-std::vector<SampleRecord> random_records(std::size_t n, std::uint32_t seed) {
+std::vector<cache::SampleRecord> random_records(std::size_t n, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::vector<SampleRecord> out;
+  std::vector<cache::SampleRecord> out;
   for (std::size_t i = 0; i < n; ++i) {
-    SampleRecord r;
+    cache::SampleRecord r;
     cache::CacheSample& s = r.sample;
     // Positions of very different magnitudes: they must come back bit for bit.
     float scale = (i % 3 == 0) ? 1e-3f : (i % 3 == 1) ? 1.0f : 250.0f;
@@ -50,7 +50,7 @@ std::vector<SampleRecord> random_records(std::size_t n, std::uint32_t seed) {
   return out;
 }
 
-bool same_bits(const SampleRecord& a, const SampleRecord& b) {
+bool same_bits(const cache::SampleRecord& a, const cache::SampleRecord& b) {
   const cache::CacheSample &x = a.sample, &y = b.sample;
   return std::memcmp(&x.position, &y.position, sizeof x.position) == 0 &&
          std::memcmp(&x.normal, &y.normal, sizeof x.normal) == 0 &&
@@ -115,9 +115,9 @@ TEST_F(CacheFileTest, SavedCacheRendersIdentically) {
   s.lens = render::resolve_lens(scene, accel, camera, {}).lens;
   s.progress = Progress::Display::Never;
 
-  PersistentCache original("vdb", ReusePolicy{});
+  cache::PersistentCache original("vdb", cache::ReusePolicy{});
   render::ThinLensCamera cam = render::make_camera(camera, s);
-  s.cache.cache = original.begin_frame(0, cam);
+  s.cache.cache = original.begin_frame(0, cam.frame_camera());
   s.cache.frame = 0;
   render::render(scene, accel, camera, s);
   original.end_frame();
@@ -129,7 +129,7 @@ TEST_F(CacheFileTest, SavedCacheRendersIdentically) {
   write_cache_file(path("saved.vdb"), f);
   CacheFile g = read_cache_file(path("saved.vdb"));
   check_cache_identity(g, cache_identity(scene, s), "saved.vdb");
-  PersistentCache loaded("octree", ReusePolicy{});  // any backend renders the same
+  cache::PersistentCache loaded("octree", cache::ReusePolicy{});  // any backend renders the same
   loaded.assign(g.records);
 
   // The next frame: a refocus and another seed, rendered from each cache.
@@ -137,10 +137,10 @@ TEST_F(CacheFileTest, SavedCacheRendersIdentically) {
   s.seed = 7;
   s.cache.frame = 1;
   cam = render::make_camera(camera, s);
-  s.cache.cache = original.begin_frame(1, cam);
+  s.cache.cache = original.begin_frame(1, cam.frame_camera());
   render::RenderOutput a = render::render(scene, accel, camera, s);
   original.end_frame();
-  s.cache.cache = loaded.begin_frame(1, cam);
+  s.cache.cache = loaded.begin_frame(1, cam.frame_camera());
   render::RenderOutput b = render::render(scene, accel, camera, s);
   loaded.end_frame();
   ASSERT_GT(a.stats.cache_hits, 0u);

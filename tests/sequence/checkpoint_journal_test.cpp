@@ -21,8 +21,8 @@ namespace {
 
 class JournalTest : public dofcache::testing::ScratchDirTest {};
 
-SampleRecord sample(std::uint32_t id, std::int32_t last_used) {
-  SampleRecord r;
+cache::SampleRecord sample(std::uint32_t id, std::int32_t last_used) {
+  cache::SampleRecord r;
   r.sample.position = {0.1f * float(id), -0.25f, 1.5f + float(id)};
   r.sample.normal = {0.0f, 1.0f, 0.0f};
   r.sample.value = {0.5f, 0.125f * float(id % 4), 2.0f};
@@ -35,16 +35,16 @@ SampleRecord sample(std::uint32_t id, std::int32_t last_used) {
 }
 
 // Ten samples 0..9 at the start of frame 7 (after its reuse rule), last used in frames 3-6.
-std::vector<SampleRecord> start_of_frame() {
-  std::vector<SampleRecord> v;
+std::vector<cache::SampleRecord> start_of_frame() {
+  std::vector<cache::SampleRecord> v;
   for (std::uint32_t id = 0; id < 10; ++id) v.push_back(sample(id, 3 + std::int32_t(id % 4)));
   return v;
 }
 
 // What frame 7 did: used 1 and 3, evicted 2 and 5, changed 7's value, added 10 and 11.
-std::vector<SampleRecord> end_of_frame() {
-  std::vector<SampleRecord> v;
-  for (SampleRecord r : start_of_frame()) {
+std::vector<cache::SampleRecord> end_of_frame() {
+  std::vector<cache::SampleRecord> v;
+  for (cache::SampleRecord r : start_of_frame()) {
     std::uint32_t id = r.sample.id;
     if (id == 2 || id == 5) continue;
     if (id == 1 || id == 3) r.last_used = 7;
@@ -56,7 +56,7 @@ std::vector<SampleRecord> end_of_frame() {
   return v;
 }
 
-bool same(const std::vector<SampleRecord>& a, const std::vector<SampleRecord>& b) {
+bool same(const std::vector<cache::SampleRecord>& a, const std::vector<cache::SampleRecord>& b) {
   return state_hash(a) == state_hash(b);
 }
 
@@ -85,7 +85,7 @@ TEST(FrameDelta, HoldsExactlyWhatTheFrameChanged) {
   EXPECT_EQ(d.kept, 7u);
   EXPECT_EQ(d.used, (std::vector<std::uint8_t>{0x06}));
 
-  std::vector<SampleRecord> replayed = start_of_frame();
+  std::vector<cache::SampleRecord> replayed = start_of_frame();
   apply_frame_delta(replayed, d, 7);
   EXPECT_TRUE(same(replayed, end_of_frame()));
   EXPECT_FALSE(same(replayed, start_of_frame()));
@@ -103,15 +103,15 @@ TEST(FrameDelta, NoChangeIsAnEmptyDelta) {
 
 TEST(FrameDelta, ADeltaThatDoesNotFitIsRefusedAndChangesNothing) {
   FrameDelta d = frame_delta(start_of_frame(), end_of_frame(), 7);
-  std::vector<SampleRecord> other = start_of_frame();
+  std::vector<cache::SampleRecord> other = start_of_frame();
   other.erase(other.begin() + 5);  // sample 5 is gone already
   const std::uint64_t before = state_hash(other);
   EXPECT_THROW(apply_frame_delta(other, d, 7), Error);
   EXPECT_EQ(state_hash(other), before);
-  std::vector<SampleRecord> bigger = start_of_frame();
+  std::vector<cache::SampleRecord> bigger = start_of_frame();
   bigger.push_back(sample(12, 6));  // one more kept sample than the delta knows
   EXPECT_THROW(apply_frame_delta(bigger, d, 7), Error);
-  std::vector<SampleRecord> clash = start_of_frame();
+  std::vector<cache::SampleRecord> clash = start_of_frame();
   clash.push_back(sample(11, 6));  // the frame adds 11, already there
   d.kept = 8;                      // (so that only the clash is wrong)
   d.used.assign(1, 0);
@@ -119,7 +119,7 @@ TEST(FrameDelta, ADeltaThatDoesNotFitIsRefusedAndChangesNothing) {
 }
 
 TEST(StateHash, SeesEveryBit) {
-  std::vector<SampleRecord> a = start_of_frame(), b = a;
+  std::vector<cache::SampleRecord> a = start_of_frame(), b = a;
   EXPECT_EQ(state_hash(a), state_hash(b));
   b[4].sample.radius = std::nextafter(b[4].sample.radius, 1.0f);
   EXPECT_NE(state_hash(a), state_hash(b));
@@ -164,7 +164,7 @@ TEST_F(JournalTest, RecordsRoundTripThroughTheFile) {
   EXPECT_EQ(back.delta.kept, r7.delta.kept);
   EXPECT_EQ(back.delta.used, r7.delta.used);
   EXPECT_TRUE(same(back.delta.added, r7.delta.added));
-  std::vector<SampleRecord> replayed = start_of_frame();
+  std::vector<cache::SampleRecord> replayed = start_of_frame();
   apply_frame_delta(replayed, back.delta, 7);
   EXPECT_EQ(state_hash(replayed), back.state_hash);
   EXPECT_EQ(j.records[1].delta.used, r9.delta.used);

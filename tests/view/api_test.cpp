@@ -26,8 +26,8 @@ scene::Scene one_plane() {
 
 ViewSettings tiny() {
   ViewSettings s;
-  s.width = 16;
-  s.height = 16;
+  s.request.width = 16;
+  s.request.height = 16;
   s.reference = false;
   return s;
 }

@@ -54,14 +54,15 @@ render::LensOverrides wide_open() { return {0.1, 0.5, double(kFar)}; }
 
 ViewSettings small_settings(bool reference) {
   ViewSettings s;
-  s.width = kWidth;
-  s.height = kHeight;
+  s.request.width = kWidth;
+  s.request.height = kHeight;
   s.input_spp = 2;
   s.reference = reference;
   s.reference_pass_spp = 2;
   s.reference_max_spp = 4;
-  s.shading.gather_rays = 2;
-  s.shading.light_samples = 1;
+  s.request.shading = render::ShadingSettings{};
+  s.request.shading->gather_rays = 2;
+  s.request.shading->light_samples = 1;
   return s;
 }
 
@@ -69,7 +70,7 @@ class ViewServerTest : public ::testing::Test {
  protected:
   void start(bool reference = false, const std::string& keyframes = "") {
     session = std::make_unique<ViewSession>(two_planes(), wide_open(), small_settings(reference));
-    server = std::make_unique<ViewServer>(*session, ServerSettings{0, "", keyframes, "planes"});
+    server = std::make_unique<ViewServer>(*session, ServerSettings{0, "", keyframes, "planes", sequence::append_keyframe});
     session->start();
     server->start();
     ASSERT_TRUE(session->wait_for_stage(InputStage::Refined, 60.0));
@@ -157,7 +158,7 @@ TEST_F(ViewServerTest, TokensAreRandomAndTheServerListensOnLoopbackOnly) {
   // A port in use is refused, not shared (no SO_REUSEPORT).
   ViewSession other(two_planes(), wide_open(), small_settings(false));
   try {
-    ViewServer second(other, ServerSettings{server->port(), "", "", ""});
+    ViewServer second(other, ServerSettings{server->port(), "", "", "", {}});
     ADD_FAILURE() << "a second server bound port " << server->port();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("cannot bind"), std::string::npos) << e.what();
@@ -499,7 +500,7 @@ TEST(ViewSessionCache, ALensChangeReusesTheReferencesCacheSamples) {
   testing::build_emitters(s);
   s.cameras.push_back(testing::origin_camera(0.8f));
   ViewSettings settings = small_settings(/*reference=*/true);
-  settings.shading.gather_rays = 4;
+  settings.request.shading->gather_rays = 4;
   // One pass per lens: what that pass reuses was made for the other lens.
   settings.reference_pass_spp = settings.reference_max_spp = 2;
   ViewSession session(std::move(s), wide_open(), settings);

@@ -1,8 +1,11 @@
 #pragma once
 // A render-farm plan: a camera-path sequence split into chunks of frames, each chunk one plain
-// `dofcache sequence` command, preceded by a warm-cache pass and followed by a check that every
-// frame is complete. The plan is written as Slurm batch scripts (a job array, one task per
-// chunk) plus the same commands as a plain shell script, so any farm manager can run it.
+// `dofcache sequence --request FILE` command, preceded by a warm-cache pass and followed by a
+// check that every frame is complete. Each job's request is the plan's resolved sequence request
+// with the job's own fields set (frames, cache files, checkpoint, statistics, threads), stored as
+// JSON in the work directory: no command line is edited. The plan is written as Slurm batch
+// scripts (a job array, one task per chunk) plus the same commands as a plain shell script, so any
+// farm manager can run it.
 //
 // Cache sharing. The warm pass renders keyframes of the whole path (every warm_step-th frame, at
 // warm_spp lens samples) with a persistent cache and saves it as a .vdb file. Every chunk starts
@@ -18,6 +21,8 @@
 #include <vector>
 
 #include <nlohmann/json_fwd.hpp>
+
+#include "dofcache/request/render_request.h"
 
 namespace dofcache::farm {
 
@@ -41,9 +46,9 @@ struct FarmSettings {
   std::string dofcache;  // the executable, as the compute nodes see it (absolute)
   std::string work_dir;  // plan, scripts, logs, warm cache, checkpoints, stats (absolute)
   std::string run_dir;   // where the commands run: relative paths in them resolve here (absolute)
-  // The `dofcache sequence` command line (scene and options) without --frames, which the plan
-  // sets per chunk. Must not contain the options the plan owns (see reserved_sequence_options).
-  std::vector<std::string> sequence_args;
+  // The resolved sequence request (request::resolve), every path in it absolute or relative to
+  // run_dir. Must leave the fields the plan sets per job at their defaults (job_owned_fields).
+  request::RenderRequest request = request::default_request(request::Kind::Sequence);
   int first = 0, last = 0;  // frame range
   int chunk = 1;            // frames per chunk (array task)
   std::string output;       // frame file pattern, absolute (for verification)
@@ -58,14 +63,10 @@ struct FarmSettings {
   void validate() const;  // throws dofcache::Error
 };
 
-// Command lines as argument vectors: `argv` without the option `name` (and, if `takes_value`, its
-// value, the next argument unless written "name=value"); whether `argv` holds the option.
-std::vector<std::string> without_option(const std::vector<std::string>& argv,
-                                        const std::string& name, bool takes_value);
-bool has_option(const std::vector<std::string>& argv, const std::string& name);
-
-// Options of `dofcache sequence` that the plan sets itself, so the sequence command line must not.
-const std::vector<std::string>& reserved_sequence_options();
+// The fields of a sequence request that the plan sets per job, which `request` sets (named as in
+// the request's JSON form): frame_step, cache_in, cache_out, checkpoint, restart, stats_json,
+// quiet. Empty: none.
+std::vector<std::string> job_owned_fields(const request::RenderRequest& request);
 
 struct Chunk {
   int index = 0;
@@ -91,6 +92,12 @@ class FarmPlan {
   std::string log_dir() const;          // logs/
   std::string checkpoint_file(const Chunk& c) const;
   std::string stats_file(const Chunk& c) const;
+  std::string request_file(const std::string& job) const;  // jobs/<job>.json
+  std::string chunk_request_file(const Chunk& c) const;
+
+  // The requests the jobs render: the plan's request with each job's own fields.
+  request::RenderRequest warm_request() const;
+  request::RenderRequest chunk_request(const Chunk& c) const;
 
   // The commands (argument vectors) that the jobs run.
   std::vector<std::string> warm_command() const;
@@ -103,8 +110,9 @@ class FarmPlan {
   std::string verify_script() const;
   std::string commands_script() const;  // every command in order, for one machine or another farm
 
-  // Writes farm.json, the three .sbatch scripts and commands.sh into the work directory (each
-  // atomically) and creates its logs/, checkpoints/ and stats/ directories.
+  // Writes farm.json, the jobs' requests (jobs/), the three .sbatch scripts and commands.sh into
+  // the work directory (each atomically) and creates its logs/, checkpoints/ and stats/
+  // directories.
   void write() const;
   // Reads <work_dir>/farm.json. Throws dofcache::Error (one line) if missing or not a plan.
   static FarmPlan load(const std::string& work_dir);

@@ -17,6 +17,7 @@
 // (The paper says "down to A_i"; with the matting indices of 3.1 that would drop the hidden
 // surfaces of layer i's own plateau slab, A_{i-1}.)
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,10 +30,20 @@ namespace dofcache::preview {
 
 enum class PreviewMethod { Gather, Scatter, Layered, LayeredOcclusion };
 
-// "gather", "scatter", "layered", "layered-occlusion".
+// The methods' one name table, as `render --mode` spells them: "preview" (Layered),
+// "preview-occlusion", "preview-gather", "preview-scatter".
 const char* preview_method_name(PreviewMethod method);
-// The inverse; throws dofcache::Error listing the valid names.
+// The inverse, also accepting the older names "layered", "layered-occlusion", "gather" and
+// "scatter"; nullopt for any other name.
+std::optional<PreviewMethod> find_preview_method(const std::string& name);
+// find_preview_method, throwing dofcache::Error listing the valid names.
 PreviewMethod parse_preview_method(const std::string& name);
+const std::vector<std::string>& preview_method_names();
+
+// The composites' names: "over", "slabs" (options.h).
+const char* layer_composite_name(LayerComposite composite);
+LayerComposite parse_layer_composite(const std::string& name);  // throws dofcache::Error
+const std::vector<std::string>& layer_composite_names();
 
 // A_j of the paper: the scene rendered with the near clipping plane at layer j's depth, valid where
 // mask = 1 (the mask build_occlusion_masks gave for layer j, or a subset of it).

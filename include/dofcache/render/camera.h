@@ -7,6 +7,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "dofcache/cache/frame_camera.h"
 #include "dofcache/lens/thin_lens.h"
 #include "dofcache/scene/accel.h"
 #include "dofcache/scene/scene.h"
@@ -36,6 +37,8 @@ class ThinLensCamera {
   glm::vec3 forward() const { return forward_; }
   int width() const { return width_; }
   int height() const { return height_; }
+  // What a persistent cache's reuse rule needs of this camera.
+  cache::FrameCamera frame_camera() const { return {imaging_, position_, forward_}; }
 
  private:
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1

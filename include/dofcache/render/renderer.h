@@ -38,6 +38,7 @@ enum class Mode { Pinhole, Drt, Accumulation };
 constexpr float kInsideId = -2.0f;
 Mode parse_mode(const std::string& name);  // throws dofcache::Error listing the valid names
 const char* mode_name(Mode mode);
+const std::vector<std::string>& mode_names();  // "pinhole", "drt", "accumulation"
 
 // The radiance cache of the paper's Algorithm 1, used by `drt` and `accumulation` at primary hits:
 // look up E/pi near the hit; on a miss compute it in full and store a sample whose radius follows
@@ -104,7 +105,7 @@ struct RenderSettings {
   int spp = 16;  // samples per pixel (lens samples for drt, passes for accumulation)
   Mode mode = Mode::Drt;
   std::uint64_t seed = 1;
-  int threads = 0;  // 0: all hardware threads
+  int threads = 0;  // 0: every available core (core/threads.h)
   ShadingSettings shading;
   lens::ThinLens lens;
   // Camera-space depth of a near clipping plane (0: none). Surfaces nearer are not seen. In the

@@ -17,8 +17,6 @@
 
 namespace dofcache::scene::gltf {
 
-// The bytes of a file; throws dofcache::Error "<path>: cannot open file (...)" or "read error".
-std::string read_file(const std::string& path);
 // The directory relative resources (buffers, images) are looked up in: the file's, or ".".
 std::string base_dir_of(const std::string& path);
 

@@ -14,7 +14,7 @@
 //   grid "samples"  a PointDataGrid, one point per sample, power-of-two voxel size (so positions
 //                   round-trip bit for bit), attributes P, N, value (E/pi) (vec3f), radius,
 //                   base_radius, view_radius, footprint (float), id, frame, last_used (int32):
-//                   a SampleRecord each
+//                   a cache::SampleRecord each
 //   trailer         24 bytes after the OpenVDB data: "DOFCSUM1", u64 length of the OpenVDB data,
 //                   u64 hash of it. Checked before OpenVDB parses anything, so a damaged file is
 //                   refused with a message instead of reaching OpenVDB's readers.
@@ -31,7 +31,7 @@
 
 #include "dofcache/render/renderer.h"
 #include "dofcache/scene/scene.h"
-#include "dofcache/sequence/persistent_cache.h"
+#include "dofcache/cache/persistent_cache.h"
 
 namespace dofcache::sequence {
 
@@ -66,7 +66,7 @@ struct CacheFile {
   CacheIdentity identity;
   std::string scene_source;
   double min_factor = 0.5;
-  std::vector<SampleRecord> records;  // increasing id
+  std::vector<cache::SampleRecord> records;  // increasing id
   std::optional<SequenceCheckpoint> checkpoint;
 };
 
@@ -86,7 +86,7 @@ CacheFile read_cache_file(const std::string& path,
 
 // What every stored sample must be (cache files and checkpoint journals): finite position and
 // value, a unit normal (within 1e-3), finite positive radii, a finite footprint >= 0.
-bool valid_sample_record(const SampleRecord& record);
+bool valid_sample_record(const cache::SampleRecord& record);
 
 // Appends the integrity trailer to the file at `path` (write_cache_file does this after OpenVDB
 // has written the file; public so that tests and tools can seal hand-made files).

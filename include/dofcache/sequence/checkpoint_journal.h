@@ -7,7 +7,7 @@
 // What a frame changes in a persistent cache (persistent_cache.h): the reuse rule gives every
 // sample a new radius, lookups mark samples used (last_used = the frame), new samples enter and
 // eviction removes some. The radii are a function of the previous radius and the frame's camera,
-// so a replay recomputes them (apply_reuse_rule) instead of storing 4 bytes per sample and frame;
+// so a replay recomputes them (cache::apply_reuse_rule) instead of storing 4 bytes per sample and frame;
 // a record stores the rest as a FrameDelta, and the hash of the whole cache after the frame, so a
 // replay that would not reproduce the cache bit for bit is refused rather than rendering other
 // frames than the uninterrupted run.
@@ -34,7 +34,7 @@
 #include <utility>
 #include <vector>
 
-#include "dofcache/sequence/persistent_cache.h"
+#include "dofcache/cache/persistent_cache.h"
 
 namespace dofcache::sequence {
 
@@ -43,23 +43,23 @@ struct FrameDelta {
   std::vector<std::uint32_t> removed;  // ids gone (evicted, or replaced by an entry of `added`)
   std::uint32_t kept = 0;              // samples of the frame's start that stay unchanged
   std::vector<std::uint8_t> used;      // (kept + 7) / 8 bytes: kept samples now last used here
-  std::vector<SampleRecord> added;     // new samples (and new versions of changed ones)
+  std::vector<cache::SampleRecord> added;     // new samples (and new versions of changed ones)
 };
 
 // The delta from `before` (the cache after frame `frame`'s reuse rule) to `after` (after the
 // frame), both in increasing id. A sample that changed in anything but last_used = `frame` is
 // stored as removed and added, so the delta describes any change exactly.
-FrameDelta frame_delta(const std::vector<SampleRecord>& before,
-                       const std::vector<SampleRecord>& after, std::int32_t frame);
+FrameDelta frame_delta(const std::vector<cache::SampleRecord>& before,
+                       const std::vector<cache::SampleRecord>& after, std::int32_t frame);
 
 // Applies `delta` to `records` (the cache after frame `frame`'s reuse rule, increasing id).
 // Throws dofcache::Error (records unchanged) if it does not fit them: an id to remove that is
 // missing, a kept count that differs, an added id that is already there.
-void apply_frame_delta(std::vector<SampleRecord>& records, const FrameDelta& delta,
+void apply_frame_delta(std::vector<cache::SampleRecord>& records, const FrameDelta& delta,
                        std::int32_t frame);
 
 // Hash of every bit of a list of samples (the 64-byte encoding above, in order).
-std::uint64_t state_hash(const std::vector<SampleRecord>& records);
+std::uint64_t state_hash(const std::vector<cache::SampleRecord>& records);
 
 // The base a journal extends: the full checkpoint after `frame`.
 struct JournalBase {

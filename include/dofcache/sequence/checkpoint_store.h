@@ -47,11 +47,11 @@ class CheckpointStore {
   // Saves the cache `after` frame `checkpoint.frame`: a journal record of the change from
   // `before` (the cache after that frame's reuse rule; may be null when !journaling()) if the
   // journal has room, else a new base and an empty journal. Throws dofcache::Error.
-  Saved save(const std::vector<SampleRecord>& after, const std::vector<SampleRecord>* before,
+  Saved save(const std::vector<cache::SampleRecord>& after, const std::vector<cache::SampleRecord>* before,
              const SequenceCheckpoint& checkpoint);
 
  private:
-  Saved write_base(const std::vector<SampleRecord>& after, const SequenceCheckpoint& checkpoint);
+  Saved write_base(const std::vector<cache::SampleRecord>& after, const SequenceCheckpoint& checkpoint);
 
   std::string path_;
   CacheFile header_;

@@ -25,7 +25,7 @@
 #include "dofcache/scene/scene.h"
 #include "dofcache/sequence/camera_path.h"
 #include "dofcache/sequence/checkpoint_journal.h"
-#include "dofcache/sequence/persistent_cache.h"
+#include "dofcache/cache/persistent_cache.h"
 
 namespace dofcache::sequence {
 
@@ -68,7 +68,7 @@ struct FrameReport {
   bool skipped = false;      // complete from an earlier run: not rendered (output is empty)
   std::string path;          // output file (empty if not writing)
   render::RenderOutput output;
-  FrameCacheStats cache;      // zero without a cache
+  cache::FrameCacheStats cache;      // zero without a cache
   double render_seconds = 0.0;  // the renderer
   double cache_seconds = 0.0;   // cache maintenance (reuse rule, rebuilds, eviction)
   double write_seconds = 0.0;   // image and checkpoint files
@@ -104,7 +104,7 @@ class SequenceRenderer {
   SequenceSummary run(const FrameCallback& on_frame = {}, const NoticeCallback& notice = {});
 
   // The persistent (or last fresh) cache, e.g. for inspection after run().
-  const PersistentCache* cache() const { return cache_.get(); }
+  const cache::PersistentCache* cache() const { return cache_.get(); }
   const std::string& checkpoint_path() const { return checkpoint_; }
 
  private:
@@ -113,14 +113,14 @@ class SequenceRenderer {
   // before the journal's end (empty: none, or the sequence ended).
   std::size_t replay_journal(const CheckpointJournal& journal, std::size_t at,
                              const std::vector<std::string>& paths, std::uint64_t initial_hash,
-                             std::vector<SampleRecord>& records, std::string* why) const;
+                             std::vector<cache::SampleRecord>& records, std::string* why) const;
 
   const scene::Scene& scene_;
   const scene::Accel& accel_;
   std::vector<FrameSpec> frames_;
   SequenceSettings settings_;
   std::string checkpoint_;
-  std::unique_ptr<PersistentCache> cache_;
+  std::unique_ptr<cache::PersistentCache> cache_;
 };
 
 // Per-frame seed: any subset of frames renders the same images as the whole sequence.
@@ -147,6 +147,6 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
                            std::uint64_t initial_cache_hash);
 
 // Hash of a list of sample records (identifies a --cache-in file's contents).
-std::uint64_t records_hash(const std::vector<SampleRecord>& records);
+std::uint64_t records_hash(const std::vector<cache::SampleRecord>& records);
 
 }  // namespace dofcache::sequence

@@ -4,11 +4,15 @@
 // (server.h, which parses requests, limits their size and writes the answers) so that it is tested
 // and fuzzed without sockets: a request's method, path, query parameters, token header and body
 // in; a status, headers and body out.
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "dofcache/lens/thin_lens.h"
+#include "dofcache/scene/scene.h"
 
 namespace dofcache::view {
 
@@ -32,12 +36,21 @@ struct ApiResponse {
   std::vector<std::pair<std::string, std::string>> headers;  // besides the content type
 };
 
+// Appends `camera` and `lens` as a key to the keyframe file `file` (created with `description`
+// if missing) and returns the number of keys in it; throws dofcache::Error. The keyframe files
+// are the sequence module's (sequence::append_keyframe): the front end that starts the viewer
+// passes it in, so the viewer does not depend on camera paths.
+using KeyframeWriter = std::function<int(const std::string& file, const scene::Camera& camera,
+                                         const lens::ThinLens& lens,
+                                         const std::string& description)>;
+
 class ViewApi {
  public:
   // `session` must outlive the API. `keyframes`: the keyframe file POST /api/keyframe appends to
-  // (empty: that route answers 409); `scene_name` its description when it is created.
+  // with `append` (either empty: that route answers 409); `scene_name` its description when it is
+  // created.
   ViewApi(ViewSession& session, std::string token, std::string keyframes = "",
-          std::string scene_name = "");
+          std::string scene_name = "", KeyframeWriter append = {});
 
   const std::string& token() const { return token_; }
 
@@ -62,6 +75,7 @@ class ViewApi {
   ViewSession& session_;
   std::string token_;
   std::string keyframes_, scene_name_;
+  KeyframeWriter append_keyframe_;
 };
 
 }  // namespace dofcache::view

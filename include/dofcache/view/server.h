@@ -14,6 +14,8 @@
 #include <memory>
 #include <string>
 
+#include "dofcache/view/api.h"
+
 namespace dofcache::view {
 
 class ViewSession;
@@ -26,10 +28,11 @@ std::string random_token();
 struct ServerSettings {
   int port = 0;       // 0: any free port
   std::string token;  // empty: random_token()
-  // POST /api/keyframe appends the current camera and lens to this keyframe file
-  // (sequence::append_keyframe); empty: the route answers 409.
+  // POST /api/keyframe appends the current camera and lens to this keyframe file with
+  // `append_keyframe`; empty: the route answers 409.
   std::string keyframes;
   std::string scene_name;  // the keyframe file's description when it is created
+  KeyframeWriter append_keyframe;
 };
 
 class ViewServer {

@@ -15,7 +15,7 @@
 //                ViewSettings::reference_pass_spp lens samples, accumulated, up to
 //                reference_max_spp. A lens change restarts the accumulation (the pass in flight
 //                finishes and is discarded) but keeps the radiance cache: every pass is a frame
-//                of a sequence::PersistentCache, whose reuse rule keeps the samples that stay
+//                of a cache::PersistentCache, whose reuse rule keeps the samples that stay
 //                valid for the new lens (or camera), with the radius it allows them.
 // A camera move (move_camera) starts again from 1. Every preview is the post-process rerun on the latest inputs for the current lens
 // (preview::refocus_inputs, preview::render_preview): the inputs do not depend on the lens.
@@ -35,30 +35,33 @@
 #include "dofcache/preview/options.h"
 #include "dofcache/preview/preview.h"
 #include "dofcache/render/setup.h"
+#include "dofcache/request/resolve.h"
 #include "dofcache/render/shading.h"
 #include "dofcache/scene/scene.h"
 
-namespace dofcache::sequence {
+namespace dofcache::cache {
 class PersistentCache;
 }
 
 namespace dofcache::view {
 
 struct ViewSettings {
-  int width = 640;
-  int height = 0;  // 0: from the camera's aspect ratio
-  std::string camera;  // empty: the scene's first camera
-  int threads = 0;     // 0: all cores
-  std::uint64_t seed = 1;
-  render::ShadingSettings shading;  // the refined inputs' and the reference's shading
+  // What every front end shares (request/render_request.h): size, camera, seed, threads (the
+  // background work under CorePolicy::LeaveOneCore, the draft on every core), shading (of the
+  // refined inputs and the reference), environment, the reference's cache and adaptive sampling.
+  // Each reference pass renders this request resolved with reference_pass_spp lens samples, the
+  // lens of the moment and its own seed, as `render` would.
+  request::RenderRequest request = request::default_request(request::Kind::View);
   int input_spp = 4;                // pinhole samples per pixel of the refined inputs
   bool reference = true;            // run the background reference at all
   int reference_pass_spp = 4;       // lens samples per pixel added by each reference pass
   int reference_max_spp = 1024;     // the reference stops refining here
-  std::string cache = "vdb";        // the reference's radiance cache backend
 
   void validate() const;  // throws dofcache::Error on absurd values
 };
+
+// The seed of reference pass `pass` (1, 2, ...): each pass its own samples.
+std::uint64_t reference_pass_seed(std::uint64_t seed, std::uint64_t pass);
 
 // The inputs' quality so far.
 enum class InputStage { None, Draft, Occlusion, Refined };
@@ -101,9 +104,9 @@ struct ViewImage {
 
 class ViewSession {
  public:
-  // Takes the scene; the initial lens is resolved from `lens` and the camera as for `render`
-  // (render::resolve_lens). Throws dofcache::Error on invalid settings, an unknown camera or an
-  // absurd lens. Nothing is rendered until start().
+  // Takes the scene; the request is resolved as for `render` (request::resolve), with `lens`
+  // overriding the request's lens. Throws dofcache::Error on invalid settings, an unknown camera
+  // or an absurd lens. Nothing is rendered until start().
   ViewSession(scene::Scene scene, const render::LensOverrides& lens, const ViewSettings& settings);
   ~ViewSession();  // stops the worker (waiting for the render in flight)
   ViewSession(const ViewSession&) = delete;
@@ -165,8 +168,9 @@ class ViewSession {
   struct Render;
   std::unique_ptr<Render> render_;  // accel and camera
   // The reference's radiance cache (worker thread only), kept across lens changes and moves.
-  std::unique_ptr<sequence::PersistentCache> persistent_;
+  std::unique_ptr<cache::PersistentCache> persistent_;
   ViewSettings settings_;
+  request::ResolvedRequest resolved_;  // the reference's request (spp: one pass)
   int width_ = 0, height_ = 0;
   preview::PreviewOptions options_;
 

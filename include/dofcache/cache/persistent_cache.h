@@ -29,16 +29,16 @@
 #include <string>
 #include <vector>
 
+#include "dofcache/cache/frame_camera.h"
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/cache/sample_radius.h"
-#include "dofcache/render/camera.h"
 
-namespace dofcache::sequence {
+namespace dofcache::cache {
 
 // One cached sample and its history across frames.
 struct SampleRecord {
-  cache::CacheSample sample;  // radius: the radius in effect after the last frame's reuse rule
-  cache::RadiusOrigin origin;  // the radius it was made with, and of what
+  CacheSample sample;  // radius: the radius in effect after the last frame's reuse rule
+  RadiusOrigin origin;  // the radius it was made with, and of what
   std::int32_t last_used = 0;  // last frame whose lookups accepted it (or that created it)
 };
 
@@ -71,14 +71,14 @@ struct FrameCacheStats {
 // The reuse rule (step 1) on a list of samples for a frame seen by `camera`: what begin_frame
 // does to the cache's radii, and what replaying a checkpoint journal does to a loaded list
 // (checkpoint_journal.h). Counts the radii shrunk and grown into `stats` if given.
-void apply_reuse_rule(std::vector<SampleRecord>& records, const render::ThinLensCamera& camera,
+void apply_reuse_rule(std::vector<SampleRecord>& records, const FrameCamera& camera,
                       double min_factor, FrameCacheStats* stats = nullptr);
 
 class PersistentCache {
  public:
   // `backend`: "octree" or "vdb". `radius`: the rule the renderer makes samples with
   // (CacheSettings::radius). Throws dofcache::Error for a bad backend or policy.
-  PersistentCache(std::string backend, ReusePolicy policy, cache::RadiusSettings radius = {});
+  PersistentCache(std::string backend, ReusePolicy policy, RadiusSettings radius = {});
   ~PersistentCache();
   PersistentCache(const PersistentCache&) = delete;
   PersistentCache& operator=(const PersistentCache&) = delete;
@@ -93,13 +93,13 @@ class PersistentCache {
   // Starts frame `frame` seen by `camera`: applies the reuse rule and builds the cache the
   // renderer reads (valid until end_frame). Samples the renderer inserts are stamped by it with
   // CacheSettings::frame, which should be `frame`.
-  cache::RadianceCache* begin_frame(std::int32_t frame, const render::ThinLensCamera& camera);
+  RadianceCache* begin_frame(std::int32_t frame, const FrameCamera& camera);
 
   // Ends the frame: records usage, adds the new samples, evicts.
   FrameCacheStats end_frame();
 
   const ReusePolicy& policy() const { return policy_; }
-  const cache::RadiusSettings& radius_settings() const { return radius_; }
+  const RadiusSettings& radius_settings() const { return radius_; }
   const std::string& backend() const { return backend_; }
 
   // The wrapper handed to the renderer (public for tests).
@@ -110,13 +110,13 @@ class PersistentCache {
 
   std::string backend_;
   ReusePolicy policy_;
-  cache::RadiusSettings radius_;
+  RadiusSettings radius_;
   std::vector<SampleRecord> records_;  // increasing id
   std::unique_ptr<Tracked> live_;      // during a frame
   std::int32_t frame_ = 0;
-  std::optional<render::ThinLensCamera> camera_;  // of the current frame
+  std::optional<FrameCamera> camera_;  // of the current frame
   FrameCacheStats stats_;
   double begin_seconds_ = 0.0;
 };
 
-}  // namespace dofcache::sequence
+}  // namespace dofcache::cache

@@ -7,22 +7,20 @@
 
 #include "dofcache/cache/sample_radius.h"
 #include "dofcache/core/error.h"
-#include "dofcache/sequence/persistent_cache.h"
+#include "dofcache/cache/persistent_cache.h"
 
 using namespace dofcache;
-using namespace dofcache::sequence;
+using namespace dofcache::cache;
 
 namespace {
 
 // A camera at the origin looking down -Z, 100 mm f/1.4, focused at `focus`.
-render::ThinLensCamera camera(double focus, glm::vec3 position = glm::vec3(0.0f)) {
+cache::FrameCamera camera(double focus, glm::vec3 position = glm::vec3(0.0f)) {
   lens::ThinLens l;
   l.focal_length = 0.1;
   l.fstop = 1.4;
   l.focus_distance = focus;
-  glm::mat4 m(1.0f);
-  m[3] = glm::vec4(position, 1.0f);
-  return render::ThinLensCamera(m, 0.7f, l, 640, 480);
+  return {lens::LensImaging{l, 0.7f, 480}, position, glm::vec3(0.0f, 0.0f, -1.0f)};
 }
 
 cache::CacheSample sample_at(glm::vec3 p, float radius, std::uint32_t frame) {
@@ -43,21 +41,21 @@ bool hit(const cache::RadianceCache* c, glm::vec3 p) {
 class PersistentCacheTest : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(PersistentCacheTest, SampleMadeOutOfFocusIsRejectedOnceTheFocusMovesOntoIt) {
-  ReusePolicy policy;
+  cache::ReusePolicy policy;
   policy.evict_after = 0;
-  PersistentCache pc(GetParam(), policy);
+  cache::PersistentCache pc(GetParam(), policy);
   const glm::vec3 p(0.0f, 0.0f, -1.0f);  // depth 1 m
   // Frame 0: focused at 3 m, so the point at 1 m is far out of focus and its sample is large.
-  render::ThinLensCamera blurred = camera(3.0);
-  const float r_blurred = static_cast<float>(cache::sample_radius(blurred.imaging(), 1.0, 0.5));
+  cache::FrameCamera blurred = camera(3.0);
+  const float r_blurred = static_cast<float>(cache::sample_radius(blurred.imaging, 1.0, 0.5));
   cache::RadianceCache* c = pc.begin_frame(0, blurred);
   c->insert({sample_at(p, r_blurred, 0)});
-  FrameCacheStats s0 = pc.end_frame();
+  cache::FrameCacheStats s0 = pc.end_frame();
   EXPECT_EQ(s0.inserted, 1u);
 
   // Frame 1, same lens: the sample serves lookups across its whole (large) radius.
-  render::ThinLensCamera focused = camera(1.0);
-  const float r_focused = static_cast<float>(cache::sample_radius(focused.imaging(), 1.0, 0.5));
+  cache::FrameCamera focused = camera(1.0);
+  const float r_focused = static_cast<float>(cache::sample_radius(focused.imaging, 1.0, 0.5));
   ASSERT_LT(10.0f * r_focused, r_blurred);  // in focus: half a pixel footprint
   const glm::vec3 beyond = p + glm::vec3(3.0f * r_focused, 0.0f, 0.0f);
   const glm::vec3 within = p + glm::vec3(0.5f * r_focused, 0.0f, 0.0f);
@@ -70,7 +68,7 @@ TEST_P(PersistentCacheTest, SampleMadeOutOfFocusIsRejectedOnceTheFocusMovesOntoI
   c = pc.begin_frame(2, focused);
   EXPECT_FALSE(hit(c, beyond));
   EXPECT_TRUE(hit(c, within));
-  FrameCacheStats s2 = pc.end_frame();
+  cache::FrameCacheStats s2 = pc.end_frame();
   EXPECT_EQ(s2.shrunk, 1u);
   ASSERT_EQ(pc.size(), 1u);
   EXPECT_FLOAT_EQ(pc.records()[0].sample.radius, r_focused);
@@ -79,28 +77,28 @@ TEST_P(PersistentCacheTest, SampleMadeOutOfFocusIsRejectedOnceTheFocusMovesOntoI
   // Frame 3: focus back at 3 m: the sample regrows, but not beyond the radius it was made with.
   c = pc.begin_frame(3, blurred);
   EXPECT_TRUE(hit(c, beyond));
-  FrameCacheStats s3 = pc.end_frame();
+  cache::FrameCacheStats s3 = pc.end_frame();
   EXPECT_EQ(s3.grown, 1u);
   EXPECT_FLOAT_EQ(pc.records()[0].sample.radius, r_blurred);
 
   // A sample behind the camera keeps its radius (the frame cannot see it).
-  render::ThinLensCamera turned = camera(1.0, glm::vec3(0.0f, 0.0f, -3.0f));
+  cache::FrameCamera turned = camera(1.0, glm::vec3(0.0f, 0.0f, -3.0f));
   pc.begin_frame(4, turned);
   pc.end_frame();
   EXPECT_FLOAT_EQ(pc.records()[0].sample.radius, r_blurred);
 }
 
 TEST_P(PersistentCacheTest, CountsReuseAndEvictsUnusedSamples) {
-  ReusePolicy policy;
+  cache::ReusePolicy policy;
   policy.evict_after = 2;
-  PersistentCache pc(GetParam(), policy);
-  render::ThinLensCamera cam = camera(1.0);
-  const float r = static_cast<float>(cache::sample_radius(cam.imaging(), 1.0, 0.5));
+  cache::PersistentCache pc(GetParam(), policy);
+  cache::FrameCamera cam = camera(1.0);
+  const float r = static_cast<float>(cache::sample_radius(cam.imaging, 1.0, 0.5));
   const glm::vec3 a(0.0f, 0.0f, -1.0f), b(0.05f, 0.0f, -1.0f);
   cache::RadianceCache* c = pc.begin_frame(10, cam);
   c->insert({sample_at(a, r, 10), sample_at(b, r, 10)});
   EXPECT_TRUE(hit(c, a));  // served by a sample of this very frame: a hit, not a reuse
-  FrameCacheStats s = pc.end_frame();
+  cache::FrameCacheStats s = pc.end_frame();
   EXPECT_EQ(s.lookups, 1u);
   EXPECT_EQ(s.hits, 1u);
   EXPECT_EQ(s.reused, 0u);
@@ -123,8 +121,8 @@ TEST_P(PersistentCacheTest, CountsReuseAndEvictsUnusedSamples) {
 }
 
 TEST_P(PersistentCacheTest, MemoryCapEvictsLeastRecentlyUsedFirst) {
-  render::ThinLensCamera cam = camera(1.0);
-  const float r = static_cast<float>(cache::sample_radius(cam.imaging(), 1.0, 0.5));
+  cache::FrameCamera cam = camera(1.0);
+  const float r = static_cast<float>(cache::sample_radius(cam.imaging, 1.0, 0.5));
   std::vector<cache::CacheSample> grid;
   for (int i = 0; i < 40; ++i)
     for (int j = 0; j < 40; ++j)
@@ -133,16 +131,16 @@ TEST_P(PersistentCacheTest, MemoryCapEvictsLeastRecentlyUsedFirst) {
   // Measure the full cache, then cap at 60% of it.
   std::size_t full;
   {
-    PersistentCache probe(GetParam(), ReusePolicy{});
+    cache::PersistentCache probe(GetParam(), cache::ReusePolicy{});
     probe.begin_frame(0, cam)->insert(grid);
     full = probe.end_frame().memory_bytes;
   }
-  ReusePolicy policy;
+  cache::ReusePolicy policy;
   policy.evict_after = 0;
   policy.memory_limit = full * 6 / 10;
-  PersistentCache pc(GetParam(), policy);
+  cache::PersistentCache pc(GetParam(), policy);
   pc.begin_frame(0, cam)->insert(grid);
-  FrameCacheStats s = pc.end_frame();
+  cache::FrameCacheStats s = pc.end_frame();
   EXPECT_GT(s.evicted_memory, 0u);
   EXPECT_LE(s.memory_bytes, policy.memory_limit);
   EXPECT_GT(s.memory_bytes, policy.memory_limit * 3 / 4);  // keeps about as many as fit
@@ -167,7 +165,7 @@ TEST_P(PersistentCacheTest, MemoryCapEvictsLeastRecentlyUsedFirst) {
   s = pc.end_frame();
   EXPECT_LE(s.memory_bytes, policy.memory_limit);
   std::size_t used_left = 0, new_left = 0;
-  for (const SampleRecord& rec : pc.records()) {
+  for (const cache::SampleRecord& rec : pc.records()) {
     used_left += rec.last_used == 1;
     new_left += rec.last_used == 2;
   }
@@ -179,9 +177,9 @@ TEST_P(PersistentCacheTest, MemoryCapEvictsLeastRecentlyUsedFirst) {
 INSTANTIATE_TEST_SUITE_P(Backends, PersistentCacheTest, ::testing::Values("octree", "vdb"));
 
 TEST(PersistentCache, RefusesBadBackendAndDuplicateIds) {
-  EXPECT_THROW(PersistentCache("none", ReusePolicy{}), Error);
-  PersistentCache pc("vdb", ReusePolicy{});
-  SampleRecord r;
+  EXPECT_THROW(cache::PersistentCache("none", cache::ReusePolicy{}), Error);
+  cache::PersistentCache pc("vdb", cache::ReusePolicy{});
+  cache::SampleRecord r;
   r.sample = sample_at(glm::vec3(0.0f), 0.1f, 0);
   r.origin.radius = 0.1f;
   EXPECT_THROW(pc.assign({r, r}), Error);
@@ -190,27 +188,27 @@ TEST(PersistentCache, RefusesBadBackendAndDuplicateIds) {
 TEST(PersistentCache, RecordsTheRadiusOriginUnderTheRenderersRule) {
   // The persistent cache is given the renderer's radius settings, and records each new sample's
   // origin under them: a min factor other than the default shows in the recorded view radius.
-  render::ThinLensCamera cam = camera(1.0);
+  cache::FrameCamera cam = camera(1.0);
   cache::RadiusSettings rule;
   rule.min_factor = 2.0;
-  PersistentCache pc("vdb", ReusePolicy{}, rule);
+  cache::PersistentCache pc("vdb", cache::ReusePolicy{}, rule);
   cache::RadianceCache* c = pc.begin_frame(0, cam);
-  const float view = static_cast<float>(cache::sample_radius(cam.imaging(), 1.0, 2.0));
+  const float view = static_cast<float>(cache::sample_radius(cam.imaging, 1.0, 2.0));
   c->insert({sample_at(glm::vec3(0.0f, 0.0f, -1.0f), 3.0f * view, 0)});
   pc.end_frame();
   ASSERT_EQ(pc.size(), 1u);
   const cache::RadiusOrigin& o = pc.records()[0].origin;
   EXPECT_FLOAT_EQ(o.view_radius, view);
   EXPECT_FLOAT_EQ(o.radius, 3.0f * view);
-  EXPECT_FLOAT_EQ(o.footprint, static_cast<float>(cam.imaging().pixel_footprint(1.0)));
+  EXPECT_FLOAT_EQ(o.footprint, static_cast<float>(cam.imaging.pixel_footprint(1.0)));
   EXPECT_TRUE(o.widened());
   // The next frame, seen from twice as close, keeps the widening scaled by the footprint.
-  render::ThinLensCamera closer = camera(0.5, glm::vec3(0.0f, 0.0f, -0.5f));
+  cache::FrameCamera closer = camera(0.5, glm::vec3(0.0f, 0.0f, -0.5f));
   pc.begin_frame(1, closer);
   EXPECT_NEAR(pc.records()[0].sample.radius, 1.5f * view, 1e-3f * view);
   pc.end_frame();
   rule.min_factor = -1.0;
-  EXPECT_THROW(PersistentCache("vdb", ReusePolicy{}, rule), Error);
+  EXPECT_THROW(cache::PersistentCache("vdb", cache::ReusePolicy{}, rule), Error);
 }
 
 }  // namespace

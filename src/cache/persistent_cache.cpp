@@ -1,4 +1,4 @@
-#include "dofcache/sequence/persistent_cache.h"
+#include "dofcache/cache/persistent_cache.h"
 
 #include <algorithm>
 #include <atomic>
@@ -11,13 +11,11 @@
 
 #include "dofcache/cache/sample_radius.h"
 #include "dofcache/core/error.h"
+#include "dofcache/core/stopwatch.h"
 
-namespace dofcache::sequence {
+namespace dofcache::cache {
 namespace {
 
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 }  // namespace
 
@@ -25,9 +23,9 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 // (usage, for eviction) and whether a hit was served by samples older than the frame (reuse).
 // Inserts keep going through RadianceCache::insert, so ids are assigned exactly as the backend
 // itself would assign them.
-class PersistentCache::Tracked final : public cache::RadianceCache {
+class PersistentCache::Tracked final : public RadianceCache {
  public:
-  explicit Tracked(std::unique_ptr<cache::RadianceCache> inner) : inner_(std::move(inner)) {}
+  explicit Tracked(std::unique_ptr<RadianceCache> inner) : inner_(std::move(inner)) {}
 
   // Marks ids below next_id() as "older than the frame", clears the counters and starts noting
   // the samples added from now on.
@@ -43,7 +41,7 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
   // The samples added since start_frame, as stored (ids assigned), in increasing id order (each
   // insert assigns increasing ids to its batch): the frame's new samples, without enumerating the
   // whole cache.
-  const std::vector<cache::CacheSample>& added() const { return added_; }
+  const std::vector<CacheSample>& added() const { return added_; }
   bool used(std::uint32_t id) const {
     return id < first_id_ && used_[id].load(std::memory_order_relaxed) != 0;
   }
@@ -58,11 +56,11 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
 
   std::string name() const override { return inner_->name(); }
 
-  bool lookup(glm::vec3 p, glm::vec3 n, const cache::LookupOptions& options,
-              cache::LookupResult* out) const override {
+  bool lookup(glm::vec3 p, glm::vec3 n, const LookupOptions& options,
+              LookupResult* out) const override {
     thread_local std::vector<std::uint32_t> ids;
     ids.clear();
-    cache::LookupResult r;
+    LookupResult r;
     r.accepted_ids = &ids;
     bool hit = inner_->lookup(p, n, options, &r);
     Counters& c = counters_.local();
@@ -85,15 +83,15 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
 
   std::size_t size() const override { return inner_->size(); }
   std::size_t memory_bytes() const override { return inner_->memory_bytes(); }
-  void for_each_sample(const std::function<void(const cache::CacheSample&)>& fn) const override {
+  void for_each_sample(const std::function<void(const CacheSample&)>& fn) const override {
     inner_->for_each_sample(fn);
   }
 
  protected:
-  void add_samples(const std::vector<cache::CacheSample>& samples) override {
+  void add_samples(const std::vector<CacheSample>& samples) override {
     inner_->restore(samples);  // ids already assigned by RadianceCache::insert or restore
     if (tracking_)
-      for (const cache::CacheSample& s : samples)
+      for (const CacheSample& s : samples)
         if (s.id >= first_id_) {
           assert(added_.empty() || s.id > added_.back().id);
           added_.push_back(s);
@@ -108,18 +106,18 @@ class PersistentCache::Tracked final : public cache::RadianceCache {
   struct Counters {
     std::uint64_t lookups = 0, hits = 0, reused = 0;
   };
-  std::unique_ptr<cache::RadianceCache> inner_;
+  std::unique_ptr<RadianceCache> inner_;
   std::uint32_t first_id_ = 0;
   bool tracking_ = false;
-  std::vector<cache::CacheSample> added_;  // since start_frame (inserts are never concurrent)
+  std::vector<CacheSample> added_;  // since start_frame (inserts are never concurrent)
   std::unique_ptr<std::atomic<std::uint8_t>[]> used_;  // indexed by id < first_id_
   mutable tbb::enumerable_thread_specific<Counters> counters_;
 };
 
-void apply_reuse_rule(std::vector<SampleRecord>& records, const render::ThinLensCamera& camera,
+void apply_reuse_rule(std::vector<SampleRecord>& records, const FrameCamera& camera,
                       double min_factor, FrameCacheStats* stats) {
   for (SampleRecord& r : records) {
-    float radius = cache::reuse_radius(r.origin, r.sample.radius, camera.imaging(),
+    float radius = reuse_radius(r.origin, r.sample.radius, camera.imaging,
                                        camera.depth(r.sample.position), min_factor);
     if (stats && radius < r.sample.radius) ++stats->shrunk;
     if (stats && radius > r.sample.radius) ++stats->grown;
@@ -128,9 +126,9 @@ void apply_reuse_rule(std::vector<SampleRecord>& records, const render::ThinLens
 }
 
 PersistentCache::PersistentCache(std::string backend, ReusePolicy policy,
-                                 cache::RadiusSettings radius)
+                                 RadiusSettings radius)
     : backend_(std::move(backend)), policy_(policy), radius_(radius) {
-  cache::check_radiance_cache_backend(backend_, /*allow_none=*/false);
+  check_radiance_cache_backend(backend_, /*allow_none=*/false);
   if (policy_.evict_after < 0) throw Error("--cache-evict-after must be >= 0");
   radius_.validate();
 }
@@ -150,16 +148,16 @@ void PersistentCache::assign(std::vector<SampleRecord> records) {
 
 std::unique_ptr<PersistentCache::Tracked> PersistentCache::build(
     const std::vector<SampleRecord>& records) const {
-  auto t = std::make_unique<Tracked>(cache::make_radiance_cache(backend_));
-  std::vector<cache::CacheSample> samples;
+  auto t = std::make_unique<Tracked>(make_radiance_cache(backend_));
+  std::vector<CacheSample> samples;
   samples.reserve(records.size());
   for (const SampleRecord& r : records) samples.push_back(r.sample);
   t->restore(samples);
   return t;
 }
 
-cache::RadianceCache* PersistentCache::begin_frame(std::int32_t frame,
-                                                   const render::ThinLensCamera& camera) {
+RadianceCache* PersistentCache::begin_frame(std::int32_t frame,
+                                                   const FrameCamera& camera) {
   auto t0 = std::chrono::steady_clock::now();
   frame_ = frame;
   camera_ = camera;
@@ -181,10 +179,10 @@ FrameCacheStats PersistentCache::end_frame() {
       r.last_used = frame_;
       ++st.used;
     }
-  for (const cache::CacheSample& s : live_->added()) {
+  for (const CacheSample& s : live_->added()) {
     SampleRecord r;
     r.sample = s;
-    r.origin = cache::radius_origin(s.radius, camera_->imaging(), camera_->depth(s.position),
+    r.origin = radius_origin(s.radius, camera_->imaging, camera_->depth(s.position),
                                     radius_.min_factor);
     r.last_used = frame_;
     records_.push_back(r);
@@ -258,4 +256,4 @@ FrameCacheStats PersistentCache::end_frame() {
   return st;
 }
 
-}  // namespace dofcache::sequence
+}  // namespace dofcache::cache

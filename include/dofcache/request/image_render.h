@@ -1,0 +1,34 @@
+#pragma once
+// A resolved image request rendered and written: the integrators (with the radiance cache the
+// request names) or a preview, the image and its depth, normal and id channels, the preview inputs
+// for `refocus`, the cache's debug images and trace, and the statistics file. What `render` does;
+// the CLI only prints the result.
+#include <optional>
+
+#include <nlohmann/json.hpp>
+
+#include "dofcache/preview/preview_renderer.h"
+#include "dofcache/render/renderer.h"
+#include "dofcache/request/resolve.h"
+
+namespace dofcache::request {
+
+struct ImageResult {
+  std::optional<render::RenderOutput> render;    // the integrators
+  std::optional<preview::ScenePreview> preview;  // the preview modes
+  // The statistics file's contents (written if the request names one): the scene, the settings as
+  // the render used them, timings, ray counts and the cache's counters.
+  nlohmann::json stats;
+};
+
+// Renders `resolved` (resolve() of an Image request for this scene and camera) and writes every
+// output atomically. Throws dofcache::Error.
+ImageResult render_image(const ResolvedRequest& resolved, const scene::Scene& scene,
+                         const scene::Accel& accel, const scene::Camera& camera);
+
+// The environment as statistics files record it: {"kind", "description", "strength",
+// "rotation_deg", "visible", "mean_radiance", "path"}.
+nlohmann::json environment_json(const render::EnvironmentSettings& settings,
+                                const render::ResolvedEnvironment& environment);
+
+}  // namespace dofcache::request

@@ -1,0 +1,40 @@
+#pragma once
+// A sequence request (request::Kind::Sequence) made ready to render: the scene and its BVH, the
+// camera path, the frames and the sequence settings, resolved by request::resolve like every other
+// front end's request. `dofcache sequence`, `dofcache farm plan` and the farm's jobs use it.
+#include <memory>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "dofcache/request/render_request.h"
+#include "dofcache/request/resolve.h"
+#include "dofcache/scene/accel.h"
+#include "dofcache/scene/scene.h"
+#include "dofcache/sequence/camera_path.h"
+#include "dofcache/sequence/sequence_renderer.h"
+
+namespace dofcache::sequence {
+
+struct PreparedSequence {
+  std::unique_ptr<scene::Scene> scene;
+  const scene::Camera* camera = nullptr;
+  std::unique_ptr<scene::Accel> accel;
+  request::ResolvedRequest resolved;
+  CameraPath path;
+  double fps = 24.0;
+  int first = 0, last = 0;  // the range asked for (frames may skip some with frame_step)
+  SequenceSettings settings;
+  std::vector<FrameSpec> frames;
+};
+
+// Loads the scene and path, resolves the request and every frame. Throws dofcache::Error on bad
+// input (including a request of another kind).
+PreparedSequence prepare_sequence(const request::RenderRequest& request);
+
+// Statistics as `sequence --stats-json` writes them: one row per frame, and the whole run.
+nlohmann::json frame_stats_json(const FrameReport& frame);
+nlohmann::json sequence_stats_json(const PreparedSequence& sequence, const SequenceSummary& summary,
+                                   const nlohmann::json& rows);
+
+}  // namespace dofcache::sequence

@@ -1,0 +1,135 @@
+#include "dofcache/request/image_render.h"
+
+#include <algorithm>
+#include <memory>
+
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/cache/trace.h"
+#include "dofcache/core/atomic_file.h"
+#include "dofcache/image/image_io.h"
+#include "dofcache/image/metrics.h"
+#include "dofcache/lens/lens_json.h"
+#include "dofcache/preview/inputs_file.h"
+
+namespace dofcache::request {
+namespace {
+
+using nlohmann::json;
+
+// What every image's statistics begin with.
+json common_stats(const ResolvedRequest& r, const scene::Scene& scene,
+                  const scene::Camera& camera) {
+  const render::RenderSettings& s = r.settings;
+  return {{"scene", scene.source},
+          {"camera", camera.name},
+          {"width", s.width},
+          {"height", s.height},
+          {"spp", s.spp},
+          {"seed", s.seed},
+          {"lens", lens::lens_json(s.lens)},
+          {"shading", shading_json(s.shading)},
+          {"environment", environment_json(r.request.environment, r.environment)},
+          {"output", r.request.out}};
+}
+
+ImageResult render_preview_image(const ResolvedRequest& r, const scene::Scene& scene,
+                                 const scene::Accel& accel, const scene::Camera& camera) {
+  const RenderRequest& q = r.request;
+  ImageResult result;
+  result.preview = preview::render_scene_preview(scene, accel, camera, r.settings, *r.preview,
+                                                 r.preview_options);
+  const preview::ScenePreview& p = *result.preview;
+  image::write_image(q.out, p.image, {{{"Z"}, p.inputs.depth}, {{"id"}, p.inputs.ids}});
+  if (!q.preview_inputs.empty())
+    preview::save_preview_inputs(q.preview_inputs, p.inputs, p.coverage, r.preview_options);
+  const preview::ScenePreviewTimings& t = p.timings;
+  result.stats = common_stats(r, scene, camera);
+  result.stats.update(
+      {{"mode", mode_name(q.mode)},
+       {"method", preview::preview_method_name(*r.preview)},
+       {"threads", t.pinhole_stats.threads},
+       {"seconds", t.total_ms * 1e-3},
+       {"preview",
+        {{"layers", t.layers}, {"revealed_layers", t.revealed_layers},
+         {"revealed_pixels", t.revealed_pixels}, {"id_pixels", t.id_pixels},
+         {"pinhole_render_ms", t.pinhole_render_ms}, {"id_render_ms", t.id_render_ms},
+         {"mask_build_ms", t.mask_build_ms}, {"extra_region_mask_ms", t.mask_ms()},
+         {"extra_render_ms", t.extra_render_ms}, {"postprocess_ms", t.postprocess_ms},
+         {"total_ms", t.total_ms}}}});
+  return result;
+}
+
+}  // namespace
+
+json environment_json(const render::EnvironmentSettings& settings,
+                      const render::ResolvedEnvironment& environment) {
+  const render::Environment* e = environment.environment.get();
+  const char* kind = !e                        ? "none"
+                     : environment.default_sky ? "default_sky"
+                     : e->is_constant()        ? "constant"
+                                               : "map";
+  json j = {{"kind", kind}, {"description", environment.description}};
+  if (e) {
+    const glm::vec3 m = e->mean_radiance();
+    j.update({{"strength", settings.strength},
+              {"rotation_deg", e->rotation() * 57.29577951f},
+              {"visible", e->visible()},
+              {"mean_radiance", {m.x, m.y, m.z}}});
+    if (!settings.path.empty()) j["path"] = settings.path;
+  }
+  return j;
+}
+
+ImageResult render_image(const ResolvedRequest& r, const scene::Scene& scene,
+                         const scene::Accel& accel, const scene::Camera& camera) {
+  const RenderRequest& q = r.request;
+  ImageResult result;
+  if (r.preview) {
+    result = render_preview_image(r, scene, accel, camera);
+  } else {
+    render::RenderSettings s = r.settings;
+    std::unique_ptr<cache::RadianceCache> radiance_cache =
+        cache::make_radiance_cache(r.cache_backend);
+    s.cache.cache = radiance_cache.get();
+    std::unique_ptr<cache::TraceWriter> trace;
+    if (!q.cache_trace.empty()) {
+      trace = std::make_unique<cache::TraceWriter>(q.cache_trace, s.cache.lookup);
+      s.cache.trace = trace.get();
+    }
+    result.render = render::render(scene, accel, camera, s);
+    const render::RenderOutput& out = *result.render;
+    image::write_image(q.out, out.color,
+                       {{{"Z"}, out.depth}, {{"N.X", "N.Y", "N.Z"}, out.normal}, {{"id"}, out.ids}});
+    if (trace) trace->close();
+    if (!q.cache_debug.empty() && radiance_cache) {
+      double max_density = 1.0;
+      for (float v : out.cache_density.data()) max_density = std::max<double>(max_density, v);
+      image::write_image(q.cache_debug + "-hits.png", image::false_color(out.cache_hits, 1.0));
+      image::write_image(q.cache_debug + "-density.png",
+                         image::false_color(out.cache_density, max_density));
+    }
+    const render::RenderStats& st = out.stats;
+    result.stats = common_stats(r, scene, camera);
+    result.stats.update(
+        {{"mode", render::mode_name(s.mode)},
+         {"adaptive", s.adaptive.enabled && render::pilot_samples(s.adaptive, s.spp) > 0},
+         {"threads", st.threads},
+         {"seconds", st.seconds},
+         {"camera_rays", st.camera_rays},
+         {"rays", st.rays},
+         {"rays_per_second", st.rays_per_second()},
+         {"shading_points", st.shading_points},
+         {"cache", cache_json(r.cache_backend, s.cache)}});
+    result.stats["cache"].update(
+        {{"lookups", st.cache_lookups}, {"hits", st.cache_hits},
+         {"tile_hits", st.cache_tile_hits}, {"hit_rate", st.cache_hit_rate()},
+         {"direct", st.cache_direct}, {"inserted", st.cache_inserted},
+         {"samples", st.cache_samples}, {"memory_bytes", st.cache_memory_bytes},
+         {"lookup_seconds", st.cache_lookup_seconds},
+         {"insert_seconds", st.cache_insert_seconds}, {"passes", st.passes}});
+  }
+  if (!q.stats_json.empty()) write_bytes_atomically(q.stats_json, result.stats.dump(2) + "\n");
+  return result;
+}
+
+}  // namespace dofcache::request

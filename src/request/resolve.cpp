@@ -1,0 +1,140 @@
+#include "dofcache/request/resolve.h"
+
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
+#include "dofcache/preview/preview_renderer.h"
+
+namespace dofcache::request {
+namespace {
+
+constexpr int kViewSampleQualitySpp = 64;
+
+// The output checks a single image makes before spending time on the render.
+void check_image_outputs(const ResolvedRequest& r) {
+  const RenderRequest& q = r.request;
+  if (r.preview && r.cache_backend != "none")
+    throw Error("the preview modes render pinhole images and use no radiance cache "
+                "(drop --cache)");
+  r.settings.validate();
+  image::check_output_path(q.out);
+  if (!q.preview_inputs.empty()) {
+    if (!r.preview)
+      throw Error("--save-preview-inputs needs a preview mode (--mode preview, "
+                  "preview-occlusion, preview-gather or preview-scatter)");
+    const std::string ext = std::filesystem::path(q.preview_inputs).extension().string();
+    if (ext != ".exr" && ext != ".EXR")
+      throw Error("preview inputs are saved as .exr, not '" + q.preview_inputs + "'");
+    image::check_output_path(q.preview_inputs);
+  }
+  if (r.preview) return;
+  if (!q.cache_debug.empty()) image::check_output_path(q.cache_debug + "-hits.png");
+  if (!q.cache_trace.empty() && r.cache_backend == "none")
+    throw Error("--cache-trace needs a cache (--cache octree or vdb)");
+}
+
+std::string cache_rule(const RenderRequest& q, bool* uses_cache) {
+  if (q.kind == Kind::Sequence) {
+    *uses_cache = q.sequence.persistent;
+    return q.sequence.persistent ? "a persistent sequence" : "each frame shades every lens ray";
+  }
+  *uses_cache = integrates_lens(q.mode);
+  return *uses_cache ? mode_name(q.mode) + " integrates the lens"
+                     : mode_name(q.mode) + " shades each pixel once";
+}
+
+}  // namespace
+
+ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
+                        const scene::Accel& accel, const scene::Camera& camera) {
+  ResolvedRequest r;
+  r.request = request;
+  RenderRequest& q = r.request;
+  auto chose = [&](const std::string& what) { r.choices.push_back(what); };
+
+  if (q.height <= 0) {
+    q.height = render::height_for_width(camera, q.width);
+    chose("height: " + std::to_string(q.height) + " (the camera's aspect ratio)");
+  }
+  r.preview = q.mode.preview;
+  if (!q.spp) {
+    q.spp = r.preview ? preview::kQuickInputSpp : 16;
+    chose("spp: " + std::to_string(*q.spp) + (r.preview ? " (quick preview inputs)" : ""));
+  }
+  if (!q.shading) {
+    q.shading = r.preview ? preview::quick_input_shading(render::ShadingSettings{}, true)
+                          : render::ShadingSettings{};
+    if (r.preview) chose("shading: quick preview inputs (1 light sample, 2 gather rays)");
+  }
+  if (q.cache == "auto") {
+    bool uses_cache = false;
+    const std::string why = cache_rule(q, &uses_cache);
+    q.cache = uses_cache ? "vdb" : "none";
+    chose("cache: auto -> " + q.cache + " (" + why + ")");
+  }
+  cache::check_radiance_cache_backend(q.cache, /*allow_none=*/true);
+  if (q.kind == Kind::Sequence && q.sequence.persistent && q.cache == "none")
+    throw Error("--persistent needs a cache (--cache octree or vdb)");
+  r.cache_backend = q.cache;
+  if (q.adaptive == Choice::Auto) {
+    const bool on = q.kind != Kind::Sequence && !r.preview && q.mode.integrator == render::Mode::Drt;
+    q.adaptive = on ? Choice::On : Choice::Off;
+    chose(std::string("adaptive: auto -> ") + choice_name(q.adaptive));
+  }
+
+  render::RenderSettings& s = r.settings;
+  s.width = q.width;
+  s.height = q.height;
+  s.spp = *q.spp;
+  s.mode = r.preview ? render::Mode::Pinhole : q.mode.integrator;
+  s.seed = q.seed;
+  s.threads = resolve_threads(q.threads, q.core_policy);
+  s.shading = *q.shading;
+  r.environment = render::resolve_environment(q.environment, scene, q.limits);
+  s.shading.environment = r.environment.environment;
+  s.cache = q.cache_settings;
+  s.cache.cache = nullptr;
+  s.cache.trace = nullptr;
+  if (s.cache.sample_quality == render::kAutoSampleQuality) {
+    // The viewer's passes share one cache, so its samples are shaded for many passes: for 64
+    // lens samples, as the reference mostly is by the time a user looks at it.
+    s.cache.sample_quality =
+        q.kind == Kind::View
+            ? render::recommended_sample_quality(kViewSampleQualitySpp, s.shading.gather_rays)
+            : render::effective_sample_quality(s);
+    q.cache_settings.sample_quality = s.cache.sample_quality;
+    if (q.cache != "none")
+      chose("cache sample quality: " + std::to_string(s.cache.sample_quality) + " (from " +
+            std::to_string(s.spp) + " spp)");
+  }
+  s.adaptive = q.adaptive_settings;
+  s.adaptive.enabled = q.adaptive == Choice::On;
+  s.progress = q.quiet ? Progress::Display::Never : Progress::Display::Auto;
+
+  const render::ResolvedLens lens = render::resolve_lens(scene, accel, camera, q.lens);
+  s.lens = lens.lens;
+  r.focus_from_scene = lens.focus_from_scene;
+  // A sequence's lens may change per frame (its path's keys): only images fix it here.
+  if (q.kind != Kind::Sequence) {
+    if (r.focus_from_scene) chose("focus: autofocus on the image centre");
+    q.lens = {s.lens.focal_length, s.lens.fstop, s.lens.focus_distance};
+  }
+
+  r.preview_options.threads = s.threads;
+  r.preview_options.layer_composite = q.composite;
+  r.preview_options.edge_rays = q.edge_rays;
+  if (q.kind == Kind::Image) check_image_outputs(r);
+  return r;
+}
+
+nlohmann::json resolved_json(const ResolvedRequest& resolved) {
+  nlohmann::json j = to_json(resolved.request);
+  j["choices"] = resolved.choices;
+  return j;
+}
+
+}  // namespace dofcache::request

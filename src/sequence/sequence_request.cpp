@@ -1,0 +1,93 @@
+#include "dofcache/sequence/sequence_request.h"
+
+#include <tuple>
+
+#include "dofcache/core/error.h"
+#include "dofcache/request/image_render.h"
+
+namespace dofcache::sequence {
+
+PreparedSequence prepare_sequence(const request::RenderRequest& request) {
+  if (request.kind != request::Kind::Sequence)
+    throw Error(std::string("a sequence needs a request of kind sequence, not ") +
+                request::kind_name(request.kind));
+  const request::SequenceChoices& q = request.sequence;
+  PreparedSequence p;
+  p.scene = std::make_unique<scene::Scene>(
+      render::load_scene(request.scene, request.scene_index, request.limits));
+  const scene::Scene& scene = *p.scene;
+  p.camera = &scene.camera_or_first(request.camera);
+  const scene::Camera& camera = *p.camera;
+  p.accel = std::make_unique<scene::Accel>(scene);
+
+  if (!q.path.empty()) {
+    p.path = load_keyframe_path(q.path, camera);
+  } else if (request.scene.empty()) {
+    throw Error("the built-in scene has no animation: give a keyframe file with --path");
+  } else {
+    p.path = load_gltf_camera_path(request.scene, camera, q.animation);
+  }
+  p.fps = q.fps.value_or(p.path.fps.value_or(24.0));
+  std::tie(p.first, p.last) =
+      q.frames.empty() ? path_frame_range(p.path, p.fps) : parse_frame_range(q.frames);
+
+  p.resolved = request::resolve(request, scene, *p.accel, camera);
+  const request::RenderRequest& r = p.resolved.request;
+  SequenceSettings& s = p.settings;
+  s.render = p.resolved.settings;
+  s.cache_mode = r.cache == "none" ? CacheMode::None
+                 : q.persistent    ? CacheMode::Persistent
+                                   : CacheMode::Fresh;
+  s.cache_backend = r.cache == "none" ? "vdb" : r.cache;
+  s.evict_after = q.evict_after;
+  s.cache_memory_mb = q.cache_memory_mb;
+  s.output = r.out;
+  s.cache_in = q.cache_in;
+  s.cache_out = q.cache_out;
+  s.checkpoint = q.checkpoint;
+  s.checkpoint_journal_ratio = q.checkpoint_journal;
+  s.resume = !q.restart;
+  s.validate();  // before planning frames (which may probe the scene for autofocus)
+
+  p.frames = keep_every(plan_frames(scene, *p.accel, camera, p.path, p.fps, p.first, p.last,
+                                    request.lens),
+                        q.frame_step);
+  return p;
+}
+
+nlohmann::json frame_stats_json(const FrameReport& f) {
+  if (f.skipped) return {{"frame", f.frame}, {"skipped", true}, {"output", f.path}};
+  const cache::FrameCacheStats& c = f.cache;
+  return {{"frame", f.frame}, {"skipped", false}, {"output", f.path},
+          {"seconds", f.seconds()}, {"render_seconds", f.render_seconds},
+          {"cache_seconds", f.cache_seconds}, {"write_seconds", f.write_seconds},
+          {"rays", f.output.stats.rays}, {"shading_points", f.output.stats.shading_points},
+          {"cache_lookups", c.lookups}, {"cache_hits", c.hits}, {"cache_reused", c.reused},
+          {"reuse_rate", c.reuse_rate()}, {"samples_inserted", c.inserted},
+          {"samples_shrunk", c.shrunk}, {"samples_grown", c.grown},
+          {"evicted_unused", c.evicted_unused}, {"evicted_memory", c.evicted_memory},
+          {"samples", c.samples_at_end}, {"cache_memory_bytes", c.memory_bytes},
+          {"checkpoint_bytes", f.checkpoint_bytes}, {"checkpoint_full", f.checkpoint_full},
+          {"checkpoint_seconds", f.checkpoint_seconds},
+          {"checkpoint_cpu_seconds", f.checkpoint_cpu_seconds}};
+}
+
+nlohmann::json sequence_stats_json(const PreparedSequence& p, const SequenceSummary& sum,
+                                   const nlohmann::json& rows) {
+  const SequenceSettings& s = p.settings;
+  const render::RenderSettings& r = s.render;
+  nlohmann::json j = {
+      {"scene", p.scene->source}, {"path", p.path.source}, {"fps", p.fps},
+      {"frames", {p.first, p.last}}, {"width", r.width}, {"height", r.height}, {"spp", r.spp},
+      {"mode", render::mode_name(r.mode)}, {"seed", r.seed},
+      {"cache", request::cache_json(s.cache_backend, r.cache)},
+      {"environment",
+       request::environment_json(p.resolved.request.environment, p.resolved.environment)},
+      {"rendered", sum.rendered}, {"skipped", sum.skipped},
+      {"resumed_after", sum.resumed_after}, {"seconds", sum.seconds}, {"per_frame", rows}};
+  j["cache"].update({{"mode", cache_mode_name(s.cache_mode)},
+                     {"evict_after", s.evict_after}, {"memory_mb", s.cache_memory_mb}});
+  return j;
+}
+
+}  // namespace dofcache::sequence
