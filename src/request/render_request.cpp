@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <sstream>
 #include <type_traits>
 
 #include <nlohmann/json.hpp>
@@ -92,7 +93,12 @@ RenderRequest default_request(Kind kind) {
   c.radius.min_factor = cache::kSingleImageMinFactor;
   c.direct_below = render::kSingleImageDirectBelow;
   if (kind == Kind::Image) r.out = "dofcache.png";
-  if (kind == Kind::View) r.core_policy = CorePolicy::LeaveOneCore;
+  if (kind == Kind::View) {
+    r.core_policy = CorePolicy::LeaveOneCore;
+    // The viewer's passes share one cache: a sample serves every later pass, so every hit is
+    // cached, as in camera paths.
+    c.direct_below = 0.0f;
+  }
   return r;
 }
 
@@ -131,6 +137,12 @@ json environment_settings_json(const render::EnvironmentSettings& e) {
   return {{"path", e.path},         {"color", color},
           {"strength", e.strength}, {"rotation_deg", e.rotation_degrees},
           {"visible", e.visible},   {"default_sky", e.default_sky}};
+}
+
+std::string text(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
 }
 
 // Walks one JSON object of a request: every key must be known, every value of its type.
@@ -187,7 +199,7 @@ class Reader {
     if (!x.is_number()) fail("must be a number", key);
     const double d = x.get<double>();
     if (!(d >= lo && d <= hi))
-      fail("must be in [" + json(lo).dump() + ", " + json(hi).dump() + "], got " + x.dump(), key);
+      fail("must be in [" + text(lo) + ", " + text(hi) + "], got " + x.dump(), key);
     if (std::is_integral<T>::value && d != std::floor(d)) fail("must be a whole number", key);
     if (std::is_unsigned<T>::value) return static_cast<T>(x.get<std::uint64_t>());
     return static_cast<T>(std::is_integral<T>::value ? x.get<std::int64_t>() : d);

@@ -5,6 +5,8 @@
 
 #include "cli_harness.h"
 
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -37,18 +39,19 @@ TEST_F(FarmCli, PlanRunLocallyEqualsPlainSequenceCallsAndVerifyFindsLostFrames) 
                         "commands.sh"})
     EXPECT_TRUE(fs::exists(dir_ / "work" / f)) << f;
   // The warm pass renders 1 lens sample, the frames 2, but both must make cache samples of the
-  // same quality (the cache file records it): every job gets it explicitly, once.
+  // same quality (the cache file records it): every job's stored request names it, and each job
+  // runs its request alone.
   std::string commands = slurp(dir_ / "work" / "commands.sh");
-  std::size_t lines = 0, with_quality = 0;
-  for (std::size_t at = 0; (at = commands.find(" sequence ", at)) != std::string::npos; ++at) {
-    std::string line = commands.substr(at, commands.find('\n', at) - at);
+  std::size_t lines = 0;
+  for (std::size_t at = 0; (at = commands.find(" sequence --request ", at)) != std::string::npos; ++at)
     ++lines;
-    if (line.find("--cache-sample-quality 1") != std::string::npos &&
-        line.find("--cache-sample-quality") == line.rfind("--cache-sample-quality"))
-      ++with_quality;
-  }
   EXPECT_EQ(lines, 3u) << commands;  // warm + 2 chunks
-  EXPECT_EQ(with_quality, lines) << commands;
+  for (const char* job : {"warm.json", "chunk-000.json", "chunk-001.json"}) {
+    const nlohmann::json j = nlohmann::json::parse(slurp(dir_ / "work" / "jobs" / job));
+    EXPECT_EQ(j.at("cache").at("sample_quality"), 1) << job;
+    EXPECT_EQ(j.at("threads"), 2) << job;  // --cpus-per-task
+  }
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir_ / "work" / "jobs" / "warm.json")).at("spp"), 1);
 
   auto before = run("farm verify " + path("work"));
   expect_one_line_error(before, "3 of 3 frames missing or incomplete: 0-2 (chunks 0-1)", 1);
@@ -123,7 +126,10 @@ TEST_F(FarmCli, BadPlansAreOneLineErrors) {
   EXPECT_EQ(plan().exit_code, 0) << "the same plan again is fine";
   expect_one_line_error(plan("--warm-step 1"), "holds another farm plan", 1);
   EXPECT_EQ(plan("--warm-step 1 --force").exit_code, 0);
-  EXPECT_NE(slurp(dir_ / "work" / "warm.sbatch").find("--frame-step 1"), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir_ / "work" / "jobs" / "warm.json"))
+                .at("sequence")
+                .at("frame_step"),
+            1);
 
   expect_one_line_error(run("farm verify " + path("nowhere")), "no farm plan here", 1);
   std::ofstream(dir_ / "work" / "farm.json") << "{}";

