@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 
 #include "commands.h"
+#include "dofcache/cache/radiance_cache.h"
 #include "dofcache/core/error.h"
 #include "dofcache/farm/plan.h"
 #include "dofcache/farm/slurm.h"
@@ -71,61 +71,15 @@ int run_plan(FarmOptions& f) {
   s.dofcache = f.dofcache.empty() ? self_executable() : absolute(f.dofcache);
   s.work_dir = absolute(f.work_dir);
   s.run_dir = fs::current_path().string();
-  // Resolved: the warm pass renders fewer lens samples than the frames, but its cache has the
-  // frames' sample quality (cache files record it), which the request now names.
-  s.request = seq.resolved.request;
-  s.request.sequence.frames.clear();
-  s.first = seq.first;
-  s.last = seq.last;
   s.chunk = f.chunk;
-  s.output = absolute(seq.resolved.request.out);
-  s.width = seq.settings.render.width;
-  s.height = seq.settings.render.height;
-  s.cache = seq.settings.cache_mode == sequence::CacheMode::None ? "none"
-                                                                  : seq.settings.cache_backend;
-  s.carry = seq.settings.cache_mode == sequence::CacheMode::Persistent;
   s.warm = !f.no_warm;
   s.warm_step = f.warm_step;
   s.warm_spp = f.warm_spp;
   s.slurm = f.slurm;
-  farm::FarmPlan plan(std::move(s));
+  const farm::FarmPlan plan(farm::plan_settings(seq, std::move(s)));
+  farm::write_plan(plan, f.force);
 
-  // A work directory holds one plan: refuse to mix another plan's warm cache and checkpoints in.
-  std::error_code ec;
-  if (fs::exists(plan.plan_file(), ec)) {
-    bool same = false;
-    try {
-      same = farm::FarmPlan::load(plan.settings().work_dir).to_json() == plan.to_json();
-    } catch (const Error&) {
-    }
-    if (!same && !f.force)
-      throw Error(plan.settings().work_dir +
-                  " holds another farm plan; use a new --work-dir, or --force to replace it "
-                  "(its warm cache and checkpoints are removed)");
-    if (!same) {
-      fs::remove(plan.warm_cache_file(), ec);
-      fs::remove_all(fs::path(plan.settings().work_dir) / "checkpoints", ec);
-    }
-  }
-  plan.write();
-
-  const farm::FarmSettings& ps = plan.settings();
-  std::printf("plan     frames %d-%d in %zu chunk(s) of up to %d (array tasks 0-%zu), %dx%d, "
-              "cache %s%s\n",
-              ps.first, ps.last, plan.chunks().size(), ps.chunk, plan.chunks().size() - 1,
-              ps.width, ps.height, ps.cache.c_str(),
-              ps.cache == "none" ? "" : ps.carry ? " carried through each chunk"
-                                                 : " (fresh per frame)");
-  if (plan.has_warm_pass())
-    std::printf("warm     keyframes every %d frames at %s spp -> %s\n",
-                ps.warm_step > 0 ? ps.warm_step : ps.chunk,
-                ps.warm_spp > 0 ? std::to_string(ps.warm_spp).c_str() : "full",
-                plan.warm_cache_file().c_str());
-  std::printf("frames   %s\n", ps.output.c_str());
-  std::printf("wrote    %s, %s, %s, %s, %s\n", plan.plan_file().c_str(),
-              plan.script_file("warm").c_str(), plan.script_file("render").c_str(),
-              plan.script_file("verify").c_str(), plan.commands_file().c_str());
-  std::printf("next     dofcache farm submit %s\n", farm::shell_quote(ps.work_dir).c_str());
+  std::printf("%s", farm::describe_plan(plan).c_str());
   return 0;
 }
 
@@ -145,23 +99,8 @@ int run_submit(const FarmOptions& f) {
     std::printf("submit   --wait: once submitted, waits until the verify job has finished\n");
   std::fflush(stdout);
   farm::Submission sub = farm::submit(plan, opts, runner);
-  const farm::FrameStatus& st = sub.status;
-  std::printf("frames   %zu of %zu complete", st.complete.size(),
-              st.complete.size() + st.missing.size());
-  if (!st.missing.empty()) std::printf(", missing %s", farm::format_ranges(st.missing).c_str());
-  std::printf("\n");
-  if (sub.nothing_to_do()) {
-    std::printf("submit   nothing to do: every frame is complete\n");
-    return 0;
-  }
-  if (f.dry_run) return 0;
-  if (sub.warm_job) std::printf("submit   warm-cache job %s\n", sub.warm_job->c_str());
-  std::printf("submit   render job array %s, tasks %s%s\n", sub.render_job->c_str(),
-              farm::format_ranges(sub.chunks).c_str(),
-              sub.warm_job ? (" (after " + *sub.warm_job + ")").c_str() : "");
-  std::printf("submit   verify job %s (after %s)\n", sub.verify_job->c_str(),
-              sub.render_job->c_str());
-  std::printf("logs     %s\n", plan.log_dir().c_str());
+  std::printf("%s", farm::describe_submission(plan, sub, f.dry_run).c_str());
+  if (sub.nothing_to_do() || f.dry_run) return 0;
   if (!sub.verify_exit) return 0;
   if (*sub.verify_exit != 0)
     throw Error("the farm run left frames missing; see " + plan.log_dir() + "/verify-" +
@@ -173,32 +112,14 @@ int run_submit(const FarmOptions& f) {
 int run_verify(const FarmOptions& f) {
   farm::FarmPlan plan = farm::FarmPlan::load(absolute(f.work_dir));
   farm::FrameStatus st = farm::check_frames(plan);
-  // Sum of the chunks' own timings (from their --stats-json), for the farm's cost.
-  double render_seconds = 0.0;
-  int chunks_with_stats = 0;
-  for (const farm::Chunk& c : plan.chunks()) {
-    std::ifstream in(plan.stats_file(c));
-    if (!in) continue;
-    try {
-      nlohmann::json j = nlohmann::json::parse(in);
-      render_seconds += j.at("seconds").get<double>();
-      ++chunks_with_stats;
-    } catch (const nlohmann::json::exception&) {
-    }
-  }
-  std::vector<int> chunks = farm::chunks_to_render(plan, st);
-  if (!f.json.empty())
-    write_json_file(f.json, {{"frames", {plan.settings().first, plan.settings().last}},
-                             {"complete", st.complete},
-                             {"missing", st.missing},
-                             {"chunks_to_render", chunks},
-                             {"chunk_seconds_sum", render_seconds},
-                             {"chunks_with_stats", chunks_with_stats}});
+  const farm::ChunkTimes times = farm::chunk_times(plan);
+  const std::vector<int> chunks = farm::chunks_to_render(plan, st);
+  if (!f.json.empty()) write_json_file(f.json, farm::verify_json(plan, st, times));
   std::size_t total = st.complete.size() + st.missing.size();
   std::printf("verify   %zu of %zu frames complete (%d-%d)", st.complete.size(), total,
               plan.settings().first, plan.settings().last);
-  if (chunks_with_stats > 0)
-    std::printf("; chunks' own time %.2f s over %d chunks", render_seconds, chunks_with_stats);
+  if (times.chunks > 0)
+    std::printf("; chunks' own time %.2f s over %d chunks", times.seconds, times.chunks);
   std::printf("\n");
   if (!st.missing.empty())
     throw Error(std::to_string(st.missing.size()) + " of " + std::to_string(total) +

@@ -4,7 +4,7 @@
 
 #include "commands.h"
 #include "common_options.h"
-#include "dofcache/preview/preview_renderer.h"
+#include "dofcache/cache/radiance_cache.h"
 #include "dofcache/request/image_render.h"
 #include "dofcache/request/resolve.h"
 #include "dofcache/scene/accel.h"
@@ -16,37 +16,6 @@ struct RenderOptions {
   request::RenderRequest request = request::default_request(request::Kind::Image);
   RequestFileOptions file;
 };
-
-void print_result(const request::ResolvedRequest& r, const request::ImageResult& result) {
-  const render::RenderSettings& s = r.settings;
-  if (result.preview) {
-    const preview::ScenePreviewTimings& t = result.preview->timings;
-    std::printf("preview %dx%d %s, %d pinhole spp, %d layers", s.width, s.height,
-                preview::preview_method_name(*r.preview), s.spp, t.layers);
-    if (*r.preview == preview::PreviewMethod::LayeredOcclusion)
-      std::printf(" (%d revealed, %llu px rendered again)", t.revealed_layers,
-                  static_cast<unsigned long long>(t.revealed_pixels));
-    std::printf(": %.2f s\n        pinhole %.1f ms, extra-region mask %.1f ms, extra render "
-                "%.1f ms, post-process %.1f ms\n",
-                t.total_ms * 1e-3, t.pinhole_render_ms, t.mask_ms(), t.extra_render_ms,
-                t.postprocess_ms);
-    return;
-  }
-  const render::RenderStats& st = result.render->stats;
-  std::printf("render  %dx%d %s, %d spp, %d threads: %.2f s, %.2f M rays/s (%.1f M rays)\n",
-              s.width, s.height, render::mode_name(s.mode), s.spp, st.threads, st.seconds,
-              st.rays_per_second() * 1e-6, st.rays * 1e-6);
-  if (r.cache_backend == "none") return;
-  std::printf("cache   %s: %.1f%% of %llu lookups served (%.1f%% from earlier passes), "
-              "%llu samples, %.2f MB, lookup %.2f s, insert %.3f s (thread-seconds); "
-              "%llu hits shaded per ray\n",
-              r.cache_backend.c_str(), 100.0 * st.cache_hit_rate(),
-              static_cast<unsigned long long>(st.cache_lookups),
-              st.cache_lookups ? 100.0 * st.cache_hits / st.cache_lookups : 0.0,
-              static_cast<unsigned long long>(st.cache_samples), st.cache_memory_bytes / 1e6,
-              st.cache_lookup_seconds, st.cache_insert_seconds,
-              static_cast<unsigned long long>(st.cache_direct));
-}
 
 int run_render(const request::RenderRequest& q, bool print_request) {
   scene::Scene scene = render::load_scene(q.scene, q.scene_index, q.limits);
@@ -74,7 +43,7 @@ int run_render(const request::RenderRequest& q, bool print_request) {
   }
   print_environment_notices(r.environment);
   const request::ImageResult result = request::render_image(r, scene, accel, camera);
-  if (!q.quiet) print_result(r, result);
+  if (!q.quiet) std::printf("%s", request::describe(r, result).c_str());
   std::printf("wrote   %s\n", std::filesystem::absolute(q.out).lexically_normal().c_str());
   if (!q.preview_inputs.empty())
     std::printf("wrote   %s\n",

@@ -23,22 +23,11 @@ int run_sequence(const request::RenderRequest& q, bool print_request) {
   }
   const scene::Scene& scene = *p.scene;
   const sequence::SequenceSettings& s = p.settings;
-  const render::RenderSettings& r = s.render;
   print_warnings(scene.warnings);
   sequence::SequenceRenderer renderer(scene, *p.accel, p.frames, s);
   print_environment_notices(p.resolved.environment);
   const bool cached = s.cache_mode != sequence::CacheMode::None;
-  if (!q.quiet) {
-    std::printf("scene    %s: %zu triangles, camera '%s'\n", scene.source.c_str(),
-                scene.mesh.triangles.size(), p.camera->name.c_str());
-    std::printf("path     %s, frames %d-%d at %g fps (%.3g-%.3g s)\n", p.path.source.c_str(),
-                p.first, p.last, p.fps, p.first / p.fps, p.last / p.fps);
-    std::printf("render   %dx%d %s, %d spp; cache %s%s\n", r.width, r.height,
-                render::mode_name(r.mode), r.spp, sequence::cache_mode_name(s.cache_mode),
-                cached ? (" (" + s.cache_backend + ")").c_str() : "");
-    if (p.frames.front().autofocus)
-      std::printf("notice   no focus distance given: autofocus on the image centre, per frame\n");
-  }
+  if (!q.quiet) std::printf("%s", sequence::describe_start(p).c_str());
 
   nlohmann::json rows = nlohmann::json::array();
   double reuse_sum = 0.0;
@@ -50,17 +39,7 @@ int run_sequence(const request::RenderRequest& q, bool print_request) {
       reuse_sum += c.reuse_rate();
       ++reuse_frames;
     }
-    if (q.quiet) return;
-    if (f.skipped)
-      std::printf("frame %4d  complete already  %s\n", f.frame, f.path.c_str());
-    else if (!cached)
-      std::printf("frame %4d  %6.2f s  wrote %s\n", f.frame, f.seconds(), f.path.c_str());
-    else
-      std::printf("frame %4d  %6.2f s  reuse %5.1f%%  hits %5.1f%%  +%zu -%zu samples  "
-                  "%zu samples %.2f MB  wrote %s\n",
-                  f.frame, f.seconds(), 100.0 * c.reuse_rate(), 100.0 * c.hit_rate(), c.inserted,
-                  c.evicted_unused + c.evicted_memory, c.samples_at_end, c.memory_bytes / 1e6,
-                  f.path.c_str());
+    if (!q.quiet) std::printf("%s", sequence::describe_frame(f, cached).c_str());
   };
   auto notice = [&](const std::string& text) {
     if (!q.quiet) std::printf("notice   %s\n", text.c_str());

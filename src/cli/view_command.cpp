@@ -1,25 +1,17 @@
 #include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
-#include <optional>
-#include <string>
-#include <vector>
 
 #include "commands.h"
 #include "common_options.h"
-#include "dofcache/core/error.h"
 #include "dofcache/render/setup.h"
 #include "dofcache/sequence/camera_path.h"
+#include "dofcache/view/browser.h"
 #include "dofcache/view/server.h"
 #include "dofcache/view/session.h"
-
-extern char** environ;
 
 namespace dofcache::cli {
 namespace {
@@ -30,35 +22,6 @@ struct ViewOptions {
   view::ViewSettings settings;
   bool open = false, no_reference = false;
 };
-
-// A program that opens URLs in the user's browser: $BROWSER, else xdg-open (Linux) or open
-// (macOS) if on the PATH. Empty if none is known.
-std::string browser_command() {
-  if (const char* b = std::getenv("BROWSER"); b && *b) return b;
-  const char* path = std::getenv("PATH");
-  if (!path) return "";
-  for (const char* name : {"xdg-open", "open"}) {
-    std::string dirs = path;
-    std::size_t start = 0;
-    while (start <= dirs.size()) {
-      std::size_t end = dirs.find(':', start);
-      if (end == std::string::npos) end = dirs.size();
-      std::filesystem::path candidate = std::filesystem::path(dirs.substr(start, end - start)) / name;
-      if (access(candidate.c_str(), X_OK) == 0) return candidate.string();
-      start = end + 1;
-    }
-  }
-  return "";
-}
-
-// Starts `program url` without a shell (so nothing in either is interpreted); false if it could
-// not be started.
-bool open_in_browser(const std::string& program, const std::string& url) {
-  std::vector<char*> argv = {const_cast<char*>(program.c_str()), const_cast<char*>(url.c_str()),
-                             nullptr};
-  pid_t pid = 0;
-  return posix_spawnp(&pid, program.c_str(), nullptr, nullptr, argv.data(), environ) == 0;
-}
 
 int run_view(ViewOptions& o) {
   // SIGINT and SIGTERM are taken by sigwait below; block them before any thread starts so that
@@ -86,8 +49,7 @@ int run_view(ViewOptions& o) {
   std::printf("        (the address holds the access token; Ctrl-C stops the server)\n");
   std::fflush(stdout);
   if (o.open) {
-    const std::string browser = browser_command();
-    if (browser.empty() || !open_in_browser(browser, server.url()))
+    if (!view::open_in_browser(server.url()))
       std::fprintf(stderr, "dofcache: warning: no browser is known here (set BROWSER); open the "
                            "address above\n");
   }

@@ -65,7 +65,7 @@ void FarmSettings::validate() const {
   } catch (const Error& e) {
     throw Error(std::string("farm plan: ") + e.what());
   }
-  if (carry && cache == "none") throw Error("farm plan: --persistent needs a cache");
+  if (carry && cache == cache::kNoCache) throw Error("farm plan: --persistent needs a cache");
   if (warm_step < 0) throw Error("farm plan: --warm-step must be >= 0");
   if (warm_spp < 0) throw Error("farm plan: --warm-spp must be >= 0");
   if (slurm.cpus_per_task < 0) throw Error("farm plan: --cpus-per-task must be >= 0");
@@ -97,7 +97,7 @@ FarmPlan::FarmPlan(FarmSettings settings) : settings_(std::move(settings)) {
   chunks_ = make_chunks(settings_.first, settings_.last, settings_.chunk);
 }
 
-bool FarmPlan::has_warm_pass() const { return settings_.warm && settings_.cache != "none"; }
+bool FarmPlan::has_warm_pass() const { return settings_.warm && settings_.cache != cache::kNoCache; }
 
 std::string FarmPlan::plan_file() const { return (fs::path(settings_.work_dir) / "farm.json").string(); }
 std::string FarmPlan::warm_cache_file() const {
@@ -334,6 +334,87 @@ FarmPlan FarmPlan::load(const std::string& work_dir) {
   } catch (const Error& e) {
     throw Error(path + ": " + e.what());
   }
+}
+
+FarmSettings plan_settings(const sequence::PreparedSequence& seq, FarmSettings s) {
+  // Resolved: the warm pass renders fewer lens samples than the frames, but its cache has the
+  // frames' sample quality (cache files record it), which the request names.
+  s.request = seq.resolved.request;
+  s.request.sequence.frames.clear();  // the plan's range, cut into chunks
+  s.first = seq.first;
+  s.last = seq.last;
+  s.output = fs::absolute(seq.resolved.request.out).lexically_normal().string();
+  s.width = seq.settings.render.width;
+  s.height = seq.settings.render.height;
+  s.cache = seq.settings.cache_mode == sequence::CacheMode::None ? cache::kNoCache
+                                                                  : seq.settings.cache_backend;
+  s.carry = seq.settings.cache_mode == sequence::CacheMode::Persistent;
+  return s;
+}
+
+void write_plan(const FarmPlan& plan, bool replace) {
+  // A work directory holds one plan: another plan's warm cache and checkpoints are not mixed in.
+  std::error_code ec;
+  if (fs::exists(plan.plan_file(), ec)) {
+    bool same = false;
+    try {
+      same = FarmPlan::load(plan.settings().work_dir).to_json() == plan.to_json();
+    } catch (const Error&) {
+    }
+    if (!same && !replace)
+      throw Error(plan.settings().work_dir +
+                  " holds another farm plan; use a new --work-dir, or --force to replace it "
+                  "(its warm cache and checkpoints are removed)");
+    if (!same) {
+      fs::remove(plan.warm_cache_file(), ec);
+      fs::remove_all(fs::path(plan.settings().work_dir) / "checkpoints", ec);
+    }
+  }
+  plan.write();
+}
+
+std::string describe_plan(const FarmPlan& plan) {
+  const FarmSettings& s = plan.settings();
+  const std::size_t n = plan.chunks().size();
+  std::string text = fmt::format(
+      "plan     frames {}-{} in {} chunk(s) of up to {} (array tasks 0-{}), {}x{}, cache {}{}\n",
+      s.first, s.last, n, s.chunk, n - 1, s.width, s.height, s.cache,
+      s.cache == cache::kNoCache ? "" : s.carry ? " carried through each chunk"
+                                                : " (fresh per frame)");
+  if (plan.has_warm_pass())
+    text += fmt::format("warm     keyframes every {} frames at {} spp -> {}\n",
+                        s.warm_step > 0 ? s.warm_step : s.chunk,
+                        s.warm_spp > 0 ? std::to_string(s.warm_spp) : "full",
+                        plan.warm_cache_file());
+  return text + fmt::format("frames   {}\nwrote    {}, {}, {}, {}, {}\nnext     dofcache farm "
+                            "submit {}\n",
+                            s.output, plan.plan_file(), plan.script_file("warm"),
+                            plan.script_file("render"), plan.script_file("verify"),
+                            plan.commands_file(), shell_quote(s.work_dir));
+}
+
+ChunkTimes chunk_times(const FarmPlan& plan) {
+  ChunkTimes t;
+  for (const Chunk& c : plan.chunks()) {
+    std::ifstream in(plan.stats_file(c));
+    if (!in) continue;
+    try {
+      const nlohmann::json j = nlohmann::json::parse(in);
+      t.seconds += j.at("seconds").get<double>();
+      ++t.chunks;
+    } catch (const nlohmann::json::exception&) {
+    }
+  }
+  return t;
+}
+
+nlohmann::json verify_json(const FarmPlan& plan, const FrameStatus& st, const ChunkTimes& times) {
+  return {{"frames", {plan.settings().first, plan.settings().last}},
+          {"complete", st.complete},
+          {"missing", st.missing},
+          {"chunks_to_render", chunks_to_render(plan, st)},
+          {"chunk_seconds_sum", times.seconds},
+          {"chunks_with_stats", times.chunks}};
 }
 
 FrameStatus check_frames(const FarmPlan& plan) {

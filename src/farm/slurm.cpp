@@ -9,6 +9,8 @@
 #include <cerrno>
 #include <cstring>
 
+#include <fmt/format.h>
+
 #include "dofcache/core/error.h"
 #include "dofcache/sequence/cache_file.h"
 
@@ -142,6 +144,22 @@ Submission submit(const FarmPlan& plan, const SubmitOptions& options,
   sub.verify_job = verify_id;
   if (options.wait) sub.verify_exit = verify_exit;
   return sub;
+}
+
+std::string describe_submission(const FarmPlan& plan, const Submission& sub, bool dry_run) {
+  const FrameStatus& st = sub.status;
+  std::string text = fmt::format("frames   {} of {} complete", st.complete.size(),
+                                 st.complete.size() + st.missing.size());
+  if (!st.missing.empty()) text += ", missing " + format_ranges(st.missing);
+  text += "\n";
+  if (sub.nothing_to_do()) return text + "submit   nothing to do: every frame is complete\n";
+  if (dry_run) return text;
+  if (sub.warm_job) text += "submit   warm-cache job " + *sub.warm_job + "\n";
+  text += fmt::format("submit   render job array {}, tasks {}{}\n", *sub.render_job,
+                      format_ranges(sub.chunks),
+                      sub.warm_job ? " (after " + *sub.warm_job + ")" : std::string());
+  text += fmt::format("submit   verify job {} (after {})\n", *sub.verify_job, *sub.render_job);
+  return text + "logs     " + plan.log_dir() + "\n";
 }
 
 }  // namespace dofcache::farm

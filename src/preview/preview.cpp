@@ -29,12 +29,14 @@ struct MethodName {
   PreviewMethod method;
   const char* name;
   const char* old_name;
+  const char* label;  // for people (the viewer's menu)
 };
 constexpr MethodName kMethodNames[] = {
-    {PreviewMethod::Layered, "preview", "layered"},
-    {PreviewMethod::LayeredOcclusion, "preview-occlusion", "layered-occlusion"},
-    {PreviewMethod::Gather, "preview-gather", "gather"},
-    {PreviewMethod::Scatter, "preview-scatter", "scatter"},
+    {PreviewMethod::Layered, "preview", "layered", "Kraus & Strengert (layered)"},
+    {PreviewMethod::LayeredOcclusion, "preview-occlusion", "layered-occlusion",
+     "occlusion fix (layered + revealed layers)"},
+    {PreviewMethod::Gather, "preview-gather", "gather", "gather"},
+    {PreviewMethod::Scatter, "preview-scatter", "scatter", "scatter"},
 };
 
 }  // namespace
@@ -42,6 +44,12 @@ constexpr MethodName kMethodNames[] = {
 const char* preview_method_name(PreviewMethod method) {
   for (const MethodName& m : kMethodNames)
     if (m.method == method) return m.name;
+  return "?";
+}
+
+const char* preview_method_label(PreviewMethod method) {
+  for (const MethodName& m : kMethodNames)
+    if (m.method == method) return m.label;
   return "?";
 }
 
@@ -68,6 +76,11 @@ const std::vector<std::string>& preview_method_names() {
 
 const char* layer_composite_name(LayerComposite composite) {
   return composite == LayerComposite::Slabs ? "slabs" : "over";
+}
+
+const char* layer_composite_label(LayerComposite composite) {
+  return composite == LayerComposite::Slabs ? "slabs (hat mattes split at the anchors)"
+                                            : "over (Kraus & Strengert)";
 }
 
 LayerComposite parse_layer_composite(const std::string& name) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <memory>
 
+#include <fmt/format.h>
+
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/cache/trace.h"
 #include "dofcache/core/atomic_file.h"
@@ -78,6 +80,37 @@ json environment_json(const render::EnvironmentSettings& settings,
     if (!settings.path.empty()) j["path"] = settings.path;
   }
   return j;
+}
+
+std::string describe(const ResolvedRequest& r, const ImageResult& result) {
+  const render::RenderSettings& s = r.settings;
+  if (result.preview) {
+    const preview::ScenePreviewTimings& t = result.preview->timings;
+    std::string text = fmt::format("preview {}x{} {}, {} pinhole spp, {} layers", s.width,
+                                   s.height, preview::preview_method_name(*r.preview), s.spp,
+                                   t.layers);
+    if (*r.preview == preview::PreviewMethod::LayeredOcclusion)
+      text += fmt::format(" ({} revealed, {} px rendered again)", t.revealed_layers,
+                          t.revealed_pixels);
+    return text + fmt::format(": {:.2f} s\n        pinhole {:.1f} ms, extra-region mask {:.1f} "
+                              "ms, extra render {:.1f} ms, post-process {:.1f} ms\n",
+                              t.total_ms * 1e-3, t.pinhole_render_ms, t.mask_ms(),
+                              t.extra_render_ms, t.postprocess_ms);
+  }
+  const render::RenderStats& st = result.render->stats;
+  std::string text = fmt::format(
+      "render  {}x{} {}, {} spp, {} threads: {:.2f} s, {:.2f} M rays/s ({:.1f} M rays)\n",
+      s.width, s.height, render::mode_name(s.mode), s.spp, st.threads, st.seconds,
+      st.rays_per_second() * 1e-6, st.rays * 1e-6);
+  if (r.cache_backend == cache::kNoCache) return text;
+  return text + fmt::format(
+                    "cache   {}: {:.1f}% of {} lookups served ({:.1f}% from earlier passes), {} "
+                    "samples, {:.2f} MB, lookup {:.2f} s, insert {:.3f} s (thread-seconds); {} "
+                    "hits shaded per ray\n",
+                    r.cache_backend, 100.0 * st.cache_hit_rate(), st.cache_lookups,
+                    st.cache_lookups ? 100.0 * st.cache_hits / st.cache_lookups : 0.0,
+                    st.cache_samples, st.cache_memory_bytes / 1e6, st.cache_lookup_seconds,
+                    st.cache_insert_seconds, st.cache_direct);
 }
 
 ImageResult render_image(const ResolvedRequest& r, const scene::Scene& scene,

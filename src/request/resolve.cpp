@@ -17,7 +17,7 @@ constexpr int kViewSampleQualitySpp = 64;
 // The output checks a single image makes before spending time on the render.
 void check_image_outputs(const ResolvedRequest& r) {
   const RenderRequest& q = r.request;
-  if (r.preview && r.cache_backend != "none")
+  if (r.preview && r.cache_backend != cache::kNoCache)
     throw Error("the preview modes render pinhole images and use no radiance cache "
                 "(drop --cache)");
   r.settings.validate();
@@ -33,7 +33,7 @@ void check_image_outputs(const ResolvedRequest& r) {
   }
   if (r.preview) return;
   if (!q.cache_debug.empty()) image::check_output_path(q.cache_debug + "-hits.png");
-  if (!q.cache_trace.empty() && r.cache_backend == "none")
+  if (!q.cache_trace.empty() && r.cache_backend == cache::kNoCache)
     throw Error("--cache-trace needs a cache (--cache octree or vdb)");
 }
 
@@ -73,11 +73,11 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
   if (q.cache == "auto") {
     bool uses_cache = false;
     const std::string why = cache_rule(q, &uses_cache);
-    q.cache = uses_cache ? "vdb" : "none";
+    q.cache = uses_cache ? cache::kDefaultCacheBackend : cache::kNoCache;
     chose("cache: auto -> " + q.cache + " (" + why + ")");
   }
   cache::check_radiance_cache_backend(q.cache, /*allow_none=*/true);
-  if (q.kind == Kind::Sequence && q.sequence.persistent && q.cache == "none")
+  if (q.kind == Kind::Sequence && q.sequence.persistent && q.cache == cache::kNoCache)
     throw Error("--persistent needs a cache (--cache octree or vdb)");
   r.cache_backend = q.cache;
   if (q.adaptive == Choice::Auto) {
@@ -107,7 +107,7 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
             ? render::recommended_sample_quality(kViewSampleQualitySpp, s.shading.gather_rays)
             : render::effective_sample_quality(s);
     q.cache_settings.sample_quality = s.cache.sample_quality;
-    if (q.cache != "none")
+    if (q.cache != cache::kNoCache)
       chose("cache sample quality: " + std::to_string(s.cache.sample_quality) + " (from " +
             std::to_string(s.spp) + " spp)");
   }

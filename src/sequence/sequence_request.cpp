@@ -1,6 +1,9 @@
+#include "dofcache/cache/radiance_cache.h"
 #include "dofcache/sequence/sequence_request.h"
 
 #include <tuple>
+
+#include <fmt/format.h>
 
 #include "dofcache/core/error.h"
 #include "dofcache/request/image_render.h"
@@ -35,10 +38,10 @@ PreparedSequence prepare_sequence(const request::RenderRequest& request) {
   const request::RenderRequest& r = p.resolved.request;
   SequenceSettings& s = p.settings;
   s.render = p.resolved.settings;
-  s.cache_mode = r.cache == "none" ? CacheMode::None
+  s.cache_mode = r.cache == cache::kNoCache ? CacheMode::None
                  : q.persistent    ? CacheMode::Persistent
                                    : CacheMode::Fresh;
-  s.cache_backend = r.cache == "none" ? "vdb" : r.cache;
+  s.cache_backend = r.cache == cache::kNoCache ? cache::kDefaultCacheBackend : r.cache;
   s.evict_after = q.evict_after;
   s.cache_memory_mb = q.cache_memory_mb;
   s.output = r.out;
@@ -53,6 +56,32 @@ PreparedSequence prepare_sequence(const request::RenderRequest& request) {
                                     request.lens),
                         q.frame_step);
   return p;
+}
+
+std::string describe_start(const PreparedSequence& p) {
+  const SequenceSettings& s = p.settings;
+  const render::RenderSettings& r = s.render;
+  std::string text = fmt::format(
+      "scene    {}: {} triangles, camera '{}'\npath     {}, frames {}-{} at {:g} fps "
+      "({:.3g}-{:.3g} s)\nrender   {}x{} {}, {} spp; cache {}{}\n",
+      p.scene->source, p.scene->mesh.triangles.size(), p.camera->name, p.path.source, p.first,
+      p.last, p.fps, p.first / p.fps, p.last / p.fps, r.width, r.height, render::mode_name(r.mode),
+      r.spp, cache_mode_name(s.cache_mode),
+      s.cache_mode == CacheMode::None ? std::string() : " (" + s.cache_backend + ")");
+  if (p.frames.front().autofocus)
+    text += "notice   no focus distance given: autofocus on the image centre, per frame\n";
+  return text;
+}
+
+std::string describe_frame(const FrameReport& f, bool cached) {
+  if (f.skipped) return fmt::format("frame {:4d}  complete already  {}\n", f.frame, f.path);
+  if (!cached) return fmt::format("frame {:4d}  {:6.2f} s  wrote {}\n", f.frame, f.seconds(), f.path);
+  const cache::FrameCacheStats& c = f.cache;
+  return fmt::format(
+      "frame {:4d}  {:6.2f} s  reuse {:5.1f}%  hits {:5.1f}%  +{} -{} samples  {} samples {:.2f} "
+      "MB  wrote {}\n",
+      f.frame, f.seconds(), 100.0 * c.reuse_rate(), 100.0 * c.hit_rate(), c.inserted,
+      c.evicted_unused + c.evicted_memory, c.samples_at_end, c.memory_bytes / 1e6, f.path);
 }
 
 nlohmann::json frame_stats_json(const FrameReport& f) {

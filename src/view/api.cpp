@@ -62,8 +62,21 @@ json camera_json(const scene::Camera& c, const ViewStatus& s) {
 
 json number_or_null(double v) { return v < 0 ? json(nullptr) : json(v); }
 
+// The menus' entries, {name, label}, from the preview module's name tables: the page spells none.
+json choices_json() {
+  json methods = json::array(), composites = json::array();
+  for (const std::string& n : preview::preview_method_names())
+    methods.push_back(
+        {{"name", n}, {"label", preview::preview_method_label(preview::parse_preview_method(n))}});
+  for (const std::string& n : preview::layer_composite_names())
+    composites.push_back(
+        {{"name", n}, {"label", preview::layer_composite_label(preview::parse_layer_composite(n))}});
+  return {{"methods", methods}, {"composites", composites}};
+}
+
 json status_json(const ViewStatus& s) {
   return {{"width", s.width},
+          {"choices", choices_json()},
           {"height", s.height},
           {"lens", lens_json(s.lens)},
           {"method", preview::preview_method_name(s.method)},

@@ -244,7 +244,7 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
   // cache, whose reuse rule gives every sample the radius the current lens and camera allow
   // (sequence/persistent_cache.h), so a lens change keeps the samples that stay valid.
   const cache::RadiusSettings& radius = resolved_.settings.cache.radius;
-  if (!persistent_ && resolved_.cache_backend != "none")
+  if (!persistent_ && resolved_.cache_backend != cache::kNoCache)
     persistent_ = std::make_unique<cache::PersistentCache>(
         resolved_.cache_backend, cache::ReusePolicy{0, kReferenceCacheBytes}, radius);
   image::Image sum;

@@ -73,6 +73,13 @@ TEST_F(ViewApiTest, RoutesByMethodAndPath) {
   EXPECT_EQ(request("HEAD", "/api/lens").body, get.body);  // the transport drops the body
   EXPECT_EQ(request("PUT", "/api/lens").status, 404);
   EXPECT_EQ(request("POST", "/api/status").status, 404);
+  // The page's menus come from the status: the preview module's names, with their labels.
+  const json status = json::parse(request("GET", "/api/status").body);
+  const json& methods = status.at("choices").at("methods");
+  ASSERT_EQ(methods.size(), 4u);
+  EXPECT_EQ(methods.at(1).at("name"), "preview-occlusion");
+  EXPECT_EQ(methods.at(1).at("label"), "occlusion fix (layered + revealed layers)");
+  EXPECT_EQ(status.at("choices").at("composites").at(1).at("name"), "slabs");
   EXPECT_EQ(request("GET", "/api/lens/").status, 404);
   EXPECT_EQ(request("GET", "/").content_type, "text/html; charset=utf-8");
 

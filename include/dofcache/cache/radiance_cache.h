@@ -70,6 +70,11 @@ class RadianceCache {
   std::uint32_t next_id_ = 0;
 };
 
+// The backends' names: no cache, and the backend chosen where a cache is wanted and none is named
+// (measured at least as fast as the octree, docs/cache.md).
+constexpr const char* kNoCache = "none";
+constexpr const char* kDefaultCacheBackend = "vdb";
+
 // The names make_radiance_cache accepts, "none" included: {"none", "octree", "vdb"}.
 const std::vector<std::string>& radiance_cache_backends();
 

@@ -23,6 +23,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "dofcache/request/render_request.h"
+#include "dofcache/sequence/sequence_request.h"
 
 namespace dofcache::farm {
 
@@ -126,6 +127,20 @@ class FarmPlan {
   std::vector<Chunk> chunks_;
 };
 
+// The settings of a plan for `sequence` (a prepared sequence request): its resolved request, frame
+// range, frame size, output, cache and whether it carries the cache; the rest (executable,
+// directories, chunking, warm pass, cluster) as `base` gives them.
+FarmSettings plan_settings(const sequence::PreparedSequence& sequence, FarmSettings base);
+
+// Writes `plan` into its work directory, which holds one plan: the same plan again is fine;
+// another is refused with one line unless `replace`, which first removes its warm cache and
+// checkpoints (frames stay).
+void write_plan(const FarmPlan& plan, bool replace);
+
+// The plan in words, as `farm plan` prints it: frames and chunks, the warm pass, the files written
+// and the next command. Each line ends with a newline.
+std::string describe_plan(const FarmPlan& plan);
+
 // Which frames of the plan exist and are complete (sequence::frame_complete), and which not.
 struct FrameStatus {
   std::vector<int> complete, missing;
@@ -134,6 +149,19 @@ FrameStatus check_frames(const FarmPlan& plan);
 
 // Indices of the chunks that contain a missing frame.
 std::vector<int> chunks_to_render(const FarmPlan& plan, const FrameStatus& status);
+
+// The chunks' own render times, summed from their statistics files (the farm's cost); chunks
+// without a readable file are not counted.
+struct ChunkTimes {
+  double seconds = 0.0;
+  int chunks = 0;  // chunks whose statistics were read
+};
+ChunkTimes chunk_times(const FarmPlan& plan);
+
+// What `farm verify --json` writes: {"frames", "complete", "missing", "chunks_to_render",
+// "chunk_seconds_sum", "chunks_with_stats"}.
+nlohmann::json verify_json(const FarmPlan& plan, const FrameStatus& status,
+                           const ChunkTimes& times);
 
 // "0-3,7,9-10" for {0,1,2,3,7,9,10} (sorted input); "" for none.
 std::string format_ranges(const std::vector<int>& sorted);

@@ -36,6 +36,10 @@ struct Submission {
   bool nothing_to_do() const { return chunks.empty(); }
 };
 
+// The submission in words, as `farm submit` prints it: the frames complete and missing, then the
+// jobs submitted (nothing more for a dry run or when nothing is missing). Lines end with newlines.
+std::string describe_submission(const FarmPlan& plan, const Submission& submission, bool dry_run);
+
 // The sbatch argument vectors for a submission of `chunks` (warm job only if `with_warm`); job
 // ids are filled in by submit() as "{warm}" and "{render}" placeholders.
 std::vector<std::string> sbatch_warm_args(const FarmPlan& plan, const SubmitOptions& options);

@@ -33,6 +33,7 @@ enum class PreviewMethod { Gather, Scatter, Layered, LayeredOcclusion };
 // The methods' one name table, as `render --mode` spells them: "preview" (Layered),
 // "preview-occlusion", "preview-gather", "preview-scatter".
 const char* preview_method_name(PreviewMethod method);
+const char* preview_method_label(PreviewMethod method);  // in words, for a menu
 // The inverse, also accepting the older names "layered", "layered-occlusion", "gather" and
 // "scatter"; nullopt for any other name.
 std::optional<PreviewMethod> find_preview_method(const std::string& name);
@@ -42,6 +43,7 @@ const std::vector<std::string>& preview_method_names();
 
 // The composites' names: "over", "slabs" (options.h).
 const char* layer_composite_name(LayerComposite composite);
+const char* layer_composite_label(LayerComposite composite);  // in words, for a menu
 LayerComposite parse_layer_composite(const std::string& name);  // throws dofcache::Error
 const std::vector<std::string>& layer_composite_names();
 

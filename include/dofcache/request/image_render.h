@@ -4,6 +4,7 @@
 // for `refocus`, the cache's debug images and trace, and the statistics file. What `render` does;
 // the CLI only prints the result.
 #include <optional>
+#include <string>
 
 #include <nlohmann/json.hpp>
 
@@ -25,6 +26,11 @@ struct ImageResult {
 // output atomically. Throws dofcache::Error.
 ImageResult render_image(const ResolvedRequest& resolved, const scene::Scene& scene,
                          const scene::Accel& accel, const scene::Camera& camera);
+
+// What the render did, in words, as `render` prints it: one line for an integrator (size, mode,
+// spp, threads, time, ray rate) plus one for its cache, or two for a preview (method, layers,
+// the stages' times). Each line ends with a newline.
+std::string describe(const ResolvedRequest& resolved, const ImageResult& result);
 
 // The environment as statistics files record it: {"kind", "description", "strength",
 // "rotation_deg", "visible", "mean_radiance", "path"}.

@@ -3,6 +3,7 @@
 // camera path, the frames and the sequence settings, resolved by request::resolve like every other
 // front end's request. `dofcache sequence`, `dofcache farm plan` and the farm's jobs use it.
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -31,6 +32,12 @@ struct PreparedSequence {
 // Loads the scene and path, resolves the request and every frame. Throws dofcache::Error on bad
 // input (including a request of another kind).
 PreparedSequence prepare_sequence(const request::RenderRequest& request);
+
+// The sequence in words, as `sequence` prints it: the scene, the path and its frames, the render
+// and cache, and the autofocus notice. Lines end with newlines.
+std::string describe_start(const PreparedSequence& sequence);
+// One frame's line: its time and file, with the cache's reuse when `cached`.
+std::string describe_frame(const FrameReport& frame, bool cached);
 
 // Statistics as `sequence --stats-json` writes them: one row per frame, and the whole run.
 nlohmann::json frame_stats_json(const FrameReport& frame);
