@@ -1,5 +1,8 @@
 #include "bench_common.h"
 
+#include "dofcache/cache/radiance_cache.h"
+#include "dofcache/request/resolve.h"
+
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 #include <sys/utsname.h>
@@ -512,14 +515,19 @@ image::Image cached_reference(const std::string& key, const std::function<image:
 render::RenderSettings camera_settings(const scene::Scene& scene, const scene::Accel& accel,
                                        const scene::Camera& camera, int width, int spp,
                                        int threads) {
-  render::RenderSettings s;
-  s.width = width;
-  s.height = render::height_for_width(camera, width);
-  s.spp = spp;
-  s.threads = threads;
-  s.lens = render::resolve_lens(scene, accel, camera, {}).lens;
-  s.progress = Progress::Display::Never;
-  return s;
+  // The benchmarks' base: a plain integrator render (no cache, uniform sampling, the renderer's
+  // own cache tuning), which each benchmark varies, resolved as every front end's request is.
+  request::RenderRequest q = request::default_request(request::Kind::Image);
+  q.camera = camera.name;
+  q.width = width;
+  q.spp = spp;
+  q.threads = threads;
+  q.cache = cache::kNoCache;
+  q.adaptive = request::Choice::Off;
+  q.cache_settings = render::CacheSettings{};
+  q.quiet = true;
+  q.out.clear();  // the benchmarks write their own files
+  return request::resolve(q, scene, accel, camera).settings;
 }
 
 image::Image converged_reference(const std::string& scene_name, const scene::Scene& scene,

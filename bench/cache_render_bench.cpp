@@ -73,11 +73,7 @@ SceneSetup load(const std::string& file, const Options& o) {
   s.scene = render::load_scene(bench::scene_path(file));
   s.accel = std::make_unique<scene::Accel>(s.scene);
   const scene::Camera& cam = s.scene.cameras[0];
-  s.base.width = o.width;
-  s.base.height = render::height_for_width(cam, o.width);
-  s.base.threads = o.threads;
-  s.base.lens = render::resolve_lens(s.scene, *s.accel, cam, {}).lens;
-  s.base.progress = Progress::Display::Never;
+  s.base = bench::camera_settings(s.scene, *s.accel, cam, o.width, 16, o.threads);
   return s;
 }
 

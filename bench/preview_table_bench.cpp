@@ -88,11 +88,7 @@ SceneSetup load(const std::string& file, int width, const Options& o) {
   s.name = fs::path(file).stem().string();
   s.scene = render::load_scene(bench::scene_path(file));
   s.accel = std::make_unique<scene::Accel>(s.scene);
-  s.base.width = width;
-  s.base.height = render::height_for_width(s.camera(), width);
-  s.base.threads = o.threads;
-  s.base.lens = render::resolve_lens(s.scene, *s.accel, s.camera(), {}).lens;
-  s.base.progress = Progress::Display::Never;
+  s.base = bench::camera_settings(s.scene, *s.accel, s.camera(), width, 16, o.threads);
   return s;
 }
 

@@ -200,12 +200,8 @@ int run(const Options& o) {
     std::vector<sequence::FrameSpec> frames =
         sequence::plan_frames(scene, accel, cam, path, fps, first, last, {});
 
-    render::RenderSettings base;
-    base.width = o.width;
-    base.height = render::height_for_width(cam, o.width);
-    base.spp = o.spp;
-    base.threads = o.threads;
-    base.progress = Progress::Display::Never;
+    const render::RenderSettings base =
+        bench::camera_settings(scene, accel, cam, o.width, o.spp, o.threads);
     std::fprintf(stderr, "%s: %zu frames at %dx%d, %d spp\n", pc.name.c_str(), frames.size(),
                  base.width, base.height, base.spp);
 

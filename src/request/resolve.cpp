@@ -127,7 +127,7 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
   r.preview_options.threads = s.threads;
   r.preview_options.layer_composite = q.composite;
   r.preview_options.edge_rays = q.edge_rays;
-  if (q.kind == Kind::Image) check_image_outputs(r);
+  if (q.kind == Kind::Image && !q.out.empty()) check_image_outputs(r);
   return r;
 }
 

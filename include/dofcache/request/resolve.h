@@ -52,7 +52,9 @@ struct ResolvedRequest {
 };
 
 // Resolves `request` for `scene` (loaded from request.scene) seen through `camera`. Validates
-// everything that can be checked before rendering, outputs included; throws dofcache::Error.
+// everything that can be checked before rendering, an image's outputs included (none for an
+// image request without an output: a library caller that writes its own); throws
+// dofcache::Error.
 ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
                         const scene::Accel& accel, const scene::Camera& camera);
 
