@@ -107,6 +107,18 @@ void add_shading_options(CLI::App* cmd, request::RenderRequest& r) {
                  "light) is evaluated on this many times its share of the lens rays, weighted "
                  "by the inverse (unbiased; 0: on every ray)",
                  CLI::Range(0.0, 1e3));
+  cmd->add_option_function<std::string>(
+         "--material-override",
+         [&r](const std::string& name) {
+           if (!r.shading) r.shading = render::ShadingSettings{};
+           r.shading->material_override = render::parse_material_override(name);
+         },
+         "lambert: every material a pure Lambertian reflector of its base colour (metallic, "
+         "the specular lobe and its Fresnel weight ignored; emission, normal textures and alpha "
+         "kept), the physics of Cycles' Diffuse BSDF for the peer benchmark's same-physics "
+         "check (docs/peer.md)")
+      ->default_str(render::material_override_name(render::MaterialOverride::None))
+      ->check(CLI::IsMember(render::material_override_names()));
 }
 
 void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::string& cache_help) {

@@ -23,8 +23,9 @@ void add_size_options(CLI::App* cmd, request::RenderRequest& r);
 void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::string& unset = "");
 // --seed, --threads.
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help);
-// --light-samples, --gather-rays, --bounces, --specular-depth, --rough-lobe-rate: any of them
-// sets the request's shading (the others keep the renderer's defaults).
+// --light-samples, --gather-rays, --bounces, --specular-depth, --rough-lobe-rate,
+// --material-override: any of them sets the request's shading (the others keep the renderer's
+// defaults).
 void add_shading_options(CLI::App* cmd, request::RenderRequest& r);
 // --cache (auto, none or a backend) and the tuning: --min-factor, --cache-radius,
 // --cache-accuracy, --cache-max-radius, --cache-normal-angle, --cache-min-samples,

@@ -123,6 +123,21 @@ struct GgxLobe {
   }
 };
 
+const char* material_override_name(MaterialOverride o) {
+  return o == MaterialOverride::Lambert ? "lambert" : "none";
+}
+
+MaterialOverride parse_material_override(const std::string& name) {
+  if (name == "none") return MaterialOverride::None;
+  if (name == "lambert") return MaterialOverride::Lambert;
+  throw Error("unknown material override '" + name + "' (expected none or lambert)");
+}
+
+const std::vector<std::string>& material_override_names() {
+  static const std::vector<std::string> names = {"none", "lambert"};
+  return names;
+}
+
 void ShadingSettings::validate() const {
   auto check = [](int v, int lo, int hi, const char* name) {
     if (v < lo || v > hi)
@@ -236,6 +251,10 @@ ShadingPoint Shader::prepare(const scene::Ray& ray, const scene::Hit& hit) const
   ShadingPoint p;
   p.surface = scene_.surface_point(hit.triangle, hit.u, hit.v);
   p.material = scene_.material_at(p.surface);
+  if (settings_.material_override == MaterialOverride::Lambert) {
+    p.material.metallic = 0.0f;
+    p.lambert = true;
+  }
   p.wo = -glm::normalize(ray.direction);
   p.front_face = glm::dot(p.surface.geometric_normal, p.wo) >= 0.0f;
   p.ng = p.front_face ? p.surface.geometric_normal : -p.surface.geometric_normal;
@@ -253,6 +272,7 @@ bool Shader::has_diffuse(const ShadingPoint& p) {
 }
 
 glm::vec3 Shader::diffuse_reflectance(const ShadingPoint& p) {
+  if (p.lambert) return p.material.diffuse_albedo();
   float n_v = std::max(glm::dot(p.n, p.wo), 0.0f);
   return (1.0f - fresnel_schlick(specular_f0(p.material), n_v)) * p.material.diffuse_albedo();
 }
@@ -517,7 +537,8 @@ glm::vec3 Shader::specular_at_camera_hit(const ShadingPoint& p, const GgxLobe& l
 GgxLobe Shader::specular_lobe(const ShadingPoint& p, PathDepth depth) const {
   GgxLobe lobe;
   lobe.n_v = glm::dot(p.n, p.wo);
-  if (depth.glossy >= settings_.specular_depth || lobe.n_v <= 1e-6f) return lobe;  // keep 0
+  if (p.lambert || depth.glossy >= settings_.specular_depth || lobe.n_v <= 1e-6f)
+    return lobe;  // keep 0
   lobe.alpha = ggx_alpha(p.material.roughness);
   lobe.f0 = specular_f0(p.material);
   // A rough dielectric reflects about 4% (F0 = 0.04) yet would cost a reflection ray at every

@@ -108,7 +108,8 @@ RenderRequest default_request(Kind kind) {
 json shading_json(const render::ShadingSettings& s) {
   return {{"light_samples", s.light_samples}, {"gather_rays", s.gather_rays},
           {"bounces", s.bounces}, {"specular_depth", s.specular_depth},
-          {"rough_lobe_rate", s.rough_lobe_rate}};
+          {"rough_lobe_rate", s.rough_lobe_rate},
+          {"material_override", render::material_override_name(s.material_override)}};
 }
 
 json cache_json(const std::string& backend, const render::CacheSettings& c) {
@@ -336,6 +337,7 @@ RenderRequest request_from_json(const json& j) {
       s.get("bounces", sh.bounces, 0, 16);
       s.get("specular_depth", sh.specular_depth, 0, 16);
       s.get("rough_lobe_rate", sh.rough_lobe_rate, 0, 1e3);
+      named(s, "material_override", sh.material_override, render::parse_material_override);
     });
     r.shading = sh;
   }

@@ -18,6 +18,7 @@
 #include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/core/file.h"
+#include "dofcache/lens/lens_json.h"
 #include "dofcache/sequence/camera_path.h"
 
 namespace dofcache::sequence {
@@ -271,9 +272,7 @@ int append_keyframe(const std::string& json_file, const scene::Camera& camera,
     key["rotation"] = {q.x, q.y, q.z, q.w};  // glTF order
   }
   key["yfov"] = camera.yfov;
-  key["focal_length"] = lens.focal_length;
-  key["fstop"] = lens.fstop;
-  key["focus_distance"] = lens.focus_distance;
+  key.update(lens::lens_json(lens));
   keys.push_back(std::move(key));
 
   const std::string text = doc.dump(2) + "\n";

@@ -146,6 +146,9 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
   h.add(r.seed);
   h.add(r.shading.light_samples), h.add(r.shading.gather_rays), h.add(r.shading.bounces);
   h.add(r.shading.specular_depth), h.add(r.shading.rough_lobe_rate);
+  // Added only when set, so that the keys of checkpoints made before it existed still match.
+  if (r.shading.material_override != render::MaterialOverride::None)
+    h.add(static_cast<std::int32_t>(r.shading.material_override));
   // Only with an environment, so that the keys of sequences without one stay as they were.
   if (r.shading.environment) h.add(r.shading.environment->content_hash());
   h.add(r.near_depth);
@@ -183,6 +186,12 @@ void SequenceSettings::validate() const {
   } else if (!cache_in.empty() || !cache_out.empty()) {
     throw Error("--cache-in and --cache-out need a cache (--cache octree or vdb)");
   }
+  // Cache files record the shading their values depend on, but not this benchmark mode: refused
+  // rather than mixed with files made without it. (Checkpoints are keyed by sequence_key.)
+  if (render.shading.material_override != render::MaterialOverride::None &&
+      (!cache_in.empty() || !cache_out.empty()))
+    throw Error("--cache-in and --cache-out do not record --material-override; render without "
+                "cache files");
   render::RenderSettings r = render;
   r.cache.cache = nullptr;
   r.validate();

@@ -21,6 +21,7 @@
 // weighted against its light samples like rays that meet an emitter.
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -36,6 +37,15 @@ namespace dofcache::render {
 
 struct GgxLobe;  // the specular lobe at one point (shading.cpp)
 
+// What every material is rendered as. Lambert: a pure Lambertian reflector of albedo = the base
+// colour (with its texture); metallic, the specular lobe and the (1 - F) weight of the diffuse
+// lobe are ignored, emission, normal textures and alpha kept. The physics Blender Cycles' Diffuse
+// BSDF gives, for the peer benchmark's same-physics check (docs/peer.md).
+enum class MaterialOverride { None, Lambert };
+const char* material_override_name(MaterialOverride o);  // "none", "lambert"
+MaterialOverride parse_material_override(const std::string& name);  // throws dofcache::Error
+const std::vector<std::string>& material_override_names();
+
 struct ShadingSettings {
   int light_samples = 4;   // shadow rays to area lights per shading point
   int gather_rays = 32;    // final-gather rays for diffuse indirect light
@@ -44,6 +54,7 @@ struct ShadingSettings {
   // At a camera hit, a rough dielectric lobe is evaluated with probability rate x its share of
   // the outgoing radiance (clamped to [1/16, 1]); 0 evaluates it on every ray.
   float rough_lobe_rate = 0.5f;
+  MaterialOverride material_override = MaterialOverride::None;
   // Light from infinitely far away (null: none); shared, immutable.
   std::shared_ptr<const Environment> environment;
 
@@ -64,6 +75,7 @@ struct ShadingPoint {
   glm::vec3 ng{0.0f};  // geometric normal, on the incoming side
   glm::vec3 wo{0.0f};  // unit direction towards the viewer
   bool front_face = true;
+  bool lambert = false;  // MaterialOverride::Lambert: no specular lobe, no Fresnel weight
 };
 
 class Shader {
