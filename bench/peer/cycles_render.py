@@ -15,11 +15,16 @@ What it sets (bench/README.md, "Peer benchmark: Blender Cycles"):
   * a 1 px box filter, no denoising, no adaptive sampling, no clamping, light threshold 0, no
     glossy filter, no path guiding, a black world, view transform Standard;
   * KHR_lights_punctual imported in "COMPAT" units (radiant intensity = the glTF intensity, as
-    dofcache reads it) as point sources (radius 0);
+    dofcache reads it) as point sources (radius 0); a spot becomes a point light whose emission
+    node gives glTF's cone attenuation exactly (Cycles' own spot has another curve);
+  * 8-bit sRGB textures turned into linear float images, so that Cycles filters linear values
+    as dofcache does;
   * emission from the front face only on one-sided (not doubleSided) glTF materials, as dofcache
     does (Cycles would otherwise emit from both faces);
   * --lambert: every Principled BSDF replaced by a Diffuse BSDF (roughness 0: Lambert) with the
-    same base colour, emission kept.
+    same base colour and normal, emission kept, and its alpha kept as a mix with a Transparent
+    BSDF (cut-outs and blending as before): the physics of dofcache's
+    `--material-override lambert`.
 
 Writes a linear float RGB OpenEXR and prints one JSON line (starting with {"cycles_render")
 with the in-render seconds (around bpy.ops.render.render) and the import seconds.
@@ -143,9 +148,65 @@ def socket_source(socket):
     return socket.links[0].from_socket if socket.is_linked else None
 
 
+def gltf_spot_as_point_light(light, cos_inner, cos_outer):
+    """A spot turned into a point light of the same radiant intensity whose emission strength is
+    glTF's cone attenuation, ((cos t - cos_outer) / (cos_inner - cos_outer))^2 clamped to [0, 1],
+    t the angle between the light's axis (its local -Z) and the direction to the lit point, which
+    a light's shader sees as its object-space normal."""
+    light.type = "POINT"
+    light.use_nodes = True
+    nodes, links = light.node_tree.nodes, light.node_tree.links
+    emission = next(n for n in nodes if n.type == "EMISSION")
+    coords = nodes.new("ShaderNodeTexCoord")
+    xyz = nodes.new("ShaderNodeSeparateXYZ")
+    links.new(coords.outputs["Normal"], xyz.inputs[0])
+    along = nodes.new("ShaderNodeMath")  # cos t = -z
+    along.operation = "MULTIPLY"
+    along.inputs[1].default_value = -1.0
+    links.new(xyz.outputs["Z"], along.inputs[0])
+    shifted = nodes.new("ShaderNodeMath")
+    shifted.operation = "SUBTRACT"
+    shifted.inputs[1].default_value = cos_outer
+    links.new(along.outputs[0], shifted.inputs[0])
+    smooth = nodes.new("ShaderNodeMath")
+    smooth.operation = "DIVIDE"
+    smooth.use_clamp = True
+    smooth.inputs[1].default_value = max(cos_inner - cos_outer, 1e-6)
+    links.new(shifted.outputs[0], smooth.inputs[0])
+    squared = nodes.new("ShaderNodeMath")
+    squared.operation = "MULTIPLY"
+    links.new(smooth.outputs[0], squared.inputs[0])
+    links.new(smooth.outputs[0], squared.inputs[1])
+    links.new(squared.outputs[0], emission.inputs["Strength"])
+
+
+def srgb_textures_to_linear_float():
+    """8-bit sRGB images as linear float images, so that Cycles filters linear values, as dofcache
+    does (Cycles filters byte sRGB images before decoding them: darker texel edges)."""
+    converted = 0
+    for img in list(bpy.data.images):
+        if img.source != "FILE" or img.is_float or img.colorspace_settings.name != "sRGB":
+            continue
+        w, h = img.size
+        if w == 0 or h == 0:
+            continue
+        px = numpy.empty(w * h * 4, dtype=numpy.float32)
+        img.pixels.foreach_get(px)  # Blender gives byte images' pixels still sRGB-encoded
+        rgb = px.reshape(-1, 4)[:, :3]
+        px.reshape(-1, 4)[:, :3] = numpy.where(rgb <= 0.04045, rgb / 12.92,
+                                               ((rgb + 0.055) / 1.055) ** 2.4)
+        lin = bpy.data.images.new(img.name + ".linear", w, h, alpha=True, float_buffer=True)
+        lin.colorspace_settings.name = "Linear"
+        lin.pixels.foreach_set(px)
+        lin.alpha_mode = img.alpha_mode
+        img.user_remap(lin)
+        converted += 1
+    return converted
+
+
 def rewire_materials(lambert, one_sided_emission):
     """Principled -> Diffuse (with --lambert); emission moved to a front-face-only Emission node."""
-    changed = {"diffuse": 0, "one_sided_emitters": 0, "emitters": 0}
+    changed = {"diffuse": 0, "one_sided_emitters": 0, "emitters": 0, "alpha": 0}
     for mat in bpy.data.materials:
         if not mat.use_nodes or mat.node_tree is None:
             continue
@@ -209,6 +270,20 @@ def rewire_materials(lambert, one_sided_emission):
                 links.new(shader_out, add.inputs[0])
                 links.new(e.outputs[0], add.inputs[1])
                 shader_out = add.outputs[0]
+            if lambert:
+                # Alpha (cut-outs, blending): the Principled node's own mix with a transparent
+                # surface, kept outside the Diffuse BSDF that replaces it, emission included.
+                asrc, aval = socket_source(p.inputs["Alpha"]), p.inputs["Alpha"].default_value
+                if asrc is not None or aval < 1.0:
+                    mix = nodes.new("ShaderNodeMixShader")
+                    if asrc is not None:
+                        links.new(asrc, mix.inputs["Fac"])
+                    else:
+                        mix.inputs["Fac"].default_value = aval
+                    links.new(nodes.new("ShaderNodeBsdfTransparent").outputs[0], mix.inputs[1])
+                    links.new(shader_out, mix.inputs[2])
+                    shader_out = mix.outputs[0]
+                    changed["alpha"] += 1
             if shader_out is not p.outputs[0]:
                 for t in out_targets:
                     links.new(shader_out, t)
@@ -287,20 +362,23 @@ def main():
             o.data.shadow_soft_size = 0.0
             if o.data.type == "SUN":
                 o.data.angle = 0.0
+            cone = None
             if o.data.type == "SPOT":
-                # glTF / dofcache: ((cos - cos_outer) / (cos_inner - cos_outer))^2; Cycles: a
-                # smoothstep over spot_blend * (1 - cos_outer). Match the transition's width.
-                cos_outer = math.cos(0.5 * o.data.spot_size)
-                inner = 0.5 * o.data.spot_size * (1.0 - o.data.spot_blend)
-                width = math.cos(inner) - cos_outer
-                if cos_outer < 1.0:
-                    o.data.spot_blend = min(1.0, max(0.0, width / (1.0 - cos_outer)))
+                # glTF / dofcache: ((cos - cos_outer) / (cos_inner - cos_outer))^2, clamped to
+                # [0, 1]; Cycles' spot is cos(angle to the axis) times a smoothstep, another
+                # curve. So the spot becomes a point light whose emission node gives glTF's
+                # (the importer's spot_blend is 1 - inner / outer).
+                outer = 0.5 * o.data.spot_size
+                inner = outer * (1.0 - o.data.spot_blend)
+                cone = (math.cos(inner), math.cos(outer))
+                gltf_spot_as_point_light(o.data, *cone)
             lights.append({"name": o.name, "type": o.data.type, "energy": o.data.energy,
                            "radiant_intensity": o.data.energy / (4.0 * math.pi)
                            if o.data.type in ("POINT", "SPOT") else None,
-                           "spot_blend": o.data.spot_blend if o.data.type == "SPOT" else None})
+                           "gltf_spot_cos_inner_outer": cone})
 
     materials = rewire_materials(a.lambert, not a.two_sided_emission)
+    materials["srgb_textures_as_linear_float"] = srgb_textures_to_linear_float()
 
     # World: black.
     world = bpy.data.worlds.new("black")

@@ -947,8 +947,8 @@ def main(argv=None):
                         "half the scene's own; other scenes: theirs times --fstop-scale)")
     p.add_argument("--fstop-scale", type=float, default=0.5)
     p.add_argument("--lambert", action="store_true",
-                   help="diffuse-only comparison: Cycles with Diffuse BSDFs, dofcache "
-                        "--specular-depth 0")
+                   help="the same physics in both: Cycles with Diffuse BSDFs, dofcache "
+                        "--material-override lambert")
     p.add_argument("--quick", action="store_true", help="tiny ladders at 80x60 (smoke test)")
     p.add_argument("--medium", action="store_true",
                    help="160x120, Cycles up to 128 spp (about 10 minutes a scene)")
@@ -1029,7 +1029,8 @@ def main(argv=None):
     dof_copy = os.path.join(out_dir, "dofcache.bin")
     shutil.copy2(dofcache, dof_copy + ".tmp")
     os.replace(dof_copy + ".tmp", dof_copy)
-    extra = ["--specular-depth", "0"] if a.lambert else []
+    # The same physics in both: pure Lambertian reflectors (docs/peer.md, "Same physics").
+    extra = ["--material-override", "lambert"] if a.lambert else []
     dof = Dofcache(dof_copy, a.threads, width, height, a.bounces, extra)
     cyc = Cycles(blender, a.threads, width, height, a.bounces, a.lambert)
     log("peer benchmark: %d scene(s) at %dx%d, %d threads, %d bounce(s)%s; Blender %s; "

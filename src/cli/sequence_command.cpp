@@ -30,15 +30,8 @@ int run_sequence(const request::RenderRequest& q, bool print_request) {
   if (!q.quiet) std::printf("%s", sequence::describe_start(p).c_str());
 
   nlohmann::json rows = nlohmann::json::array();
-  double reuse_sum = 0.0;
-  int reuse_frames = 0;
   auto on_frame = [&](const sequence::FrameReport& f) {
     rows.push_back(sequence::frame_stats_json(f));
-    const cache::FrameCacheStats& c = f.cache;
-    if (!f.skipped && cached && f.index > 0) {
-      reuse_sum += c.reuse_rate();
-      ++reuse_frames;
-    }
     if (!q.quiet) std::printf("%s", sequence::describe_frame(f, cached).c_str());
   };
   auto notice = [&](const std::string& text) {
@@ -47,13 +40,7 @@ int run_sequence(const request::RenderRequest& q, bool print_request) {
   const sequence::SequenceSummary sum = renderer.run(on_frame, notice);
   if (!q.stats_json.empty())
     write_json_file(q.stats_json, sequence::sequence_stats_json(p, sum, rows));
-  if (!q.quiet) {
-    std::printf("sequence %d frames rendered, %d complete already, %.2f s", sum.rendered,
-                sum.skipped, sum.seconds);
-    if (reuse_frames > 0)
-      std::printf(", mean reuse %.1f%% after the first frame", 100.0 * reuse_sum / reuse_frames);
-    std::printf("\n");
-  }
+  if (!q.quiet) std::printf("%s", sequence::describe_summary(sum).c_str());
   std::printf("wrote    %s\n", std::filesystem::absolute(sequence::frame_path(q.out, p.first))
                                      .lexically_normal()
                                      .c_str());

@@ -461,6 +461,10 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
     }
     rep.write_seconds = seconds_since(t_write);
     ++summary.rendered;
+    if (s.cache_mode != CacheMode::None && i > 0) {
+      summary.reuse_sum += rep.cache.reuse_rate();
+      ++summary.reuse_frames;
+    }
     progress.advance(work_of(s.render));
     if (on_frame) on_frame(rep);
   }

@@ -84,6 +84,15 @@ std::string describe_frame(const FrameReport& f, bool cached) {
       c.evicted_unused + c.evicted_memory, c.samples_at_end, c.memory_bytes / 1e6, f.path);
 }
 
+std::string describe_summary(const SequenceSummary& sum) {
+  std::string text = fmt::format("sequence {} frames rendered, {} complete already, {:.2f} s",
+                                 sum.rendered, sum.skipped, sum.seconds);
+  if (sum.reuse_frames > 0)
+    text += fmt::format(", mean reuse {:.1f}% after the first frame",
+                        100.0 * sum.reuse_sum / sum.reuse_frames);
+  return text + "\n";
+}
+
 nlohmann::json frame_stats_json(const FrameReport& f) {
   if (f.skipped) return {{"frame", f.frame}, {"skipped", true}, {"output", f.path}};
   const cache::FrameCacheStats& c = f.cache;

@@ -215,3 +215,69 @@ TEST(PathTracer, HangingLightRoomHasNoFireflies) {
 
 }  // namespace
 }  // namespace dofcache::render
+
+namespace dofcache::render {
+namespace {
+
+// E/pi of a radiance-1 convex polygon at the origin with normal n, by Lambert's formula: the sum
+// over the edges of the angle each subtends times n . (unit normal of the edge's plane), / 2 pi.
+double polygon_form_factor(const std::vector<glm::dvec3>& v, glm::dvec3 n) {
+  double sum = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const glm::dvec3 a = glm::normalize(v[i]), b = glm::normalize(v[(i + 1) % v.size()]);
+    const glm::dvec3 c = glm::cross(a, b);
+    sum += std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0)) * glm::dot(n, glm::normalize(c));
+  }
+  return std::abs(sum) / (2.0 * 3.14159265358979323846);
+}
+
+// The hanging-light room's geometry: a two-sided panel 2 cm below the ceiling, seen from the top of
+// the back wall, between the panel's plane and the ceiling: every light sample and cosine ray
+// meets the panel's upper face at a grazing angle. Each strategy against the closed form.
+TEST(PathTracer, GrazingLightFromATwoSidedPanelMatchesTheClosedForm) {
+  scene::Scene s;
+  s.materials = {testing::diffuse_material(glm::vec3(0.5f)),
+                 testing::emissive_material(glm::vec3(1.0f))};
+  s.materials[1].double_sided = true;
+  // The back wall at z = -2 facing +z, and the panel at y = 1.98 (x, z within 0.25 of (0, -1)).
+  testing::add_quad(s,
+                    {glm::vec3(-1, 0, -2), glm::vec3(1, 0, -2), glm::vec3(1, 2, -2),
+                     glm::vec3(-1, 2, -2)},
+                    {0.0f, 0.0f, 1.0f}, 0, 0);
+  testing::add_quad(s,
+                    {glm::vec3(-0.25f, 1.98f, -1.25f), glm::vec3(0.25f, 1.98f, -1.25f),
+                     glm::vec3(0.25f, 1.98f, -0.75f), glm::vec3(-0.25f, 1.98f, -0.75f)},
+                    {0.0f, -1.0f, 0.0f}, 1, 1);
+  testing::build_emitters(s);
+  const scene::Accel accel(s);
+  for (float height : {1.99f, 1.97f, 1.9f}) {  // above the panel's plane, below it, further down
+    const glm::dvec3 p(0.0, height, -2.0);
+    std::vector<glm::dvec3> corners;
+    for (glm::vec3 c : {glm::vec3(-0.25f, 1.98f, -1.25f), glm::vec3(0.25f, 1.98f, -1.25f),
+                        glm::vec3(0.25f, 1.98f, -0.75f), glm::vec3(-0.25f, 1.98f, -0.75f)})
+      corners.push_back(glm::dvec3(c) - p);
+    const double expected = polygon_form_factor(corners, {0.0, 0.0, 1.0});
+    for (auto [light, gather] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}}) {
+      Shader shader(s, accel, direct_only(light, gather));
+      scene::Ray ray;
+      ray.origin = glm::vec3(0.0f, height, 0.0f);
+      ray.direction = glm::vec3(0.0f, 0.0f, -1.0f);
+      const ShadingPoint sp = shader.prepare(ray, accel.intersect(ray));
+      double sum = 0, sum2 = 0;
+      const int n = 40000;
+      RayCounters counters;
+      for (int k = 0; k < n; ++k) {
+        Rng rng(3, static_cast<std::uint64_t>(k));
+        const double v = shader.diffuse_illumination(sp, hash_combine(3, k), rng, counters).x;
+        sum += v, sum2 += v * v;
+      }
+      const double mean = sum / n, se = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n);
+      EXPECT_NEAR(mean, expected, 4.0 * se + 1e-3 * expected)
+          << "height " << height << ", " << light << " light samples, " << gather
+          << " gather rays: " << mean << " against " << expected << " (se " << se << ")";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace dofcache::render

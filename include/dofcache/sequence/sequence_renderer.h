@@ -86,6 +86,10 @@ struct SequenceSummary {
   int resumed_after = -1;  // the checkpoint's frame when a persistent run resumed, else -1
   int journal_records_replayed = 0;  // of those frames, the ones replayed from the journal
   double seconds = 0.0;
+  // The cache's reuse rate summed over the frames rendered after the sequence's first (with a
+  // cache), and their count.
+  double reuse_sum = 0.0;
+  int reuse_frames = 0;
 };
 
 class SequenceRenderer {

@@ -38,6 +38,8 @@ PreparedSequence prepare_sequence(const request::RenderRequest& request);
 std::string describe_start(const PreparedSequence& sequence);
 // One frame's line: its time and file, with the cache's reuse when `cached`.
 std::string describe_frame(const FrameReport& frame, bool cached);
+// The run's last line: frames rendered and complete already, time, the mean reuse.
+std::string describe_summary(const SequenceSummary& summary);
 
 // Statistics as `sequence --stats-json` writes them: one row per frame, and the whole run.
 nlohmann::json frame_stats_json(const FrameReport& frame);
