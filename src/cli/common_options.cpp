@@ -177,6 +177,16 @@ void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::stri
       ->capture_default_str()->check(CLI::Range(1e-3, 10.0));
 }
 
+void add_denoise_option(CLI::App* cmd, request::RenderRequest& r) {
+  cmd->add_option_function<std::string>(
+         "--denoise", [&r](const std::string& v) { r.denoise = request::parse_choice(v); },
+         "Denoise the preview's pinhole colour before the post-process, guided by its noise-free "
+         "albedo, normal, depth and objects (edge-avoiding a-trous; docs/denoise.md). auto: on "
+         "for the preview modes and the viewer")
+      ->default_str(request::choice_name(r.denoise))
+      ->check(CLI::IsMember(request::choice_names()));
+}
+
 void add_adaptive_options(CLI::App* cmd, request::RenderRequest& r) {
   cmd->add_option_function<std::string>(
          "--adaptive", [&r](const std::string& v) { r.adaptive = request::parse_choice(v); },

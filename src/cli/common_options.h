@@ -31,6 +31,8 @@ void add_shading_options(CLI::App* cmd, request::RenderRequest& r);
 // --cache-accuracy, --cache-max-radius, --cache-normal-angle, --cache-min-samples,
 // --cache-sample-quality, --cache-direct-*, --cache-sample-rounds, --cache-sample-error.
 void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::string& cache_help);
+// --denoise auto|on|off.
+void add_denoise_option(CLI::App* cmd, request::RenderRequest& r);
 // --adaptive auto|on|off, --adaptive-pilot, --adaptive-min, --adaptive-max.
 void add_adaptive_options(CLI::App* cmd, request::RenderRequest& r);
 // The environment light: --env FILE, --env-color R,G,B, --env-strength, --env-rotation,

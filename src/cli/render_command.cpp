@@ -88,6 +88,7 @@ void add_render_options(CLI::App* cmd, request::RenderRequest& r) {
   cmd->add_option("--cache-trace", r.cache_trace,
                   "Record the cache's lookups and inserts to FILE for bench/cache_replay_bench");
   cmd->add_option("--stats-json", r.stats_json, "Write render statistics as JSON to this file");
+  add_denoise_option(cmd, r);
   add_composite_options(cmd, r.composite, r.edge_rays);
   cmd->add_option("--save-preview-inputs", r.preview_inputs,
                   "Preview modes: also save the pinhole images (and revealed layers) as one "

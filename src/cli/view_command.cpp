@@ -85,6 +85,7 @@ Runner add_view_command(CLI::App& app) {
   add_shading_options(cmd, r);
   add_environment_options(cmd, r.environment);
   add_adaptive_options(cmd, r);
+  add_denoise_option(cmd, r);
   add_cache_options(cmd, r, "The reference's radiance cache: none, octree or vdb (auto: vdb)");
   cmd->add_option("--input-spp", o->settings.input_spp,
                   "Pinhole samples per pixel of the refined preview inputs (the first inputs "

@@ -10,6 +10,7 @@
 
 #include "dofcache/core/error.h"
 #include "dofcache/core/stopwatch.h"
+#include "dofcache/denoise/atrous.h"
 #include "dofcache/preview/occlusion.h"
 
 namespace dofcache::preview {
@@ -192,6 +193,21 @@ SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel&
   in.depth = std::move(out.depth);
   in.ids = std::move(out.ids);
   in.imaging = render::make_camera(camera, base).imaging();
+  if (options.denoise) {
+    // The pinhole colour denoised before the post-process blurs it, guided by the noise-free
+    // albedo, normal, depth and object (the ids here are triangles': mapped to their objects).
+    t0 = clock::now();
+    image::Image objects(in.ids.width(), in.ids.height(), 1, -1.0f);
+    for (std::size_t i = 0; i < objects.data().size(); ++i)
+      if (in.ids.data()[i] >= 0.0f)
+        objects.data()[i] = static_cast<float>(
+            scene.mesh.triangle_object[static_cast<std::size_t>(in.ids.data()[i])]);
+    denoise::AtrousOptions denoise_options;
+    denoise_options.threads = options.threads;
+    in.color = denoise::atrous_filter(in.color, {&out.albedo, &out.normal, &in.depth, &objects},
+                                      denoise_options);
+    t.denoise_ms = ms_since(t0);
+  }
 
   if (method == PreviewMethod::LayeredOcclusion) {
     // 2. The near-plane id layers and 3. the masks.

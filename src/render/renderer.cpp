@@ -194,6 +194,7 @@ struct CentreHit {
   bool hit = false;
   float depth = 0.0f, id = -1.0f;
   glm::vec3 normal{0.0f};
+  glm::vec3 albedo{0.0f};
 };
 
 CentreHit trace_centre(const scene::Scene& scene, const scene::Accel& accel,
@@ -208,6 +209,9 @@ CentreHit trace_centre(const scene::Scene& scene, const scene::Accel& accel,
   r.hit = true;
   r.depth = camera.depth(sp.position);
   r.normal = sp.shading_normal;
+  const scene::MaterialPoint m = scene.material_at(sp);
+  r.albedo = settings.shading.material_override == MaterialOverride::Lambert ? m.base_color
+                                                                              : m.diffuse_albedo();
   r.id = static_cast<float>(settings.triangle_ids ? hit.triangle
                                                   : scene.mesh.triangle_object[hit.triangle]);
   // glTF culls the back of one-sided surfaces: met first behind a near plane, it is the inside
@@ -228,6 +232,8 @@ void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters
       float* n = out.normal.pixel(x, y);
       n[0] = h.normal.x, n[1] = h.normal.y, n[2] = h.normal.z;
       out.ids.at(x, y, 0) = h.id;
+      float* a = out.albedo.pixel(x, y);
+      a[0] = h.albedo.x, a[1] = h.albedo.y, a[2] = h.albedo.z;
     }
 }
 
@@ -413,6 +419,7 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   out.depth = image::Image(w, h, 1, std::numeric_limits<float>::infinity());
   out.normal = image::Image(w, h, 3, 0.0f);
   out.ids = image::Image(w, h, 1, -1.0f);
+  out.albedo = image::Image(w, h, 3, 0.0f);
   PixelCacheStats pixel_stats;
   if (cache) {
     pixel_stats.lookups = image::Image(w, h, 1, 0.0f);

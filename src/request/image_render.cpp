@@ -58,6 +58,7 @@ ImageResult render_preview_image(const ResolvedRequest& r, const scene::Scene& s
          {"mask_build_ms", t.mask_build_ms}, {"extra_region_mask_ms", t.mask_ms()},
          {"extra_render_ms", t.extra_render_ms}, {"postprocess_ms", t.postprocess_ms},
          {"total_ms", t.total_ms}}}});
+  if (r.preview_options.denoise) result.stats["preview"]["denoise_ms"] = t.denoise_ms;
   return result;
 }
 

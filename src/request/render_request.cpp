@@ -269,6 +269,7 @@ json to_json(const RenderRequest& r) {
         {"pilot_fraction", a.pilot_fraction},
         {"min_factor", a.min_factor},
         {"max_factor", a.max_factor}}},
+      {"denoise", choice_name(r.denoise)},
       {"preview",
        {{"composite", preview::layer_composite_name(r.composite)}, {"edge_rays", r.edge_rays}}},
       {"outputs",
@@ -378,6 +379,7 @@ RenderRequest request_from_json(const json& j) {
     a.get("min_factor", r.adaptive_settings.min_factor, 0, 1);
     a.get("max_factor", r.adaptive_settings.max_factor, 1, 1024);
   });
+  named(top, "denoise", r.denoise, parse_choice);
   object(top, "preview", [&](Reader& p) {
     named(p, "composite", r.composite, preview::parse_layer_composite);
     p.get("edge_rays", r.edge_rays, 0, 1024);

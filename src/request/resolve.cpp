@@ -124,6 +124,14 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
     q.lens = {s.lens.focal_length, s.lens.fstop, s.lens.focus_distance};
   }
 
+  if (q.denoise == Choice::Auto) {
+    q.denoise = r.preview || q.kind == Kind::View ? Choice::On : Choice::Off;
+    chose(std::string("denoise: auto -> ") + choice_name(q.denoise));
+  }
+  if (q.denoise == Choice::On && !r.preview && q.kind != Kind::View)
+    throw Error("--denoise on applies to the preview modes and the viewer so far (the "
+                "integrators' renders are not denoised yet)");
+  r.preview_options.denoise = q.denoise == Choice::On;
   r.preview_options.threads = s.threads;
   r.preview_options.layer_composite = q.composite;
   r.preview_options.edge_rays = q.edge_rays;

@@ -81,6 +81,7 @@ TEST(RequestJson, RoundTripsEveryField) {
   r.adaptive = Choice::On;
   r.adaptive_settings.max_factor = 3.0f;
   r.composite = preview::LayerComposite::Slabs;
+  r.denoise = Choice::Off;
   r.edge_rays = 9;
   r.stats_json = "s.json";
   r.sequence.frames = "3-9";
@@ -98,6 +99,7 @@ TEST(RequestJson, RoundTripsEveryField) {
   EXPECT_EQ(back.environment.color->z, 1.0f);
   EXPECT_EQ(back.cache_settings.radius.rule, cache::RadiusRule::Adaptive);
   EXPECT_EQ(back.composite, preview::LayerComposite::Slabs);
+  EXPECT_EQ(back.denoise, Choice::Off);
   EXPECT_EQ(back.sequence.frames, "3-9");
   // Absent keys keep the kind's defaults.
   const RenderRequest sparse = request_from_json({{"kind", "sequence"}, {"spp", 2}});
@@ -168,8 +170,15 @@ TEST_F(Resolve, AutoRulesAsDocumented) {
   EXPECT_EQ(pv.settings.shading.gather_rays, 2);
   EXPECT_EQ(pv.settings.mode, render::Mode::Pinhole);
   ASSERT_TRUE(pv.preview.has_value());
+  EXPECT_TRUE(pv.preview_options.denoise);  // auto: on for the preview modes
+  EXPECT_FALSE(drt.preview_options.denoise);
   r.cache = "vdb";
   EXPECT_THROW(resolved(r), Error);  // a preview with a cache
+  r.cache = "auto";
+  r.mode = parse_mode("drt");
+  r.denoise = Choice::On;
+  EXPECT_THROW(resolved(r), Error);  // the integrators' renders are not denoised yet
+  r.denoise = Choice::Auto;
 
   RenderRequest s = default_request(Kind::Sequence);
   EXPECT_EQ(resolved(s).cache_backend, "none");

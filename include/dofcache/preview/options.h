@@ -25,6 +25,12 @@ struct PreviewOptions {
   // Worker threads for the post-process (a TBB arena of this size); 0 uses every TBB thread.
   int threads = 0;
 
+  // Denoise the pinhole colour before the post-process (denoise/atrous.h), guided by the pinhole
+  // render's albedo, normal, depth and objects, which are free of noise: the quick look at one
+  // sample per pixel is then blurred from a clean image. Applies where the scene is rendered
+  // (render_preview_inputs), not to saved inputs.
+  bool denoise = false;
+
   // --- circle of confusion ---------------------------------------------------------------------
   // Blur radii (|CoC| / 2, pixels) are clamped to this, so a surface almost touching the lens does
   // not ask for a blur wider than the image.

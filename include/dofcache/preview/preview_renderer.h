@@ -30,6 +30,7 @@ namespace dofcache::preview {
 // Wall-clock milliseconds per stage, the columns of the paper's Table 3.1.
 struct ScenePreviewTimings {
   double pinhole_render_ms = 0;  // colour (settings.spp pinhole samples), depth, ids
+  double denoise_ms = 0;         // the pinhole colour denoised (PreviewOptions::denoise)
   double id_render_ms = 0;       // near-plane id images L_1..L_{n-1}
   double mask_build_ms = 0;      // build_occlusion_masks
   double extra_render_ms = 0;    // the revealed layers A_j, masked pixels only

@@ -166,6 +166,8 @@ struct RenderOutput {
   image::Image depth;   // camera-space depth through the pixel centre (+inf: nothing)
   image::Image normal;  // world-space shading normal through the pixel centre
   image::Image ids;     // object (or triangle) id through the pixel centre (-1: nothing)
+  // Diffuse albedo through the pixel centre (RGB; 0: nothing): the denoiser's guide.
+  image::Image albedo;
   // With a cache: per pixel, the fraction of lookups the cache served, and the number of samples
   // created there (1 channel each; empty without a cache).
   image::Image cache_hits;

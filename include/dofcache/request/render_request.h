@@ -93,6 +93,8 @@ struct RenderRequest {
   // --- adaptive lens sampling ---
   Choice adaptive = Choice::Auto;
   render::AdaptiveSampling adaptive_settings;  // `enabled` is decided by `adaptive`
+  // --- denoising (denoise/atrous.h): auto is on for the preview modes and the viewer ---
+  Choice denoise = Choice::Auto;
   // --- the layered previews' composite ---
   preview::LayerComposite composite = preview::LayerComposite::Over;
   int edge_rays = preview::PreviewOptions{}.edge_rays;

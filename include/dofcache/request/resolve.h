@@ -18,6 +18,8 @@
 //            viewer's passes share one cache, so for it that of 64 lens samples;
 //   lens     each unset value from the camera's extras.lens, else 50 mm f/4 focused on what the
 //            image centre sees (render::resolve_lens);
+//   denoise  auto: on for the preview modes and the viewer's inputs (their pinhole colour is
+//            denoised before the post-process), off otherwise;
 //   threads  0: core/threads.h's rule under the request's core policy.
 #include <optional>
 #include <string>

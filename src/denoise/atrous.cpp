@@ -1,0 +1,212 @@
+#include "dofcache/denoise/atrous.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "dofcache/core/error.h"
+#include "dofcache/core/threads.h"
+
+namespace dofcache::denoise {
+namespace {
+
+constexpr float kKernel[5] = {1.0f / 16.0f, 1.0f / 4.0f, 3.0f / 8.0f, 1.0f / 4.0f, 1.0f / 16.0f};
+// A tap's distance from the centre in steps, |(kx - 2, ky - 2)|: one of six values.
+constexpr float kDistances[6] = {0.0f, 1.0f, 1.4142136f, 2.0f, 2.2360680f, 2.8284271f};
+constexpr int kDistanceClass[5][5] = {{5, 4, 3, 4, 5}, {4, 2, 1, 2, 4}, {3, 1, 0, 1, 3},
+                                      {4, 2, 1, 2, 4}, {5, 4, 3, 4, 5}};
+
+float luminance(const float* c) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
+
+void check(const image::Image* g, const image::Image& color, int channels, const char* what) {
+  if (!g || g->width() != color.width() || g->height() != color.height() ||
+      g->channels() != channels)
+    throw Error(std::string("denoise: the ") + what + " guide must be " +
+                std::to_string(channels) + " channel(s) of the colour's size");
+}
+
+// x^e for an integer e >= 1 by squaring (e = 64: six multiplications).
+float power(float x, int e) {
+  float r = 1.0f;
+  while (e > 0) {
+    if (e & 1) r *= x;
+    x *= x;
+    e >>= 1;
+  }
+  return r;
+}
+
+// exp(-e) for e >= 0, to about 1e-5 relative: 2^-(e log2 e) split into an integer power of two
+// (built in the float's exponent bits) and a fraction by a degree-5 polynomial. A weight needs
+// no more, and std::exp was a third of the filter's time.
+float exp_neg(float e) {
+  const float t = -e * 1.44269504f;  // log2(e)
+  if (t < -126.0f) return 0.0f;
+  const float fi = std::floor(t);
+  const float f = t - fi;  // [0, 1)
+  // 2^f on [0, 1): the Taylor series of e^(f ln 2) to the fifth power.
+  const float l = 0.69314718f * f;
+  const float p =
+      1.0f + l * (1.0f + l * (0.5f + l * (1.0f / 6.0f + l * (1.0f / 24.0f + l / 120.0f))));
+  const std::int32_t bits = (static_cast<std::int32_t>(fi) + 127) << 23;
+  float scale;
+  std::memcpy(&scale, &bits, sizeof scale);
+  return p * scale;
+}
+
+struct Pixel {
+  bool hit = false;
+  float depth = 0, gradient = 0, id = -1;
+  float n[3] = {0, 0, 0};
+};
+
+}  // namespace
+
+image::Image atrous_filter(const image::Image& color, const Guides& g,
+                           const AtrousOptions& o) {
+  if (color.empty() || color.channels() != 3)
+    throw Error("denoise: the colour must be a non-empty RGB image");
+  check(g.albedo, color, 3, "albedo");
+  check(g.normal, color, 3, "normal");
+  check(g.depth, color, 1, "depth");
+  check(g.ids, color, 1, "id");
+  if (o.iterations < 0 || o.iterations > 10 || !(o.albedo_floor > 0.0f) ||
+      o.variance_radius < 0 || o.variance_radius > 16)
+    throw Error("denoise: absurd filter options");
+  const int w = color.width(), h = color.height();
+  const int normal_power = std::max(1, static_cast<int>(std::lround(o.sigma_normal)));
+
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  std::vector<Pixel> px(n);
+  std::vector<float> cur(n * 3), next(n * 3), var(n), next_var(n), lum(n);
+  const float floor = o.albedo_floor;
+  const int r = o.variance_radius;
+  auto rows = [&](const auto& f) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& b) {
+      for (int y = b.begin(); y < b.end(); ++y) f(y);
+    });
+  };
+  run_with_threads(o.threads, [&] {
+    // The guides per pixel, and the demodulated irradiance (RGB) with its luminance.
+    rows([&](int y) {
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        Pixel& p = px[i];
+        p.depth = g.depth->at(x, y, 0);
+        p.hit = std::isfinite(p.depth);
+        p.id = g.ids->at(x, y, 0);
+        const float* nm = g.normal->pixel(x, y);
+        p.n[0] = nm[0], p.n[1] = nm[1], p.n[2] = nm[2];
+        for (int c = 0; c < 3; ++c)
+          cur[i * 3 + c] = color.data()[i * 3 + c] / std::max(g.albedo->data()[i * 3 + c], floor);
+        lum[i] = luminance(&cur[i * 3]);
+      }
+    });
+    // The depth gradient (largest step to a 4-neighbour of the same object), which sets how much
+    // depth may change per pixel along a surface, and the local luminance variance.
+    rows([&](int y) {
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        Pixel& p = px[i];
+        if (!p.hit) continue;
+        float grad = 0.0f;
+        for (auto [dx, dy] :
+             {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+          const int qx = x + dx, qy = y + dy;
+          if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
+          const Pixel& q = px[static_cast<std::size_t>(qy) * w + qx];
+          if (q.hit && q.id == p.id) grad = std::max(grad, std::abs(q.depth - p.depth));
+        }
+        p.gradient = grad;
+        double sum = 0, sum2 = 0;
+        int count = 0;
+        for (int qy = std::max(0, y - r); qy <= std::min(h - 1, y + r); ++qy)
+          for (int qx = std::max(0, x - r); qx <= std::min(w - 1, x + r); ++qx) {
+            const std::size_t j = static_cast<std::size_t>(qy) * w + qx;
+            if (!px[j].hit || px[j].id != p.id) continue;
+            sum += lum[j], sum2 += double(lum[j]) * lum[j], ++count;
+          }
+        var[i] = count > 1
+                     ? static_cast<float>(std::max(0.0, (sum2 - sum * sum / count) / (count - 1)))
+                     : 0.0f;
+      }
+    });
+  });
+
+  run_with_threads(o.threads, [&] {
+    for (int it = 0; it < o.iterations; ++it) {
+      const int step = 1 << it;
+      rows([&](int y) {
+          for (int x = 0; x < w; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * w + x;
+            const Pixel& p = px[i];
+            if (!p.hit) {
+              for (int c = 0; c < 3; ++c) next[i * 3 + c] = cur[i * 3 + c];
+              next_var[i] = var[i];
+              continue;
+            }
+            const float lp = lum[i];
+            const float inv_lum = 1.0f / (o.sigma_luminance * std::sqrt(var[i]) + 1e-4f);
+            // 1 / (sigma_depth |grad z| distance + 1e-4 z) for each of the six tap distances.
+            float inv_depth[6];
+            for (int d = 0; d < 6; ++d)
+              inv_depth[d] = 1.0f / (o.sigma_depth * p.gradient * kDistances[d] *
+                                         static_cast<float>(step) + 1e-4f * p.depth);
+            float sum[3] = {0, 0, 0}, wsum = 0, vsum = 0;
+            for (int ky = 0; ky < 5; ++ky) {
+              const int qy = y + (ky - 2) * step;
+              if (qy < 0 || qy >= h) continue;
+              for (int kx = 0; kx < 5; ++kx) {
+                const int qx = x + (kx - 2) * step;
+                if (qx < 0 || qx >= w) continue;
+                const std::size_t j = static_cast<std::size_t>(qy) * w + qx;
+                const Pixel& q = px[j];
+                if (!q.hit || q.id != p.id) continue;
+                const float dot =
+                    std::max(0.0f, p.n[0] * q.n[0] + p.n[1] * q.n[1] + p.n[2] * q.n[2]);
+                // One exponential for the depth and luminance weights together.
+                const float e = std::abs(p.depth - q.depth) * inv_depth[kDistanceClass[ky][kx]] +
+                                std::abs(lp - lum[j]) * inv_lum;
+                const float wgt =
+                    kKernel[kx] * kKernel[ky] * power(dot, normal_power) * exp_neg(e);
+                for (int c = 0; c < 3; ++c) sum[c] += wgt * cur[j * 3 + c];
+                wsum += wgt;
+                vsum += wgt * wgt * var[j];
+              }
+            }
+            if (!(wsum > 0.0f)) {  // a degenerate normal: even the centre tap weighs nothing
+              for (int c = 0; c < 3; ++c) next[i * 3 + c] = cur[i * 3 + c];
+              next_var[i] = var[i];
+              continue;
+            }
+            for (int c = 0; c < 3; ++c) next[i * 3 + c] = sum[c] / wsum;
+            next_var[i] = vsum / (wsum * wsum);
+          }
+      });
+      std::swap(cur, next);
+      std::swap(var, next_var);
+      rows([&](int y) {
+        for (int x = 0; x < w; ++x) {
+          const std::size_t i = static_cast<std::size_t>(y) * w + x;
+          lum[i] = luminance(&cur[i * 3]);
+        }
+      });
+    }
+  });
+
+  image::Image out = color;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!px[i].hit) continue;
+    for (int c = 0; c < 3; ++c)
+      out.data()[i * 3 + c] = cur[i * 3 + c] * std::max(g.albedo->data()[i * 3 + c], floor);
+  }
+  return out;
+}
+
+}  // namespace dofcache::denoise
