@@ -18,7 +18,4 @@ Runner add_refocus_command(CLI::App& app);
 Runner add_farm_command(CLI::App& app);
 Runner add_view_command(CLI::App& app);
 
-// Writes `json` (pretty) to `path` atomically.
-void write_json_file(const std::string& path, const nlohmann::json& json);
-
 }  // namespace dofcache::cli

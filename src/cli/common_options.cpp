@@ -37,6 +37,15 @@ void shading_option(CLI::App* cmd, request::RenderRequest& r, const char* name,
       ->check(check);
 }
 
+// An auto|on|off option onto `field`.
+void choice_option(CLI::App* cmd, const char* name, request::Choice& field,
+                   const std::string& help) {
+  cmd->add_option_function<std::string>(
+         name, [&field](const std::string& v) { field = request::parse_choice(v); }, help)
+      ->default_str(request::choice_name(field))
+      ->check(CLI::IsMember(request::choice_names()));
+}
+
 }  // namespace
 
 void set_command_arguments(std::vector<std::string> args) { g_command_arguments = std::move(args); }
@@ -178,23 +187,17 @@ void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::stri
 }
 
 void add_denoise_option(CLI::App* cmd, request::RenderRequest& r) {
-  cmd->add_option_function<std::string>(
-         "--denoise", [&r](const std::string& v) { r.denoise = request::parse_choice(v); },
-         "Denoise the preview's pinhole colour before the post-process, guided by its noise-free "
-         "albedo, normal, depth and objects (edge-avoiding a-trous; docs/denoise.md). auto: on "
-         "for the preview modes and the viewer")
-      ->default_str(request::choice_name(r.denoise))
-      ->check(CLI::IsMember(request::choice_names()));
+  choice_option(cmd, "--denoise", r.denoise,
+                "Denoise the preview's pinhole colour before the post-process, guided by its "
+                "noise-free albedo, normal, depth and objects (edge-avoiding a-trous; "
+                "docs/denoise.md). auto: on for the preview modes and the viewer");
 }
 
 void add_adaptive_options(CLI::App* cmd, request::RenderRequest& r) {
-  cmd->add_option_function<std::string>(
-         "--adaptive", [&r](const std::string& v) { r.adaptive = request::parse_choice(v); },
-         "Adaptive lens sampling (drt): a pilot of --adaptive-pilot of the samples measures "
-         "each pixel's noise, the rest go where it is; --spp is then the mean per pixel. auto: "
-         "on for drt")
-      ->default_str(request::choice_name(r.adaptive))
-      ->check(CLI::IsMember(request::choice_names()));
+  choice_option(cmd, "--adaptive", r.adaptive,
+                "Adaptive lens sampling (drt): a pilot of --adaptive-pilot of the samples "
+                "measures each pixel's noise, the rest go where it is; --spp is then the mean per "
+                "pixel. auto: on for drt");
   render::AdaptiveSampling& a = r.adaptive_settings;
   cmd->add_option("--adaptive-pilot", a.pilot_fraction,
                   "Adaptive sampling: the pilot's fraction of the samples (rounded down to a "

@@ -2,6 +2,7 @@
 #include <memory>
 
 #include "commands.h"
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/image/metrics.h"
 
@@ -23,7 +24,7 @@ int run_compare(const CompareOptions& o) {
   if (!o.error_map.empty())
     image::write_image(o.error_map,
                        image::false_color(image::relative_error_map(test, reference), o.error_map_max));
-  if (!o.json_path.empty()) write_json_file(o.json_path, j);
+  if (!o.json_path.empty()) write_bytes_atomically(o.json_path, j.dump(2) + "\n");
   if (o.json) {
     std::printf("%s\n", j.dump(2).c_str());
   } else {

@@ -7,6 +7,7 @@
 
 #include "commands.h"
 #include "dofcache/cache/radiance_cache.h"
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/farm/plan.h"
 #include "dofcache/farm/slurm.h"
@@ -114,7 +115,7 @@ int run_verify(const FarmOptions& f) {
   farm::FrameStatus st = farm::check_frames(plan);
   const farm::ChunkTimes times = farm::chunk_times(plan);
   const std::vector<int> chunks = farm::chunks_to_render(plan, st);
-  if (!f.json.empty()) write_json_file(f.json, farm::verify_json(plan, st, times));
+  if (!f.json.empty()) write_bytes_atomically(f.json, farm::verify_json(plan, st, times).dump(2) + "\n");
   std::size_t total = st.complete.size() + st.missing.size();
   std::printf("verify   %zu of %zu frames complete (%d-%d)", st.complete.size(), total,
               plan.settings().first, plan.settings().last);

@@ -6,17 +6,8 @@
 
 #include "commands.h"
 #include "common_options.h"
-#include "dofcache/core/atomic_file.h"
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
-
-namespace dofcache::cli {
-
-void write_json_file(const std::string& path, const nlohmann::json& json) {
-  write_bytes_atomically(path, json.dump(2) + "\n");
-}
-
-}  // namespace dofcache::cli
 
 namespace {
 

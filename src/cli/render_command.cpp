@@ -27,20 +27,7 @@ int run_render(const request::RenderRequest& q, bool print_request) {
     std::printf("%s\n", request::resolved_json(r).dump(2).c_str());
     return 0;
   }
-  if (!q.quiet) {
-    const lens::ThinLens& l = r.settings.lens;
-    std::printf("scene   %s: %zu triangles, %zu emissive, %zu punctual lights\n",
-                scene.source.c_str(), scene.mesh.triangles.size(), scene.emitters.size(),
-                scene.lights.size());
-    if (r.environment.environment)
-      std::printf("env     %s\n", r.environment.description.c_str());
-    if (camera.synthesized)
-      std::printf("notice  the scene has no camera; using one that frames its bounds\n");
-    std::printf("camera  '%s', lens %.0f mm f/%.3g, focus %.3g m (aperture %.3g mm)%s\n",
-                camera.name.c_str(), l.focal_length * 1000.0, l.fstop, l.focus_distance,
-                l.aperture_diameter() * 1000.0,
-                r.focus_from_scene ? " (autofocus on the image centre)" : "");
-  }
+  if (!q.quiet) std::printf("%s", request::describe_setup(r, scene, camera).c_str());
   print_environment_notices(r.environment);
   const request::ImageResult result = request::render_image(r, scene, accel, camera);
   if (!q.quiet) std::printf("%s", request::describe(r, result).c_str());

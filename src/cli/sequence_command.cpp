@@ -5,6 +5,7 @@
 #include "commands.h"
 #include "common_options.h"
 #include "sequence_options.h"
+#include "dofcache/core/atomic_file.h"
 #include "dofcache/sequence/sequence_request.h"
 
 namespace dofcache::cli {
@@ -39,7 +40,8 @@ int run_sequence(const request::RenderRequest& q, bool print_request) {
   };
   const sequence::SequenceSummary sum = renderer.run(on_frame, notice);
   if (!q.stats_json.empty())
-    write_json_file(q.stats_json, sequence::sequence_stats_json(p, sum, rows));
+    write_bytes_atomically(q.stats_json,
+                           sequence::sequence_stats_json(p, sum, rows).dump(2) + "\n");
   if (!q.quiet) std::printf("%s", sequence::describe_summary(sum).c_str());
   std::printf("wrote    %s\n", std::filesystem::absolute(sequence::frame_path(q.out, p.first))
                                      .lexically_normal()

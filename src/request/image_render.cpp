@@ -83,6 +83,22 @@ json environment_json(const render::EnvironmentSettings& settings,
   return j;
 }
 
+std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
+                           const scene::Camera& camera) {
+  const lens::ThinLens& l = r.settings.lens;
+  std::string text = fmt::format("scene   {}: {} triangles, {} emissive, {} punctual lights\n",
+                                 scene.source, scene.mesh.triangles.size(),
+                                 scene.emitters.size(), scene.lights.size());
+  if (r.environment.environment) text += "env     " + r.environment.description + "\n";
+  if (camera.synthesized)
+    text += "notice  the scene has no camera; using one that frames its bounds\n";
+  return text + fmt::format("camera  '{}', lens {:.0f} mm f/{:.3g}, focus {:.3g} m (aperture "
+                            "{:.3g} mm){}\n",
+                            camera.name, l.focal_length * 1000.0, l.fstop, l.focus_distance,
+                            l.aperture_diameter() * 1000.0,
+                            r.focus_from_scene ? " (autofocus on the image centre)" : "");
+}
+
 std::string describe(const ResolvedRequest& r, const ImageResult& result) {
   const render::RenderSettings& s = r.settings;
   if (result.preview) {

@@ -27,6 +27,11 @@ struct ImageResult {
 ImageResult render_image(const ResolvedRequest& resolved, const scene::Scene& scene,
                          const scene::Accel& accel, const scene::Camera& camera);
 
+// What is about to be rendered, in words, as `render` prints it: the scene, the environment, a
+// synthesized camera, the camera and lens. Each line ends with a newline.
+std::string describe_setup(const ResolvedRequest& resolved, const scene::Scene& scene,
+                           const scene::Camera& camera);
+
 // What the render did, in words, as `render` prints it: one line for an integrator (size, mode,
 // spp, threads, time, ray rate) plus one for its cache, or two for a preview (method, layers,
 // the stages' times). Each line ends with a newline.
