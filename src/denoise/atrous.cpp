@@ -47,7 +47,7 @@ float power(float x, int e) {
 // no more, and std::exp was a third of the filter's time.
 float exp_neg(float e) {
   const float t = -e * 1.44269504f;  // log2(e)
-  if (t < -126.0f) return 0.0f;
+  if (!(t >= -126.0f)) return 0.0f;  // also NaN (a zero depth scale): no weight
   const float fi = std::floor(t);
   const float f = t - fi;  // [0, 1)
   // 2^f on [0, 1): the Taylor series of e^(f ln 2) to the fifth power.
