@@ -18,6 +18,7 @@ struct RenderOptions {
 };
 
 int run_render(const request::RenderRequest& q, bool print_request) {
+  if (!print_request) request::check_image_request(q);  // before loading the scene
   scene::Scene scene = render::load_scene(q.scene, q.scene_index, q.limits);
   print_warnings(scene.warnings);
   const scene::Camera& camera = scene.camera_or_first(q.camera);

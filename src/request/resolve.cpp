@@ -16,24 +16,9 @@ constexpr int kViewSampleQualitySpp = 64;
 
 // The output checks a single image makes before spending time on the render.
 void check_image_outputs(const ResolvedRequest& r) {
-  const RenderRequest& q = r.request;
-  if (r.preview && r.cache_backend != cache::kNoCache)
-    throw Error("the preview modes render pinhole images and use no radiance cache "
-                "(drop --cache)");
+  check_image_request(r.request);
   r.settings.validate();
-  image::check_output_path(q.out);
-  if (!q.preview_inputs.empty()) {
-    if (!r.preview)
-      throw Error("--save-preview-inputs needs a preview mode (--mode preview, "
-                  "preview-occlusion, preview-gather or preview-scatter)");
-    const std::string ext = std::filesystem::path(q.preview_inputs).extension().string();
-    if (ext != ".exr" && ext != ".EXR")
-      throw Error("preview inputs are saved as .exr, not '" + q.preview_inputs + "'");
-    image::check_output_path(q.preview_inputs);
-  }
-  if (r.preview) return;
-  if (!q.cache_debug.empty()) image::check_output_path(q.cache_debug + "-hits.png");
-  if (!q.cache_trace.empty() && r.cache_backend == cache::kNoCache)
+  if (!r.preview && !r.request.cache_trace.empty() && r.cache_backend == cache::kNoCache)
     throw Error("--cache-trace needs a cache (--cache octree or vdb)");
 }
 
@@ -48,6 +33,27 @@ std::string cache_rule(const RenderRequest& q, bool* uses_cache) {
 }
 
 }  // namespace
+
+void check_image_request(const RenderRequest& q) {
+  if (q.out.empty()) return;
+  const bool preview = q.mode.preview.has_value();
+  if (preview && q.cache != "auto" && q.cache != cache::kNoCache)
+    throw Error("the preview modes render pinhole images and use no radiance cache "
+                "(drop --cache)");
+  image::check_output_path(q.out);
+  if (!q.preview_inputs.empty()) {
+    if (!preview)
+      throw Error("--save-preview-inputs needs a preview mode (--mode preview, "
+                  "preview-occlusion, preview-gather or preview-scatter)");
+    const std::string ext = std::filesystem::path(q.preview_inputs).extension().string();
+    if (ext != ".exr" && ext != ".EXR")
+      throw Error("preview inputs are saved as .exr, not '" + q.preview_inputs + "'");
+    image::check_output_path(q.preview_inputs);
+  }
+  if (!preview && !q.cache_debug.empty()) image::check_output_path(q.cache_debug + "-hits.png");
+  if (!preview && !q.cache_trace.empty() && q.cache == cache::kNoCache)
+    throw Error("--cache-trace needs a cache (--cache octree or vdb)");
+}
 
 ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
                         const scene::Accel& accel, const scene::Camera& camera) {

@@ -60,6 +60,11 @@ struct ResolvedRequest {
 ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
                         const scene::Accel& accel, const scene::Camera& camera);
 
+// The checks of an image request that need no scene (its outputs, the options that exclude each
+// other), so that a front end fails before it loads one; resolve() makes them too. Nothing for a
+// request without an output. Throws dofcache::Error.
+void check_image_request(const RenderRequest& request);
+
 // What `render --print-request` prints: to_json(resolved.request) with the choices made, under
 // "choices" (ignored when the file is read back).
 nlohmann::json resolved_json(const ResolvedRequest& resolved);
