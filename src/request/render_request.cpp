@@ -152,8 +152,9 @@ class Reader {
   Reader(const json& j, std::string where) : j_(j), where_(std::move(where)) {
     if (!j_.is_object()) fail("must be an object");
   }
-  ~Reader() noexcept(false) {
-    if (std::uncaught_exceptions() > 0) return;
+  // Called once every key is read. Not a destructor: one that throws after the returned request
+  // is built leaks it (compilers do not destroy an NRVO return value then, CWG 2176).
+  void finish() const {
     for (auto it = j_.begin(); it != j_.end(); ++it)
       if (!seen_.count(it.key()))
         throw Error("request: unknown key '" + path(it.key()) + "'");
@@ -217,6 +218,7 @@ void object(Reader& parent, const char* key, F&& read) {
   if (!parent.has(key)) return;
   Reader r(parent.at(key), parent.path(key));
   read(r);
+  r.finish();
 }
 
 // Applies a name through `parse`, turning its error into one naming the key.
@@ -410,6 +412,7 @@ RenderRequest request_from_json(const json& j) {
     s.get("restart", q.restart);
   });
   top.has("choices");  // written by resolved_json for the reader's information only
+  top.finish();
   return r;
 }
 
