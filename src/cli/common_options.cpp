@@ -188,9 +188,12 @@ void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::stri
 
 void add_denoise_option(CLI::App* cmd, request::RenderRequest& r) {
   choice_option(cmd, "--denoise", r.denoise,
-                "Denoise the preview's pinhole colour before the post-process, guided by its "
-                "noise-free albedo, normal, depth and objects (edge-avoiding a-trous; "
-                "docs/denoise.md). auto: on for the preview modes and the viewer");
+                "Denoise (edge-avoiding a-trous filters, docs/denoise.md). Preview modes and the "
+                "viewer: the pinhole colour before the post-process, guided by its noise-free "
+                "features. drt, accumulation, pinhole: the render, guided by its first hits "
+                "averaged over the lens samples, its circles of confusion and its measured noise; "
+                "a PNG gets the denoised colour, an EXR keeps the raw beauty with denoised.RGB and "
+                "the guides as layers. auto: on for the preview modes and the viewer");
 }
 
 void add_adaptive_options(CLI::App* cmd, request::RenderRequest& r) {

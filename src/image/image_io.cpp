@@ -29,6 +29,12 @@ Format format_of(const std::string& path) {
   return Format::Unsupported;
 }
 
+}  // namespace
+
+bool is_exr_path(const std::string& path) { return format_of(path) == Format::Exr; }
+
+namespace {
+
 [[noreturn]] void fail_write(const std::string& path, const std::string& reason) {
   throw Error("cannot write '" + path + "': " + reason);
 }

@@ -55,6 +55,20 @@ struct Context {
   // pilot's luminance moments to fill (null: none kept). A pixel is written by its own tile only.
   const std::uint32_t* pixel_samples = nullptr;
   PixelMoments* moments = nullptr;
+  // RenderSettings::lens_features: per pixel, kFeatureSums sums (null: none kept).
+  double* feature_sums = nullptr;
+};
+
+// The sums kept per pixel for RenderSettings::lens_features: albedo (3), normal (3), depth over
+// the hits, hits, the reflected luminance and its square, emission (3).
+constexpr int kFeatureSums = 13;
+
+// The first hit of one lens sample, for the lens features.
+struct SampleFeatures {
+  bool hit = false;
+  glm::vec3 albedo{0.0f}, normal{0.0f};
+  glm::vec3 emission{0.0f};  // what the first hit emits, or the background the ray meets
+  float depth = 0.0f;
 };
 
 // Per-pixel cache statistics (debug images); each pixel is written by its own tile only.
@@ -144,13 +158,30 @@ bool shaded_directly(const Context& c, glm::vec3 x) {
   return c.settings.spp * M_PI * r * r < cs.direct_below;
 }
 
-// Radiance along one camera ray.
+// The albedo the denoiser demodulates by: what the diffuse lobe reflects.
+glm::vec3 guide_albedo(const RenderSettings& settings, const scene::MaterialPoint& m) {
+  return settings.shading.material_override == MaterialOverride::Lambert ? m.base_color
+                                                                         : m.diffuse_albedo();
+}
+
+// Radiance along one camera ray; `features`, if set, receives its first hit.
 glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_t key, Rng& rng,
-                           TileWork& work, float* density) {
+                           TileWork& work, float* density, SampleFeatures* features) {
   ++work.rays.rays;
   scene::Hit hit = c.accel.intersect(ray);
-  if (!hit.valid()) return c.shader.background(ray.direction);
+  if (!hit.valid()) {
+    const glm::vec3 b = c.shader.background(ray.direction);
+    if (features) features->emission = b;
+    return b;
+  }
   ShadingPoint p = c.shader.prepare(ray, hit);
+  if (features) {
+    features->hit = true;
+    features->albedo = guide_albedo(c.settings, p.material);
+    features->normal = p.surface.shading_normal;
+    features->emission = c.shader.emitted(p);
+    features->depth = static_cast<float>(c.camera.depth(p.surface.position));
+  }
   glm::vec3 e(0.0f);
   if (Shader::has_diffuse(p)) {
     if (!c.settings.cache.cache) {
@@ -209,9 +240,7 @@ CentreHit trace_centre(const scene::Scene& scene, const scene::Accel& accel,
   r.hit = true;
   r.depth = camera.depth(sp.position);
   r.normal = sp.shading_normal;
-  const scene::MaterialPoint m = scene.material_at(sp);
-  r.albedo = settings.shading.material_override == MaterialOverride::Lambert ? m.base_color
-                                                                              : m.diffuse_albedo();
+  r.albedo = guide_albedo(settings, scene.material_at(sp));
   r.id = static_cast<float>(settings.triangle_ids ? hit.triangle
                                                   : scene.mesh.triangle_object[hit.triangle]);
   // glTF culls the back of one-sided surfaces: met first behind a near plane, it is the inside
@@ -239,7 +268,8 @@ void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters
 
 // The radiance of samples [s0, end) of pixel (x, y), summed.
 glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint32_t end,
-                     TileWork& work, float* density, PixelMoments* moments) {
+                     TileWork& work, float* density, PixelMoments* moments,
+                     double* feature_sums = nullptr) {
   const RenderSettings& st = c.settings;
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
   const PixelSamples samples(st, x, y);
@@ -249,12 +279,22 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
     std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
     Rng rng(key, s);
-    glm::vec3 l = trace_camera_ray(c, ray, key, rng, work, density);
+    SampleFeatures f;
+    glm::vec3 l =
+        trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
     if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
     acc += glm::dvec3(l);
     if (moments) {
       const double v = scene::luminance(l);
       moments->sum += v, moments->sum2 += v * v, ++moments->count;
+    }
+    if (feature_sums) {
+      double* fs = feature_sums;
+      const double v = scene::luminance(l - f.emission);
+      for (int k = 0; k < 3; ++k)
+        fs[k] += f.albedo[k], fs[3 + k] += f.normal[k], fs[10 + k] += f.emission[k];
+      if (f.hit) fs[6] += f.depth, fs[7] += 1.0;
+      fs[8] += v, fs[9] += v * v;
     }
   }
   return acc;
@@ -277,7 +317,9 @@ std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, 
       PixelMoments* moments = c.moments ? &c.moments[index] : nullptr;
       std::uint64_t lookups_before = work.lookups, hits_before = work.hits + work.tile_hits;
       float* density = pixel_stats.enabled() ? pixel_stats.created.pixel(x, y) : nullptr;
-      const glm::dvec3 acc = pixel_sum(c, x, y, s0, end, work, density, moments);
+      const glm::dvec3 acc =
+          pixel_sum(c, x, y, s0, end, work, density, moments,
+                    c.feature_sums ? c.feature_sums + index * kFeatureSums : nullptr);
       if (pixel_stats.enabled()) {
         pixel_stats.hits.at(x, y, 0) += static_cast<float>(work.hits + work.tile_hits - hits_before);
         pixel_stats.lookups.at(x, y, 0) += static_cast<float>(work.lookups - lookups_before);
@@ -286,6 +328,36 @@ std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, 
       px[0] += acc.x, px[1] += acc.y, px[2] += acc.z;
     }
   return taken;
+}
+
+// The lens features' images from their per-pixel sums (kFeatureSums per pixel); `samples(i)`:
+// the samples pixel i took.
+template <class Samples>
+LensFeatures lens_features_from(const std::vector<double>& sums, int w, int h, Samples samples) {
+  LensFeatures f;
+  f.albedo = image::Image(w, h, 3, 0.0f);
+  f.normal = image::Image(w, h, 3, 0.0f);
+  f.depth = image::Image(w, h, 1, std::numeric_limits<float>::infinity());
+  f.coverage = image::Image(w, h, 1, 0.0f);
+  f.variance = image::Image(w, h, 1, 0.0f);
+  f.emission = image::Image(w, h, 3, 0.0f);
+  for (std::size_t i = 0; i < f.depth.pixel_count(); ++i) {
+    const double* s = &sums[i * kFeatureSums];
+    const double n = samples(i);
+    if (!(n > 0)) continue;
+    for (int k = 0; k < 3; ++k) {
+      f.albedo.data()[i * 3 + k] = static_cast<float>(s[k] / n);
+      f.normal.data()[i * 3 + k] = static_cast<float>(s[3 + k] / n);
+      f.emission.data()[i * 3 + k] = static_cast<float>(s[10 + k] / n);
+    }
+    if (s[7] > 0) f.depth.data()[i] = static_cast<float>(s[6] / s[7]);
+    f.coverage.data()[i] = static_cast<float>(s[7] / n);
+    const double mean = s[8] / n;
+    // The unbiased sample variance over n, that of the mean.
+    f.variance.data()[i] =
+        n > 1 ? static_cast<float>(std::max(0.0, s[9] - n * mean * mean) / ((n - 1) * n)) : 0.0f;
+  }
+  return f;
 }
 
 }  // namespace
@@ -461,6 +533,9 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   c.moments = pilot > 0 ? moments.data() : nullptr;
 
   std::vector<double> sum(static_cast<size_t>(w) * h * 3, 0.0);
+  const bool features = settings.lens_features && !settings.visibility_only;
+  std::vector<double> feature_sums(features ? rendered.size() * kFeatureSums : 0, 0.0);
+  c.feature_sums = features ? feature_sums.data() : nullptr;
   std::vector<TileWork> work(tiles.size());
   RenderStats& st = out.stats;
   std::uint64_t rays = 0, shading_points = 0, camera_rays = 0;
@@ -544,6 +619,10 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
       for (int k = 0; k < 3; ++k)
         color[i * 3 + k] = n > 0 ? static_cast<float>(sum[i * 3 + k] / n) : 0.0f;
     }
+    if (features)
+      out.lens_features = lens_features_from(feature_sums, w, h, [&](std::size_t i) {
+        return !rendered[i] ? 0.0 : pixel_samples.empty() ? double(spp) : pixel_samples[i];
+      });
     if (!pixel_samples.empty()) {
       out.samples = image::Image(w, h, 1, 0.0f);
       for (size_t i = 0; i < rendered.size(); ++i)

@@ -8,6 +8,9 @@
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/cache/trace.h"
 #include "dofcache/core/atomic_file.h"
+#include "dofcache/core/error.h"
+#include "dofcache/core/stopwatch.h"
+#include "dofcache/denoise/render_filter.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/image/metrics.h"
 #include "dofcache/lens/lens_json.h"
@@ -62,7 +65,44 @@ ImageResult render_preview_image(const ResolvedRequest& r, const scene::Scene& s
   return result;
 }
 
+// The render's image file: its colour (denoised for an 8-bit file with --denoise on; the raw
+// render for EXR, which keeps the denoised colour and the denoiser's guides as layers beside it)
+// and the centre ray's depth, normal and id.
+void write_render(const std::string& path, const render::RenderOutput& out,
+                  const std::optional<image::Image>& denoised) {
+  std::vector<image::NamedChannels> layers = {
+      {{"Z"}, out.depth}, {{"N.X", "N.Y", "N.Z"}, out.normal}, {{"id"}, out.ids}};
+  if (!denoised) return image::write_image(path, out.color, layers);
+  if (!image::is_exr_path(path)) return image::write_image(path, *denoised, layers);
+  const render::LensFeatures& f = out.lens_features;
+  layers.insert(layers.end(), {{{"denoised.R", "denoised.G", "denoised.B"}, *denoised},
+                               {{"albedo.R", "albedo.G", "albedo.B"}, f.albedo},
+                               {{"lens.N.X", "lens.N.Y", "lens.N.Z"}, f.normal},
+                               {{"lens.Z"}, f.depth},
+                               {{"lens.coverage"}, f.coverage},
+                               {{"emission.R", "emission.G", "emission.B"}, f.emission},
+                               {{"variance.Y"}, f.variance}});
+  image::write_image(path, out.color, layers);
+}
+
 }  // namespace
+
+image::Image denoised(const render::RenderOutput& out, const render::RenderSettings& settings,
+                      const scene::Camera& camera) {
+  const render::LensFeatures& f = out.lens_features;
+  if (f.empty()) throw Error("denoise: the render kept no lens features");
+  const image::Image coc =
+      settings.mode == render::Mode::Pinhole
+          ? image::Image(out.color.width(), out.color.height(), 1, 0.0f)
+          : denoise::coc_radius_image(out.depth, f.depth,
+                                      render::make_camera(camera, settings).imaging());
+  denoise::RenderFilterOptions options;
+  options.threads = settings.threads;
+  return denoise::render_filter(
+      out.color, {&f.albedo, &f.normal, &f.coverage, &f.emission, &f.variance, &out.depth, &out.ids,
+                  &coc},
+      options);
+}
 
 json environment_json(const render::EnvironmentSettings& settings,
                       const render::ResolvedEnvironment& environment) {
@@ -119,6 +159,11 @@ std::string describe(const ResolvedRequest& r, const ImageResult& result) {
       "render  {}x{} {}, {} spp, {} threads: {:.2f} s, {:.2f} M rays/s ({:.1f} M rays)\n",
       s.width, s.height, render::mode_name(s.mode), s.spp, st.threads, st.seconds,
       st.rays_per_second() * 1e-6, st.rays * 1e-6);
+  if (result.denoised)
+    text += fmt::format("denoise lens-aware a-trous filter: {:.2f} s{}\n", result.denoise_seconds,
+                        image::is_exr_path(r.request.out)
+                            ? " (the EXR's beauty stays raw; denoised.RGB beside it)"
+                            : "");
   if (r.cache_backend == cache::kNoCache) return text;
   return text + fmt::format(
                     "cache   {}: {:.1f}% of {} lookups served ({:.1f}% from earlier passes), {} "
@@ -148,8 +193,12 @@ ImageResult render_image(const ResolvedRequest& r, const scene::Scene& scene,
     }
     result.render = render::render(scene, accel, camera, s);
     const render::RenderOutput& out = *result.render;
-    image::write_image(q.out, out.color,
-                       {{{"Z"}, out.depth}, {{"N.X", "N.Y", "N.Z"}, out.normal}, {{"id"}, out.ids}});
+    if (s.lens_features) {
+      const Stopwatch clock;
+      result.denoised = denoised(out, s, camera);
+      result.denoise_seconds = clock.seconds();
+    }
+    write_render(q.out, out, result.denoised);
     if (trace) trace->close();
     if (!q.cache_debug.empty() && radiance_cache) {
       double max_density = 1.0;
@@ -177,6 +226,11 @@ ImageResult render_image(const ResolvedRequest& r, const scene::Scene& scene,
          {"samples", st.cache_samples}, {"memory_bytes", st.cache_memory_bytes},
          {"lookup_seconds", st.cache_lookup_seconds},
          {"insert_seconds", st.cache_insert_seconds}, {"passes", st.passes}});
+    if (result.denoised)
+      result.stats["denoise"] = {
+          {"filter", "render_filter"},
+          {"seconds", result.denoise_seconds},
+          {"beauty", image::is_exr_path(q.out) ? "raw (denoised.RGB beside it)" : "denoised"}};
   }
   if (!q.stats_json.empty()) write_bytes_atomically(q.stats_json, result.stats.dump(2) + "\n");
   return result;

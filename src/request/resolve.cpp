@@ -1,7 +1,5 @@
 #include "dofcache/request/resolve.h"
 
-#include <filesystem>
-
 #include <nlohmann/json.hpp>
 
 #include "dofcache/cache/radiance_cache.h"
@@ -45,8 +43,7 @@ void check_image_request(const RenderRequest& q) {
     if (!preview)
       throw Error("--save-preview-inputs needs a preview mode (--mode preview, "
                   "preview-occlusion, preview-gather or preview-scatter)");
-    const std::string ext = std::filesystem::path(q.preview_inputs).extension().string();
-    if (ext != ".exr" && ext != ".EXR")
+    if (!image::is_exr_path(q.preview_inputs))
       throw Error("preview inputs are saved as .exr, not '" + q.preview_inputs + "'");
     image::check_output_path(q.preview_inputs);
   }
@@ -134,10 +131,11 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
     q.denoise = r.preview || q.kind == Kind::View ? Choice::On : Choice::Off;
     chose(std::string("denoise: auto -> ") + choice_name(q.denoise));
   }
-  if (q.denoise == Choice::On && !r.preview && q.kind != Kind::View)
-    throw Error("--denoise on applies to the preview modes and the viewer so far (the "
-                "integrators' renders are not denoised yet)");
+  if (q.denoise == Choice::On && q.kind == Kind::Sequence)
+    throw Error("denoise: a sequence's frames are not denoised yet (docs/denoise.md)");
   r.preview_options.denoise = q.denoise == Choice::On;
+  // The integrators' renders keep the lens features their denoiser needs (request::denoised).
+  s.lens_features = q.denoise == Choice::On && !r.preview && q.kind == Kind::Image;
   r.preview_options.threads = s.threads;
   r.preview_options.layer_composite = q.composite;
   r.preview_options.edge_rays = q.edge_rays;

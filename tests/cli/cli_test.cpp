@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include "cli_harness.h"
+#include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
 
 #include <sys/wait.h>
 
@@ -87,6 +89,35 @@ TEST_F(Cli, DefaultSceneRendersToPngAndExr) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir_ / "a.exr"));
   EXPECT_NE(slurp(dir_ / "s.json").find("rays_per_second"), std::string::npos);
+}
+
+// --denoise on with an integrator: a PNG gets the denoised colour; an EXR keeps the raw beauty
+// (bit-identical to --denoise off) with the denoised colour and the guides as layers; auto leaves
+// the render raw.
+TEST_F(Cli, DenoisedRenderKeepsTheRawBeautyInExr) {
+  const std::string opts = " --width 32 --height 24 --spp 4 --gather-rays 2 --light-samples 1 -q";
+  auto render = [&](const std::string& out, const std::string& extra) {
+    testing::CliResult r = run("render --out " + (dir_ / out).string() + opts + extra);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+  };
+  render("raw.exr", " --denoise off");
+  render("auto.exr", "");
+  render("on.exr", " --denoise on --stats-json " + (dir_ / "on.json").string());
+  render("on.png", " --denoise on");
+  render("raw.png", "");
+  using dofcache::image::read_channels;
+  const auto raw = dofcache::image::read_image((dir_ / "raw.exr").string());
+  EXPECT_EQ(dofcache::image::read_image((dir_ / "auto.exr").string()).data(), raw.data());
+  EXPECT_EQ(dofcache::image::read_image((dir_ / "on.exr").string()).data(), raw.data());
+  const auto denoised =
+      read_channels((dir_ / "on.exr").string(), {"denoised.R", "denoised.G", "denoised.B"});
+  EXPECT_NE(denoised.data(), raw.data());
+  for (const char* layer : {"albedo.G", "lens.N.Z", "lens.Z", "lens.coverage", "emission.R",
+                            "variance.Y", "Z", "id"})
+    EXPECT_NO_THROW(read_channels((dir_ / "on.exr").string(), {layer})) << layer;
+  EXPECT_THROW(read_channels((dir_ / "raw.exr").string(), {"denoised.R"}), dofcache::Error);
+  EXPECT_NE(slurp(dir_ / "on.json").find("\"denoise\""), std::string::npos);
+  EXPECT_NE(slurp(dir_ / "on.png"), slurp(dir_ / "raw.png"));
 }
 
 // render picks the cache sample quality from --spp unless told: round(spp / 32), at least 1.

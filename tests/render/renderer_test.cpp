@@ -328,5 +328,94 @@ TEST(Renderer, RejectsAbsurdSettings) {
   EXPECT_THROW(render(s, accel, s.cameras[0], st), Error);
 }
 
+// A wall at depth 4 (albedo 0.3, 0.5, 0.7) covering the left of the view, the sky (black) on the
+// right, a lamp (radiance 5, albedo 0) at depth 1 in front of the wall, far out of focus (the lens
+// is focused on the wall), and a light facing the wall from behind the camera's view.
+struct FeatureScene {
+  static constexpr float kLamp = 5.0f;
+  scene::Scene scene;
+  FeatureScene() {
+    scene.materials.push_back(testing::diffuse_material({0.3f, 0.5f, 0.7f}));
+    scene.materials.push_back(testing::emissive_material(glm::vec3(kLamp)));
+    scene.materials.push_back(testing::emissive_material(glm::vec3(20.0f)));
+    add_quad_z(scene, -20.0f, 0.5f, -20.0f, 20.0f, -4.0f, 0, 0);
+    add_quad_z(scene, -0.12f, -0.02f, -0.05f, 0.05f, -1.0f, 1, 1);
+    testing::add_light_facing_away(scene, 1.5f, 2.5f, -0.5f, 2, 2);
+    testing::build_emitters(scene);
+    scene.cameras.push_back(testing::origin_camera(0.6f));
+  }
+  RenderSettings settings(int spp) const {
+    RenderSettings s;
+    s.width = 48, s.height = 32, s.spp = spp, s.seed = 3;
+    s.lens = lens::ThinLens{0.05, 1.0, 4.0};
+    s.progress = Progress::Display::Never;
+    s.lens_features = true;
+    return s;
+  }
+};
+
+TEST(Renderer, LensFeaturesAverageTheFirstHitsOverTheLensSamples) {
+  FeatureScene f;
+  scene::Accel accel(f.scene);
+  const RenderOutput out = render(f.scene, accel, f.scene.cameras[0], f.settings(16));
+  RenderSettings plain = f.settings(16);
+  plain.lens_features = false;
+  const RenderOutput raw = render(f.scene, accel, f.scene.cameras[0], plain);
+  EXPECT_EQ(out.color.data(), raw.color.data());  // no colour changed, no ray added
+  EXPECT_EQ(out.stats.rays, raw.stats.rays);
+  EXPECT_TRUE(raw.lens_features.empty());
+
+  const LensFeatures& lf = out.lens_features;
+  const glm::vec3 wall(0.3f, 0.5f, 0.7f);
+  int lamp_pixels = 0, sky_pixels = 0, wall_pixels = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 48; ++x) {
+      const float cover = lf.coverage.at(x, y, 0);
+      if (cover == 0.0f) {  // the sky: nothing hit
+        ++sky_pixels;
+        EXPECT_TRUE(std::isinf(lf.depth.at(x, y, 0)));
+        EXPECT_EQ(lf.albedo.at(x, y, 1), 0.0f);
+        continue;
+      }
+      if (cover < 1.0f) continue;  // the wall's edge, in focus: a few pixels
+      // Each sample met the lamp (albedo 0, depth 1, emission 5) or the wall (its albedo, depth
+      // 4, no emission): the lamp's share t follows from the emission, and every other
+      // average must be the same mix.
+      const float t = lf.emission.at(x, y, 0) / FeatureScene::kLamp;
+      lamp_pixels += t > 0.0f;
+      wall_pixels += t == 0.0f;
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(lf.albedo.at(x, y, c), wall[c] * (1.0f - t), 1e-5f) << x << "," << y;
+      EXPECT_NEAR(lf.depth.at(x, y, 0), 4.0f * (1.0f - t) + 1.0f * t, 1e-4f) << x << "," << y;
+      EXPECT_NEAR(lf.normal.at(x, y, 2), 1.0f, 1e-5f);
+    }
+  EXPECT_GT(lamp_pixels, 20);  // the lamp's blur disc is some 14 pixels across
+  EXPECT_GT(sky_pixels, 100);
+  EXPECT_GT(wall_pixels, 300);
+
+  // The measured noise: on the lit wall (no lamp in front), the variance of a pixel's mean
+  // against the spread of neighbouring pixels' means, (x_i - x_i+1)^2 / 2 (the lighting's slow
+  // change cancels). One sample per pixel measures none.
+  double measured = 0, spread = 0;
+  int pairs = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x + 1 < 24; ++x) {
+      if (lf.emission.at(x, y, 0) > 0.0f || lf.emission.at(x + 1, y, 0) > 0.0f) continue;
+      const double a = scene::luminance(glm::vec3(out.color.at(x, y, 0), out.color.at(x, y, 1),
+                                                  out.color.at(x, y, 2)));
+      const double b = scene::luminance(glm::vec3(out.color.at(x + 1, y, 0),
+                                                  out.color.at(x + 1, y, 1),
+                                                  out.color.at(x + 1, y, 2)));
+      spread += 0.5 * (a - b) * (a - b);
+      measured += lf.variance.at(x, y, 0);
+      ++pairs;
+    }
+  ASSERT_GT(pairs, 300);
+  EXPECT_GT(measured, 0.0);
+  EXPECT_NEAR(measured / spread, 1.0, 0.3) << measured / pairs << " vs " << spread / pairs;
+  const RenderOutput one = render(f.scene, accel, f.scene.cameras[0], f.settings(1));
+  for (float v : one.lens_features.variance.data()) EXPECT_EQ(v, 0.0f);
+}
+
 }  // namespace
 }  // namespace dofcache::render

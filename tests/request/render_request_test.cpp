@@ -180,8 +180,9 @@ TEST_F(Resolve, AutoRulesAsDocumented) {
   EXPECT_THROW(resolved(r), Error);  // a preview with a cache
   r.cache = "auto";
   r.mode = parse_mode("drt");
+  EXPECT_FALSE(drt.settings.lens_features);  // auto: an integrator's render stays raw
   r.denoise = Choice::On;
-  EXPECT_THROW(resolved(r), Error);  // the integrators' renders are not denoised yet
+  EXPECT_TRUE(resolved(r).settings.lens_features);  // the guides of the render's denoiser
   r.denoise = Choice::Auto;
 
   RenderRequest s = default_request(Kind::Sequence);
@@ -193,6 +194,10 @@ TEST_F(Resolve, AutoRulesAsDocumented) {
   EXPECT_EQ(seq.settings.cache.sample_quality, 4);
   s.cache = "none";
   EXPECT_THROW(resolved(s), Error);  // persistent without a cache
+  s.cache = "auto";
+  s.denoise = Choice::On;
+  EXPECT_THROW(resolved(s), Error);  // a sequence's frames are not denoised yet
+  s.denoise = Choice::Auto;
 
   RenderRequest v = default_request(Kind::View);
   v.spp = 4;

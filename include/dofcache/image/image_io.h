@@ -34,6 +34,10 @@ std::vector<unsigned char> encode_png(const Image& color);
 // extra channels).
 std::vector<unsigned char> encode_exr(const Image& color);
 
+// Whether write_image writes `path` as EXR (extension .exr in any case): float colour with its
+// extra channels, where a PNG keeps 8-bit colour only.
+bool is_exr_path(const std::string& path);
+
 // Throws the error write_image would give for an unsupported extension or a missing directory,
 // so callers can refuse a bad output path before spending time on a render.
 void check_output_path(const std::string& path);

@@ -123,6 +123,10 @@ struct RenderSettings {
   CacheSettings cache;
   // Lens samples spread by measured noise (drt only); spp is then the mean per pixel.
   AdaptiveSampling adaptive;
+  // Also average the first hit's features over each pixel's lens samples and keep each pixel's
+  // sample variance (RenderOutput::lens_features): the guides of the render's denoiser. Adds no
+  // rays and changes no colour.
+  bool lens_features = false;
   Progress::Display progress = Progress::Display::Auto;
   std::string progress_label = "render";
 
@@ -161,6 +165,25 @@ struct RenderStats {
   double rays_per_second() const { return seconds > 0 ? rays / seconds : 0.0; }
 };
 
+// A pixel's first hits averaged over its lens samples (drt, accumulation): blurred where the
+// colour is, by the same lens rays, so a filter guided by them neither sharpens a defocused region
+// nor smears an in-focus edge (docs/denoise.md).
+struct LensFeatures {
+  image::Image albedo;    // RGB: diffuse albedo of the first hit, 0 where a sample met nothing
+  image::Image normal;    // RGB: world-space shading normal, 0 where a sample met nothing
+  image::Image depth;     // 1 channel: camera-space depth over the samples that hit (+inf: none)
+  image::Image coverage;  // 1 channel: the fraction of samples that hit a surface
+  // RGB: the radiance the first hits emit towards the camera, and the background where a sample
+  // met nothing: the part of the colour a filter leaves alone (its noise is the film's coverage
+  // of a lamp's or the sky's edge, which no guide tells from noise).
+  image::Image emission;
+  // 1 channel: the variance of the pixel's mean reflected luminance (the colour less the
+  // emission), s^2 / n from its n samples' spread (0 for n = 1). Samples sharing a cache sample
+  // are correlated: this misses that part.
+  image::Image variance;
+  bool empty() const { return albedo.empty(); }
+};
+
 struct RenderOutput {
   image::Image color;   // linear RGB
   image::Image depth;   // camera-space depth through the pixel centre (+inf: nothing)
@@ -174,6 +197,7 @@ struct RenderOutput {
   image::Image cache_density;
   // With adaptive sampling: the lens samples each pixel took (1 channel; else empty).
   image::Image samples;
+  LensFeatures lens_features;  // with RenderSettings::lens_features (shaded renders); else empty
   RenderStats stats;
 };
 

@@ -16,6 +16,9 @@ namespace dofcache::request {
 
 struct ImageResult {
   std::optional<render::RenderOutput> render;    // the integrators
+  // With --denoise on (integrators): render->color filtered (denoised()); render->color stays raw.
+  std::optional<image::Image> denoised;
+  double denoise_seconds = 0.0;
   std::optional<preview::ScenePreview> preview;  // the preview modes
   // The statistics file's contents (written if the request names one): the scene, the settings as
   // the render used them, timings, ray counts and the cache's counters.
@@ -26,6 +29,12 @@ struct ImageResult {
 // output atomically. Throws dofcache::Error.
 ImageResult render_image(const ResolvedRequest& resolved, const scene::Scene& scene,
                          const scene::Accel& accel, const scene::Camera& camera);
+
+// The denoised colour of an integrator's render made with RenderSettings::lens_features
+// (denoise/render_filter.h, guided by its lens features and its circles of confusion; a pinhole
+// render is sharp everywhere). Throws dofcache::Error if the render kept no lens features.
+image::Image denoised(const render::RenderOutput& out, const render::RenderSettings& settings,
+                      const scene::Camera& camera);
 
 // What is about to be rendered, in words, as `render` prints it: the scene, the environment, a
 // synthesized camera, the camera and lens. Each line ends with a newline.

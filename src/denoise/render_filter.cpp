@@ -1,0 +1,198 @@
+#include "dofcache/denoise/render_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "dofcache/core/error.h"
+#include "dofcache/core/threads.h"
+#include "filter_math.h"
+
+namespace dofcache::denoise {
+namespace {
+
+using namespace detail;
+
+struct Pixel {
+  bool active = false;   // some lens sample hit a surface
+  bool sharp = false;    // circle of confusion under focus_coc_pixels
+  int normal_power = 1;  // the normal weight's exponent here
+  float depth = 0, gradient = 0, id = -1;
+  float n[3] = {0, 0, 0};  // the averaged normal, made unit length (0 if it averages to nothing)
+};
+
+}  // namespace
+
+image::Image coc_radius_image(const image::Image& centre_depth, const image::Image& lens_depth,
+                              const lens::LensImaging& imaging) {
+  if (centre_depth.channels() != 1 || lens_depth.channels() != 1 ||
+      centre_depth.width() != lens_depth.width() || centre_depth.height() != lens_depth.height())
+    throw Error("denoise: the depths must be 1-channel images of one size");
+  image::Image coc(centre_depth.width(), centre_depth.height(), 1, 0.0f);
+  for (std::size_t i = 0; i < coc.pixel_count(); ++i) {
+    double r = 0.0;
+    for (float z : {centre_depth.data()[i], lens_depth.data()[i]})
+      if (std::isfinite(z) && z > 0.0f) r = std::max(r, imaging.coc_radius_pixels(z));
+    coc.data()[i] = static_cast<float>(r);
+  }
+  return coc;
+}
+
+image::Image render_filter(const image::Image& color, const RenderGuides& g,
+                           const RenderFilterOptions& o) {
+  if (color.empty() || color.channels() != 3)
+    throw Error("denoise: the colour must be a non-empty RGB image");
+  check_guide(g.albedo, color, 3, "albedo");
+  check_guide(g.normal, color, 3, "normal");
+  check_guide(g.coverage, color, 1, "coverage");
+  check_guide(g.emission, color, 3, "emission");
+  check_guide(g.variance, color, 1, "variance");
+  check_guide(g.depth, color, 1, "depth");
+  check_guide(g.ids, color, 1, "id");
+  check_guide(g.coc, color, 1, "circle of confusion");
+  if (o.iterations < 0 || o.iterations > 10 || !(o.albedo_floor > 0.0f) ||
+      !(o.sigma_luminance > 0.0f) || !(o.sigma_depth > 0.0f) || !(o.sigma_normal >= 1.0f) ||
+      !(o.focus_coc_pixels >= 0.0f))
+    throw Error("denoise: absurd filter options");
+  const int w = color.width(), h = color.height();
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  std::vector<Pixel> px(n);
+  std::vector<float> cur(n * 3), next(n * 3), raw_var(n), var(n), next_var(n), lum(n), scale(n * 3);
+  auto rows = [&](const auto& f) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& b) {
+      for (int y = b.begin(); y < b.end(); ++y) f(y);
+    });
+  };
+  auto index = [w](int x, int y) { return static_cast<std::size_t>(y) * w + x; };
+
+  run_with_threads(o.threads, [&] {
+    // The guides per pixel; the demodulated colour, its luminance and its noise.
+    rows([&](int y) {
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = index(x, y);
+        Pixel& p = px[i];
+        p.active = g.coverage->data()[i] > 0.0f;
+        const float coc = g.coc->data()[i];
+        p.sharp = coc < o.focus_coc_pixels;
+        p.normal_power = std::max(1, static_cast<int>(std::lround(o.sigma_normal / (1.0f + coc))));
+        p.depth = g.depth->data()[i];
+        p.id = g.ids->data()[i];
+        const float* nm = g.normal->pixel(x, y);
+        const float len = std::sqrt(nm[0] * nm[0] + nm[1] * nm[1] + nm[2] * nm[2]);
+        if (len > 1e-6f)
+          for (int c = 0; c < 3; ++c) p.n[c] = nm[c] / len;
+        for (int c = 0; c < 3; ++c) {
+          scale[i * 3 + c] = std::max(g.albedo->data()[i * 3 + c], o.albedo_floor);
+          cur[i * 3 + c] =
+              (color.data()[i * 3 + c] - g.emission->data()[i * 3 + c]) / scale[i * 3 + c];
+        }
+        lum[i] = luminance(&cur[i * 3]);
+        const float s = luminance(&scale[i * 3]);
+        const float v = g.variance->data()[i] / (s * s);
+        raw_var[i] = std::isfinite(v) && v > 0.0f ? v : 0.0f;
+      }
+    });
+    // The depth gradient of sharp pixels (the largest step to a 4-neighbour of the same object,
+    // through the centres) and the noise blurred over the 3x3 active neighbours.
+    rows([&](int y) {
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = index(x, y);
+        Pixel& p = px[i];
+        if (!p.active) continue;
+        float grad = 0.0f;
+        for (auto [dx, dy] :
+             {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+          const int qx = x + dx, qy = y + dy;
+          if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
+          const Pixel& q = px[index(qx, qy)];
+          if (std::isfinite(q.depth) && q.id == p.id) grad = std::max(grad, std::abs(q.depth - p.depth));
+        }
+        p.gradient = grad;
+        float sum = 0.0f, wsum = 0.0f;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int qx = x + dx, qy = y + dy;
+            if (qx < 0 || qy < 0 || qx >= w || qy >= h || !px[index(qx, qy)].active) continue;
+            const float k = kKernel[dx + 2] * kKernel[dy + 2];
+            sum += k * raw_var[index(qx, qy)], wsum += k;
+          }
+        var[i] = sum / wsum;
+      }
+    });
+  });
+
+  run_with_threads(o.threads, [&] {
+    for (int it = 0; it < o.iterations; ++it) {
+      const int step = 1 << it;
+      rows([&](int y) {
+        for (int x = 0; x < w; ++x) {
+          const std::size_t i = index(x, y);
+          const Pixel& p = px[i];
+          if (!p.active) {
+            for (int c = 0; c < 3; ++c) next[i * 3 + c] = cur[i * 3 + c];
+            next_var[i] = var[i];
+            continue;
+          }
+          const float lp = lum[i];
+          const float inv_lum = 1.0f / (o.sigma_luminance * std::sqrt(var[i]) + 1e-6f * (lp + 1e-3f));
+          float inv_depth[6];
+          for (int d = 0; d < 6; ++d)
+            inv_depth[d] = 1.0f / (o.sigma_depth * p.gradient * kDistances[d] *
+                                       static_cast<float>(step) + 1e-4f * p.depth);
+          float sum[3] = {0, 0, 0}, wsum = 0, vsum = 0;
+          for (int ky = 0; ky < 5; ++ky) {
+            const int qy = y + (ky - 2) * step;
+            if (qy < 0 || qy >= h) continue;
+            for (int kx = 0; kx < 5; ++kx) {
+              const int qx = x + (kx - 2) * step;
+              if (qx < 0 || qx >= w) continue;
+              const std::size_t j = index(qx, qy);
+              const Pixel& q = px[j];
+              if (!q.active) continue;
+              float e = std::abs(lp - lum[j]) * inv_lum;
+              if (p.sharp && q.sharp) {  // an in-focus edge: the centres' ids and depths hold
+                if (q.id != p.id) continue;
+                e += std::abs(p.depth - q.depth) * inv_depth[kDistanceClass[ky][kx]];
+              }
+              const float dot = p.n[0] * q.n[0] + p.n[1] * q.n[1] + p.n[2] * q.n[2];
+              const bool unknown = (p.n[0] == 0 && p.n[1] == 0 && p.n[2] == 0) ||
+                                   (q.n[0] == 0 && q.n[1] == 0 && q.n[2] == 0);
+              const float wn = unknown ? 1.0f : power(std::max(0.0f, dot), p.normal_power);
+              const float wgt = kKernel[kx] * kKernel[ky] * wn * exp_neg(e);
+              for (int c = 0; c < 3; ++c) sum[c] += wgt * cur[j * 3 + c];
+              wsum += wgt;
+              vsum += wgt * wgt * var[j];
+            }
+          }
+          if (!(wsum > 0.0f)) {
+            for (int c = 0; c < 3; ++c) next[i * 3 + c] = cur[i * 3 + c];
+            next_var[i] = var[i];
+            continue;
+          }
+          for (int c = 0; c < 3; ++c) next[i * 3 + c] = sum[c] / wsum;
+          next_var[i] = vsum / (wsum * wsum);
+        }
+      });
+      std::swap(cur, next);
+      std::swap(var, next_var);
+      rows([&](int y) {
+        for (int x = 0; x < w; ++x) lum[index(x, y)] = luminance(&cur[index(x, y) * 3]);
+      });
+    }
+  });
+
+  image::Image out = color;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!px[i].active) continue;
+    for (int c = 0; c < 3; ++c)
+      out.data()[i * 3 + c] = cur[i * 3 + c] * scale[i * 3 + c] + g.emission->data()[i * 3 + c];
+  }
+  return out;
+}
+
+}  // namespace dofcache::denoise
