@@ -193,7 +193,8 @@ void add_denoise_option(CLI::App* cmd, request::RenderRequest& r) {
                 "features. drt, accumulation, pinhole: the render, guided by its first hits "
                 "averaged over the lens samples, its circles of confusion and its measured noise; "
                 "a PNG gets the denoised colour, an EXR keeps the raw beauty with denoised.RGB and "
-                "the guides as layers. auto: on for the preview modes and the viewer");
+                "the guides as layers. auto: on for the preview modes, the viewer and PNG images, off "
+                "for EXR images");
 }
 
 void add_adaptive_options(CLI::App* cmd, request::RenderRequest& r) {

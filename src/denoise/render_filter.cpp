@@ -26,6 +26,11 @@ struct Pixel {
   float n[3] = {0, 0, 0};  // the averaged normal, made unit length (0 if it averages to nothing)
 };
 
+// A tap's weight besides the spline and the luminance step: factor * exp(-exponent).
+struct Tap {
+  float factor = 1.0f, exponent = 0.0f;
+};
+
 }  // namespace
 
 image::Image coc_radius_image(const image::Image& centre_depth, const image::Image& lens_depth,
@@ -48,9 +53,12 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
   if (color.empty() || color.channels() != 3)
     throw Error("denoise: the colour must be a non-empty RGB image");
   check_guide(g.albedo, color, 3, "albedo");
+  check_guide(g.albedo_estimate, color, 3, "albedo estimate");
   check_guide(g.normal, color, 3, "normal");
   check_guide(g.coverage, color, 1, "coverage");
   check_guide(g.emission, color, 3, "emission");
+  check_guide(g.emission_estimate, color, 3, "emission estimate");
+  check_guide(g.emission_variance, color, 1, "emission variance");
   check_guide(g.variance, color, 1, "variance");
   check_guide(g.depth, color, 1, "depth");
   check_guide(g.ids, color, 1, "id");
@@ -62,7 +70,7 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
   const int w = color.width(), h = color.height();
   const std::size_t n = static_cast<std::size_t>(w) * h;
   std::vector<Pixel> px(n);
-  std::vector<float> cur(n * 3), next(n * 3), raw_var(n), var(n), next_var(n), lum(n), scale(n * 3);
+  std::vector<float> cur(n * 3), raw_var(n), var(n), lum(n), scale(n * 3);
   auto rows = [&](const auto& f) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& b) {
       for (int y = b.begin(); y < b.end(); ++y) f(y);
@@ -122,75 +130,136 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
             sum += k * raw_var[index(qx, qy)], wsum += k;
           }
         var[i] = sum / wsum;
+        if (var[i] == 0.0f) {
+          // One sample per pixel measures no noise: the local spread of the demodulated
+          // luminance over the 5x5 active pixels of the same object stands in (the quick look's
+          // estimate).
+          double s1 = 0, s2 = 0;
+          int count = 0;
+          for (int qy = std::max(0, y - 2); qy <= std::min(h - 1, y + 2); ++qy)
+            for (int qx = std::max(0, x - 2); qx <= std::min(w - 1, x + 2); ++qx) {
+              const std::size_t j = index(qx, qy);
+              if (!px[j].active || px[j].id != p.id) continue;
+              s1 += lum[j], s2 += double(lum[j]) * lum[j], ++count;
+            }
+          if (count > 1)
+            var[i] = static_cast<float>(std::max(0.0, (s2 - s1 * s1 / count) / (count - 1)));
+        }
       }
     });
   });
 
-  run_with_threads(o.threads, [&] {
-    for (int it = 0; it < o.iterations; ++it) {
-      const int step = 1 << it;
-      rows([&](int y) {
-        for (int x = 0; x < w; ++x) {
-          const std::size_t i = index(x, y);
-          const Pixel& p = px[i];
-          if (!p.active) {
-            for (int c = 0; c < 3; ++c) next[i * 3 + c] = cur[i * 3 + c];
-            next_var[i] = var[i];
-            continue;
-          }
-          const float lp = lum[i];
-          const float inv_lum = 1.0f / (o.sigma_luminance * std::sqrt(var[i]) + 1e-6f * (lp + 1e-3f));
-          float inv_depth[6];
-          for (int d = 0; d < 6; ++d)
-            inv_depth[d] = 1.0f / (o.sigma_depth * p.gradient * kDistances[d] *
-                                       static_cast<float>(step) + 1e-4f * p.depth);
-          float sum[3] = {0, 0, 0}, wsum = 0, vsum = 0;
-          for (int ky = 0; ky < 5; ++ky) {
-            const int qy = y + (ky - 2) * step;
-            if (qy < 0 || qy >= h) continue;
-            for (int kx = 0; kx < 5; ++kx) {
-              const int qx = x + (kx - 2) * step;
-              if (qx < 0 || qx >= w) continue;
-              const std::size_t j = index(qx, qy);
-              const Pixel& q = px[j];
-              if (!q.active) continue;
-              float e = std::abs(lp - lum[j]) * inv_lum;
-              if (p.sharp && q.sharp) {  // an in-focus edge: the centres' ids and depths hold
-                if (q.id != p.id) continue;
-                e += std::abs(p.depth - q.depth) * inv_depth[kDistanceClass[ky][kx]];
-              }
-              const float dot = p.n[0] * q.n[0] + p.n[1] * q.n[1] + p.n[2] * q.n[2];
-              const bool unknown = (p.n[0] == 0 && p.n[1] == 0 && p.n[2] == 0) ||
-                                   (q.n[0] == 0 && q.n[1] == 0 && q.n[2] == 0);
-              const float wn = unknown ? 1.0f : power(std::max(0.0f, dot), p.normal_power);
-              const float wgt = kKernel[kx] * kKernel[ky] * wn * exp_neg(e);
-              for (int c = 0; c < 3; ++c) sum[c] += wgt * cur[j * 3 + c];
-              wsum += wgt;
-              vsum += wgt * wgt * var[j];
+  // `iterations` a-trous passes over `value` (RGB) with its luminance `lum` and the variance of
+  // that luminance `variance` (propagated as var' = sum w^2 var / (sum w)^2). Pixels where
+  // `takes_part` is false keep their value and give none; tap(i, j, kx, ky, step) is a tap's
+  // weight besides the B3 spline and the luminance step measured against the noise, as a factor
+  // and an exponent e (the weight takes exp(-e): one exponential per tap).
+  std::vector<float> next_value(n * 3), next_variance(n);
+  auto iterate = [&](std::vector<float>& value, std::vector<float>& variance,
+                     std::vector<float>& luma, const auto& takes_part, const auto& tap) {
+    run_with_threads(o.threads, [&] {
+      for (int it = 0; it < o.iterations; ++it) {
+        const int step = 1 << it;
+        rows([&](int y) {
+          for (int x = 0; x < w; ++x) {
+            const std::size_t i = index(x, y);
+            auto keep = [&] {
+              for (int c = 0; c < 3; ++c) next_value[i * 3 + c] = value[i * 3 + c];
+              next_variance[i] = variance[i];
+            };
+            // No measured noise: every other value is refused (to float precision), so the pixel
+            // keeps its own.
+            if (!takes_part(i) || !(variance[i] > 0.0f)) {
+              keep();
+              continue;
             }
+            const float lp = luma[i];
+            const float inv_lum =
+                1.0f / (o.sigma_luminance * std::sqrt(variance[i]) + 1e-6f * (lp + 1e-3f));
+            float sum[3] = {0, 0, 0}, wsum = 0, vsum = 0;
+            for (int ky = 0; ky < 5; ++ky) {
+              const int qy = y + (ky - 2) * step;
+              if (qy < 0 || qy >= h) continue;
+              for (int kx = 0; kx < 5; ++kx) {
+                const int qx = x + (kx - 2) * step;
+                if (qx < 0 || qx >= w) continue;
+                const std::size_t j = index(qx, qy);
+                if (!takes_part(j)) continue;
+                const Tap t = j == i ? Tap{} : tap(i, j, kx, ky, step);
+                if (!(t.factor > 0.0f)) continue;
+                const float wgt = kKernel[kx] * kKernel[ky] * t.factor *
+                                  exp_neg(std::abs(lp - luma[j]) * inv_lum + t.exponent);
+                for (int c = 0; c < 3; ++c) sum[c] += wgt * value[j * 3 + c];
+                wsum += wgt;
+                vsum += wgt * wgt * variance[j];
+              }
+            }
+            if (!(wsum > 0.0f)) {
+              keep();
+              continue;
+            }
+            for (int c = 0; c < 3; ++c) next_value[i * 3 + c] = sum[c] / wsum;
+            next_variance[i] = vsum / (wsum * wsum);
           }
-          if (!(wsum > 0.0f)) {
-            for (int c = 0; c < 3; ++c) next[i * 3 + c] = cur[i * 3 + c];
-            next_var[i] = var[i];
-            continue;
-          }
-          for (int c = 0; c < 3; ++c) next[i * 3 + c] = sum[c] / wsum;
-          next_var[i] = vsum / (wsum * wsum);
-        }
-      });
-      std::swap(cur, next);
-      std::swap(var, next_var);
-      rows([&](int y) {
-        for (int x = 0; x < w; ++x) lum[index(x, y)] = luminance(&cur[index(x, y) * 3]);
-      });
+        });
+        std::swap(value, next_value);
+        std::swap(variance, next_variance);
+        rows([&](int y) {
+          for (int x = 0; x < w; ++x) luma[index(x, y)] = luminance(&value[index(x, y) * 3]);
+        });
+      }
+    });
+  };
+
+  // The reflected light: the guides and the measured noise decide each tap.
+  auto reflected_tap = [&](std::size_t i, std::size_t j, int kx, int ky, int step) {
+    const Pixel& p = px[i];
+    const Pixel& q = px[j];
+    if (!q.active) return Tap{0.0f, 0.0f};
+    float e = 0.0f;
+    if (p.sharp && q.sharp) {  // an in-focus edge: the centres' ids and depths hold
+      if (q.id != p.id) return Tap{0.0f, 0.0f};
+      e = std::abs(p.depth - q.depth) /
+          (o.sigma_depth * p.gradient * kDistances[kDistanceClass[ky][kx]] *
+               static_cast<float>(step) + 1e-4f * p.depth);
     }
-  });
+    const bool unknown = (p.n[0] == 0 && p.n[1] == 0 && p.n[2] == 0) ||
+                         (q.n[0] == 0 && q.n[1] == 0 && q.n[2] == 0);
+    const float dot = p.n[0] * q.n[0] + p.n[1] * q.n[1] + p.n[2] * q.n[2];
+    const float wn = unknown ? 1.0f : power(std::max(0.0f, dot), p.normal_power);
+    return Tap{wn, e};
+  };
+  iterate(cur, var, lum, [&](std::size_t i) { return px[i].active; }, reflected_tap);
+
+  // The emission (lamps, the sky): its noise is which lamp or sky the lens and film samples met,
+  // so only its own measured noise steers, and no tap reaches beyond the pixel's circle of
+  // confusion (an in-focus lamp's edge stays as sharp as the film made it).
+  std::vector<float> emit(n * 3), emit_lum(n), emit_var(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) emit[i * 3 + c] = g.emission_estimate->data()[i * 3 + c];
+    emit_lum[i] = luminance(&emit[i * 3]);
+    const float v = g.emission_variance->data()[i];
+    emit_var[i] = std::isfinite(v) && v > 0.0f ? v : 0.0f;
+  }
+  iterate(emit, emit_var, emit_lum, [&](std::size_t) { return true; },
+          [&](std::size_t i, std::size_t, int, int, int step) {
+            return Tap{static_cast<float>(step) <= std::max(1.0f, g.coc->data()[i]) ? 1.0f : 0.0f,
+                       0.0f};
+          });
 
   image::Image out = color;
   for (std::size_t i = 0; i < n; ++i) {
-    if (!px[i].active) continue;
+    const float* e = &emit[i * 3];
+    // Divided by the albedo of the colour's own samples, whose share of each surface the colour
+    // follows; multiplied by the better estimate of that albedo.
     for (int c = 0; c < 3; ++c)
-      out.data()[i * 3 + c] = cur[i * 3 + c] * scale[i * 3 + c] + g.emission->data()[i * 3 + c];
+      out.data()[i * 3 + c] = px[i].active
+                                  ? cur[i * 3 + c] *
+                                            std::max(g.albedo_estimate->data()[i * 3 + c],
+                                                     o.albedo_floor) +
+                                        e[c]
+                                           : color.data()[i * 3 + c] -
+                                                 g.emission->data()[i * 3 + c] + e[c];
   }
   return out;
 }

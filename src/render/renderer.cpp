@@ -60,8 +60,9 @@ struct Context {
 };
 
 // The sums kept per pixel for RenderSettings::lens_features: albedo (3), normal (3), depth over
-// the hits, hits, the reflected luminance and its square, emission (3).
-constexpr int kFeatureSums = 13;
+// the hits, hits, the reflected luminance and its square, emission (3), the emitted luminance and
+// its square, the albedo's luminance squared.
+constexpr int kFeatureSums = 16;
 
 // The first hit of one lens sample, for the lens features.
 struct SampleFeatures {
@@ -177,7 +178,7 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
   ShadingPoint p = c.shader.prepare(ray, hit);
   if (features) {
     features->hit = true;
-    features->albedo = guide_albedo(c.settings, p.material);
+    features->albedo = p.material.base_color;
     features->normal = p.surface.shading_normal;
     features->emission = c.shader.emitted(p);
     features->depth = static_cast<float>(c.camera.depth(p.surface.position));
@@ -295,9 +296,49 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
         fs[k] += f.albedo[k], fs[3 + k] += f.normal[k], fs[10 + k] += f.emission[k];
       if (f.hit) fs[6] += f.depth, fs[7] += 1.0;
       fs[8] += v, fs[9] += v * v;
+      const double e = scene::luminance(f.emission), a = scene::luminance(f.albedo);
+      fs[13] += e, fs[14] += e * e, fs[15] += a * a;
     }
   }
   return acc;
+}
+
+// The extra lens samples of a pixel whose emission or albedo varies (RenderSettings::
+// lens_features): rays that only look at what they hit need no shading, so lamps' bokeh, the
+// sky's edges and the blur bands where a defocused object meets what is behind it can be
+// integrated far beyond the colour's samples at little cost. At least kFeatureSamples, or as many
+// as the pixel's own.
+constexpr std::uint32_t kFeatureSamples = 32;
+// The relative spread of a pixel's emission or albedo that calls for them (see render()).
+constexpr double kFeatureSpread = 0.1;
+
+// Samples [s0, end) of pixel (x, y) traced for what their first hits emit towards the camera
+// (or the background) and their albedo, added into `sums` (kFeatureSums layout: 0-2 albedo,
+// 10-12 emission, 13 its luminance, 14 that squared, 15 the albedo's luminance squared).
+void add_feature_samples(const Context& c, int x, int y, std::uint32_t s0, std::uint32_t end,
+                         RayCounters& counters, double* sums) {
+  const RenderSettings& st = c.settings;
+  const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
+  const PixelSamples samples(st, x, y);
+  for (std::uint32_t s = s0; s < end; ++s) {
+    scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(samples.film(s), samples.lens(s)));
+    const std::uint64_t key = hash_combine(pixel, s);
+    ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));
+    ++counters.rays;
+    const scene::Hit hit = c.accel.intersect(ray);
+    glm::vec3 e(0.0f), a(0.0f);
+    if (hit.valid()) {
+      const ShadingPoint p = c.shader.prepare(ray, hit);
+      e = c.shader.emitted(p);
+      a = p.material.base_color;
+    } else {
+      e = c.shader.background(ray.direction);
+    }
+    if (!(std::isfinite(e.x) && std::isfinite(e.y) && std::isfinite(e.z))) e = glm::vec3(0.0f);
+    const double l = scene::luminance(e), la = scene::luminance(a);
+    for (int k = 0; k < 3; ++k) sums[k] += a[k], sums[10 + k] += e[k];
+    sums[13] += l, sums[14] += l * l, sums[15] += la * la;
+  }
 }
 
 // Samples [s0, s1) of every pixel of a tile (up to the pixel's own count), added into `sum`.
@@ -333,7 +374,10 @@ std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, 
 // The lens features' images from their per-pixel sums (kFeatureSums per pixel); `samples(i)`:
 // the samples pixel i took.
 template <class Samples>
-LensFeatures lens_features_from(const std::vector<double>& sums, int w, int h, Samples samples) {
+LensFeatures lens_features_from(const std::vector<double>& sums,
+                                const std::vector<double>& emission_sums,
+                                const std::vector<std::uint32_t>& emission_samples, int w, int h,
+                                Samples samples) {
   LensFeatures f;
   f.albedo = image::Image(w, h, 3, 0.0f);
   f.normal = image::Image(w, h, 3, 0.0f);
@@ -341,6 +385,15 @@ LensFeatures lens_features_from(const std::vector<double>& sums, int w, int h, S
   f.coverage = image::Image(w, h, 1, 0.0f);
   f.variance = image::Image(w, h, 1, 0.0f);
   f.emission = image::Image(w, h, 3, 0.0f);
+  f.emission_estimate = image::Image(w, h, 3, 0.0f);
+  f.albedo_estimate = image::Image(w, h, 3, 0.0f);
+  f.emission_variance = image::Image(w, h, 1, 0.0f);
+  // The unbiased sample variance over n, that of the mean, from a sum and a sum of squares.
+  auto variance_of_mean = [](double sum, double sum2, double n) {
+    const double mean = sum / n;
+    return n > 1 ? static_cast<float>(std::max(0.0, sum2 - n * mean * mean) / ((n - 1) * n))
+                 : 0.0f;
+  };
   for (std::size_t i = 0; i < f.depth.pixel_count(); ++i) {
     const double* s = &sums[i * kFeatureSums];
     const double n = samples(i);
@@ -352,10 +405,16 @@ LensFeatures lens_features_from(const std::vector<double>& sums, int w, int h, S
     }
     if (s[7] > 0) f.depth.data()[i] = static_cast<float>(s[6] / s[7]);
     f.coverage.data()[i] = static_cast<float>(s[7] / n);
-    const double mean = s[8] / n;
-    // The unbiased sample variance over n, that of the mean.
-    f.variance.data()[i] =
-        n > 1 ? static_cast<float>(std::max(0.0, s[9] - n * mean * mean) / ((n - 1) * n)) : 0.0f;
+    f.variance.data()[i] = variance_of_mean(s[8], s[9], n);
+    // The emission and albedo over the colour's samples and the extra ones
+    // (add_feature_samples).
+    const double* e = &emission_sums[i * kFeatureSums];
+    const double m = n + emission_samples[i];
+    for (int k = 0; k < 3; ++k) {
+      f.emission_estimate.data()[i * 3 + k] = static_cast<float>(e[10 + k] / m);
+      f.albedo_estimate.data()[i * 3 + k] = static_cast<float>(e[k] / m);
+    }
+    f.emission_variance.data()[i] = variance_of_mean(e[13], e[14], m);
   }
   return f;
 }
@@ -619,10 +678,62 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
       for (int k = 0; k < 3; ++k)
         color[i * 3 + k] = n > 0 ? static_cast<float>(sum[i * 3 + k] / n) : 0.0f;
     }
-    if (features)
-      out.lens_features = lens_features_from(feature_sums, w, h, [&](std::size_t i) {
-        return !rendered[i] ? 0.0 : pixel_samples.empty() ? double(spp) : pixel_samples[i];
+    if (features) {
+      auto samples_of = [&](std::size_t i) {
+        return !rendered[i] ? 0u : pixel_samples.empty() ? spp : pixel_samples[i];
+      };
+      // Extra feature samples where the emission or the albedo varies: over a pixel's own
+      // samples, or between it and a neighbour (a pixel at a blur band's edge whose few samples
+      // all met one surface; with one sample per pixel, the only sign).
+      auto mean_of = [&](std::size_t i, int k) {
+        return feature_sums[i * kFeatureSums + k] / std::max(1u, samples_of(i));
+      };
+      auto albedo_luminance = [&](std::size_t i) {
+        const double* fs = &feature_sums[i * kFeatureSums];
+        return scene::luminance(glm::vec3(fs[0], fs[1], fs[2])) / std::max(1u, samples_of(i));
+      };
+      // A spread that matters: a standard deviation over the samples above kFeatureSpread of
+      // the mean (a texture's gentle variation does not; two surfaces in one pixel do).
+      auto spread = [](double sum2, double n, double mean) {
+        return n > 1 && sum2 / n - mean * mean >
+                            kFeatureSpread * kFeatureSpread * std::max(mean * mean, 1e-6);
+      };
+      auto differs = [](double a, double b) {
+        return std::abs(a - b) > kFeatureSpread * std::max({std::abs(a), std::abs(b), 1e-3});
+      };
+      auto varies = [&](int x, int y) {
+        const std::size_t i = static_cast<std::size_t>(y) * w + x;
+        const double* fs = &feature_sums[i * kFeatureSums];
+        const double n = samples_of(i), e = mean_of(i, 13), a = albedo_luminance(i);
+        if (spread(fs[14], n, e) || spread(fs[15], n, a)) return true;
+        for (int qy = std::max(0, y - 1); qy <= std::min(h - 1, y + 1); ++qy)
+          for (int qx = std::max(0, x - 1); qx <= std::min(w - 1, x + 1); ++qx) {
+            const std::size_t j = static_cast<std::size_t>(qy) * w + qx;
+            if (differs(mean_of(j, 13), e) || differs(albedo_luminance(j), a)) return true;
+          }
+        return false;
+      };
+      std::vector<double> emission_sums = feature_sums;
+      std::vector<std::uint32_t> extra(rendered.size(), 0);
+      std::vector<RayCounters> emission_rays(tiles.size());
+      arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1), [&](const auto& r) {
+          for (size_t t = r.begin(); t != r.end(); ++t)
+            for (int y = tiles[t].y0; y < tiles[t].y1; ++y)
+              for (int x = tiles[t].x0; x < tiles[t].x1; ++x) {
+                const std::size_t i = static_cast<std::size_t>(y) * w + x;
+                const std::uint32_t n = samples_of(i);
+                if (n == 0 || !varies(x, y)) continue;
+                extra[i] = std::max(kFeatureSamples, n);
+                add_feature_samples(c, x, y, n, n + extra[i], emission_rays[t],
+                                    &emission_sums[i * kFeatureSums]);
+              }
+        });
       });
+      for (const RayCounters& rc : emission_rays) rays += rc.rays;
+      out.lens_features =
+          lens_features_from(feature_sums, emission_sums, extra, w, h, samples_of);
+    }
     if (!pixel_samples.empty()) {
       out.samples = image::Image(w, h, 1, 0.0f);
       for (size_t i = 0; i < rendered.size(); ++i)

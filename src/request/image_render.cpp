@@ -76,11 +76,15 @@ void write_render(const std::string& path, const render::RenderOutput& out,
   if (!image::is_exr_path(path)) return image::write_image(path, *denoised, layers);
   const render::LensFeatures& f = out.lens_features;
   layers.insert(layers.end(), {{{"denoised.R", "denoised.G", "denoised.B"}, *denoised},
-                               {{"albedo.R", "albedo.G", "albedo.B"}, f.albedo},
+                               {{"albedo.R", "albedo.G", "albedo.B"}, f.albedo_estimate},
                                {{"lens.N.X", "lens.N.Y", "lens.N.Z"}, f.normal},
                                {{"lens.Z"}, f.depth},
                                {{"lens.coverage"}, f.coverage},
                                {{"emission.R", "emission.G", "emission.B"}, f.emission},
+                               {{"emission_estimate.R", "emission_estimate.G",
+                                 "emission_estimate.B"},
+                                f.emission_estimate},
+                               {{"emission_variance.Y"}, f.emission_variance},
                                {{"variance.Y"}, f.variance}});
   image::write_image(path, out.color, layers);
 }
@@ -99,7 +103,8 @@ image::Image denoised(const render::RenderOutput& out, const render::RenderSetti
   denoise::RenderFilterOptions options;
   options.threads = settings.threads;
   return denoise::render_filter(
-      out.color, {&f.albedo, &f.normal, &f.coverage, &f.emission, &f.variance, &out.depth, &out.ids,
+      out.color, {&f.albedo, &f.albedo_estimate, &f.normal, &f.coverage, &f.emission,
+                  &f.emission_estimate, &f.emission_variance, &f.variance, &out.depth, &out.ids,
                   &coc},
       options);
 }

@@ -128,8 +128,15 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
   }
 
   if (q.denoise == Choice::Auto) {
-    q.denoise = r.preview || q.kind == Kind::View ? Choice::On : Choice::Off;
-    chose(std::string("denoise: auto -> ") + choice_name(q.denoise));
+    // An 8-bit image is for looking at: it gets the denoised colour. An EXR is for further work
+    // (compositing, references): its beauty stays the raw, unbiased render.
+    const bool png_image = q.kind == Kind::Image && !q.out.empty() && !image::is_exr_path(q.out);
+    q.denoise = r.preview || q.kind == Kind::View || png_image ? Choice::On : Choice::Off;
+    chose(std::string("denoise: auto -> ") + choice_name(q.denoise) +
+          (r.preview || q.kind == Kind::View ? " (the pinhole inputs)"
+           : png_image                      ? " (a PNG shows the denoised render)"
+           : q.kind == Kind::Image          ? " (an EXR keeps the raw render)"
+                                            : ""));
   }
   if (q.denoise == Choice::On && q.kind == Kind::Sequence)
     throw Error("denoise: a sequence's frames are not denoised yet (docs/denoise.md)");

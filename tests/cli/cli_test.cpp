@@ -92,8 +92,8 @@ TEST_F(Cli, DefaultSceneRendersToPngAndExr) {
 }
 
 // --denoise on with an integrator: a PNG gets the denoised colour; an EXR keeps the raw beauty
-// (bit-identical to --denoise off) with the denoised colour and the guides as layers; auto leaves
-// the render raw.
+// (bit-identical to --denoise off) with the denoised colour and the guides as layers. auto: on
+// for a PNG, off for an EXR.
 TEST_F(Cli, DenoisedRenderKeepsTheRawBeautyInExr) {
   const std::string opts = " --width 32 --height 24 --spp 4 --gather-rays 2 --light-samples 1 -q";
   auto render = [&](const std::string& out, const std::string& extra) {
@@ -104,7 +104,8 @@ TEST_F(Cli, DenoisedRenderKeepsTheRawBeautyInExr) {
   render("auto.exr", "");
   render("on.exr", " --denoise on --stats-json " + (dir_ / "on.json").string());
   render("on.png", " --denoise on");
-  render("raw.png", "");
+  render("auto.png", "");
+  render("raw.png", " --denoise off");
   using dofcache::image::read_channels;
   const auto raw = dofcache::image::read_image((dir_ / "raw.exr").string());
   EXPECT_EQ(dofcache::image::read_image((dir_ / "auto.exr").string()).data(), raw.data());
@@ -118,6 +119,7 @@ TEST_F(Cli, DenoisedRenderKeepsTheRawBeautyInExr) {
   EXPECT_THROW(read_channels((dir_ / "raw.exr").string(), {"denoised.R"}), dofcache::Error);
   EXPECT_NE(slurp(dir_ / "on.json").find("\"denoise\""), std::string::npos);
   EXPECT_NE(slurp(dir_ / "on.png"), slurp(dir_ / "raw.png"));
+  EXPECT_EQ(slurp(dir_ / "auto.png"), slurp(dir_ / "on.png"));  // auto: a PNG is denoised
 }
 
 // render picks the cache sample quality from --spp unless told: round(spp / 32), at least 1.

@@ -23,14 +23,16 @@ constexpr int kW = 64, kH = 32;
 // its colour and measured noise to be filled by each test.
 struct Render {
   Image color{kW, kH, 3, 0.0f}, albedo{kW, kH, 3, 0.5f}, normal{kW, kH, 3, 0.0f},
-      coverage{kW, kH, 1, 1.0f}, emission{kW, kH, 3, 0.0f}, variance{kW, kH, 1, 0.0f},
+      coverage{kW, kH, 1, 1.0f}, emission{kW, kH, 3, 0.0f}, emission_variance{kW, kH, 1, 0.0f},
+      variance{kW, kH, 1, 0.0f},
       depth{kW, kH, 1, 2.0f}, ids{kW, kH, 1, 0.0f}, coc{kW, kH, 1, 0.0f};
   Render() {
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x) normal.pixel(x, y)[2] = 1.0f;
   }
   denoise::RenderGuides guides() const {
-    return {&albedo, &normal, &coverage, &emission, &variance, &depth, &ids, &coc};
+    return {&albedo, &albedo, &normal, &coverage, &emission, &emission, &emission_variance,
+            &variance, &depth, &ids, &coc};
   }
   // Grey colour `truth(x)` plus noise of standard deviation sd (the same on every channel, so
   // the luminance's), whose variance the render measured.

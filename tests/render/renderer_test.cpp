@@ -361,8 +361,10 @@ TEST(Renderer, LensFeaturesAverageTheFirstHitsOverTheLensSamples) {
   RenderSettings plain = f.settings(16);
   plain.lens_features = false;
   const RenderOutput raw = render(f.scene, accel, f.scene.cameras[0], plain);
-  EXPECT_EQ(out.color.data(), raw.color.data());  // no colour changed, no ray added
-  EXPECT_EQ(out.stats.rays, raw.stats.rays);
+  EXPECT_EQ(out.color.data(), raw.color.data());  // no colour changed
+  // Rays added: the emission's extra samples only, at least 64 per pixel where it varies.
+  EXPECT_EQ(out.stats.camera_rays, raw.stats.camera_rays);
+  EXPECT_GT(out.stats.rays, raw.stats.rays);
   EXPECT_TRUE(raw.lens_features.empty());
 
   const LensFeatures& lf = out.lens_features;
@@ -415,6 +417,38 @@ TEST(Renderer, LensFeaturesAverageTheFirstHitsOverTheLensSamples) {
   EXPECT_NEAR(measured / spread, 1.0, 0.3) << measured / pairs << " vs " << spread / pairs;
   const RenderOutput one = render(f.scene, accel, f.scene.cameras[0], f.settings(1));
   for (float v : one.lens_features.variance.data()) EXPECT_EQ(v, 0.0f);
+}
+
+// The emission and albedo estimates: where the lamp's blur disc makes them vary, more samples,
+// so nearer those of a render with many samples than the colour's own samples' are.
+TEST(Renderer, FeatureEstimatesIntegrateTheLampsBokehWithMoreSamples) {
+  FeatureScene f;
+  scene::Accel accel(f.scene);
+  const RenderOutput few = render(f.scene, accel, f.scene.cameras[0], f.settings(4));
+  const RenderOutput many = render(f.scene, accel, f.scene.cameras[0], f.settings(256));
+  const LensFeatures& a = few.lens_features;
+  double own = 0, estimate = 0, estimate_sum = 0, truth_sum = 0, own_albedo = 0,
+         estimate_albedo = 0;
+  int pixels = 0;
+  for (std::size_t i = 0; i < a.emission.pixel_count(); ++i) {
+    const float truth = many.lens_features.emission.data()[i * 3];
+    if (truth == 0.0f && a.emission.data()[i * 3] == 0.0f) continue;
+    ++pixels;
+    own += std::pow(a.emission.data()[i * 3] - truth, 2);
+    estimate += std::pow(a.emission_estimate.data()[i * 3] - truth, 2);
+    estimate_sum += a.emission_estimate.data()[i * 3];
+    truth_sum += truth;
+    // The albedo there (the lamp's is 0, the wall's behind it not): the same mix.
+    const float albedo = many.lens_features.albedo.data()[i * 3 + 2];
+    own_albedo += std::pow(a.albedo.data()[i * 3 + 2] - albedo, 2);
+    estimate_albedo += std::pow(a.albedo_estimate.data()[i * 3 + 2] - albedo, 2);
+  }
+  ASSERT_GT(pixels, 20);
+  // 4 samples against at least 68, judged by 256: the squared error should fall about 13-fold;
+  // ask for 5.
+  EXPECT_LT(estimate, own / 5.0);
+  EXPECT_NEAR(estimate_sum / truth_sum, 1.0, 0.03);  // the lamp's energy, kept
+  EXPECT_LT(estimate_albedo, own_albedo / 5.0);
 }
 
 }  // namespace

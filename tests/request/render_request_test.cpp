@@ -175,12 +175,17 @@ TEST_F(Resolve, AutoRulesAsDocumented) {
   EXPECT_EQ(pv.settings.mode, render::Mode::Pinhole);
   ASSERT_TRUE(pv.preview.has_value());
   EXPECT_TRUE(pv.preview_options.denoise);  // auto: on for the preview modes
-  EXPECT_FALSE(drt.preview_options.denoise);
+  EXPECT_EQ(drt.request.denoise, Choice::On);  // an image written as PNG (the fixture's)
   r.cache = "vdb";
   EXPECT_THROW(resolved(r), Error);  // a preview with a cache
   r.cache = "auto";
   r.mode = parse_mode("drt");
-  EXPECT_FALSE(drt.settings.lens_features);  // auto: an integrator's render stays raw
+  EXPECT_TRUE(drt.settings.lens_features);  // auto: a PNG shows the denoised render
+  RenderRequest exr = r;
+  exr.out = "x.exr";
+  EXPECT_FALSE(resolve(exr, scene, accel, camera).settings.lens_features);  // auto: EXR stays raw
+  exr.out = "";
+  EXPECT_FALSE(resolve(exr, scene, accel, camera).settings.lens_features);  // a library caller
   r.denoise = Choice::On;
   EXPECT_TRUE(resolved(r).settings.lens_features);  // the guides of the render's denoiser
   r.denoise = Choice::Auto;

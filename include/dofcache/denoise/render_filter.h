@@ -27,10 +27,15 @@ namespace dofcache::denoise {
 
 struct RenderGuides {
   // Averaged over the pixel's lens samples (render::LensFeatures); all required.
-  const image::Image* albedo = nullptr;    // RGB
+  const image::Image* albedo = nullptr;    // RGB, over the same samples as `color`
+  // RGB: the same from more samples (render::LensFeatures), which remodulates the filtered light.
+  const image::Image* albedo_estimate = nullptr;
   const image::Image* normal = nullptr;    // RGB, not unit length where surfaces mix
   const image::Image* coverage = nullptr;  // 1 channel: fraction of samples that hit (0: none)
-  const image::Image* emission = nullptr;  // RGB: emitted and background radiance, not filtered
+  const image::Image* emission = nullptr;  // RGB: emitted and background radiance in `color`
+  // RGB: the same from more samples (render::LensFeatures), and its mean luminance's variance.
+  const image::Image* emission_estimate = nullptr;
+  const image::Image* emission_variance = nullptr;
   const image::Image* variance = nullptr;  // 1 channel: variance of the mean reflected luminance
   // Through the pixel centre (render::RenderOutput::depth, ids); required.
   const image::Image* depth = nullptr;
@@ -40,7 +45,7 @@ struct RenderGuides {
 };
 
 struct RenderFilterOptions {
-  int iterations = 5;              // taps 1 to 16 pixels apart: a footprint of 63 pixels
+  int iterations = 4;              // taps 1 to 8 pixels apart: a footprint of 31 pixels
   float sigma_normal = 64.0f;      // the normal weight's exponent in focus
   float sigma_depth = 1.0f;        // in focus: depth steps allowed, in local depth gradients
   float sigma_luminance = 4.0f;    // luminance steps allowed, in standard deviations of the noise
@@ -55,8 +60,10 @@ struct RenderFilterOptions {
 image::Image coc_radius_image(const image::Image& centre_depth, const image::Image& lens_depth,
                               const lens::LensImaging& imaging);
 
-// `color` (RGB, linear) filtered: its reflected part (colour less emission), demodulated by the
-// albedo; the emission is added back as rendered. Pixels no lens sample hit keep their colour. Throws
+// `color` (RGB, linear) filtered in two parts: the reflected light (colour less emission),
+// demodulated by the albedo and steered by every guide, where a lens sample hit a surface; and the
+// emission estimate, steered by its own measured noise alone within each pixel's circle of
+// confusion, added in place of the colour's emission. Throws
 // dofcache::Error unless every guide is given with the colour's size and its channel count.
 image::Image render_filter(const image::Image& color, const RenderGuides& guides,
                            const RenderFilterOptions& options = {});

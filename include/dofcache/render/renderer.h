@@ -169,14 +169,25 @@ struct RenderStats {
 // colour is, by the same lens rays, so a filter guided by them neither sharpens a defocused region
 // nor smears an in-focus edge (docs/denoise.md).
 struct LensFeatures {
-  image::Image albedo;    // RGB: diffuse albedo of the first hit, 0 where a sample met nothing
+  // RGB: the first hit's base colour (what its diffuse or metallic lobe tints), 0 where a sample
+  // met nothing: what the denoiser divides out, so textures are not blurred.
+  image::Image albedo;
   image::Image normal;    // RGB: world-space shading normal, 0 where a sample met nothing
   image::Image depth;     // 1 channel: camera-space depth over the samples that hit (+inf: none)
   image::Image coverage;  // 1 channel: the fraction of samples that hit a surface
   // RGB: the radiance the first hits emit towards the camera, and the background where a sample
-  // met nothing: the part of the colour a filter leaves alone (its noise is the film's coverage
-  // of a lamp's or the sky's edge, which no guide tells from noise).
+  // met nothing: the part of the colour whose noise is the lens's and the film's coverage of a
+  // lamp or the sky, not the lighting's (a filter treats it apart).
   image::Image emission;
+  // RGB: the emission and the albedo where either varies (a lamp's or the sky's edge, in focus or
+  // as bokeh; the blur band where a defocused object meets what is behind it) integrated over at
+  // least 64 more lens samples, rays that only look at what they hit and need no shading; and
+  // the variance of the emission's mean luminance (1 channel). Pixels whose own samples and
+  // neighbours all saw one emission and one albedo keep the colour's samples'. The denoiser
+  // puts these back in place of `emission` and `albedo` (the raw colour keeps its own samples).
+  image::Image emission_estimate;
+  image::Image albedo_estimate;
+  image::Image emission_variance;
   // 1 channel: the variance of the pixel's mean reflected luminance (the colour less the
   // emission), s^2 / n from its n samples' spread (0 for n = 1). Samples sharing a cache sample
   // are correlated: this misses that part.

@@ -93,7 +93,7 @@ struct RenderRequest {
   // --- adaptive lens sampling ---
   Choice adaptive = Choice::Auto;
   render::AdaptiveSampling adaptive_settings;  // `enabled` is decided by `adaptive`
-  // --- denoising (denoise/atrous.h): auto is on for the preview modes and the viewer ---
+  // --- denoising (denoise/atrous.h, render_filter.h): auto as resolve.h says ---
   Choice denoise = Choice::Auto;
   // --- the layered previews' composite ---
   preview::LayerComposite composite = preview::LayerComposite::Over;
