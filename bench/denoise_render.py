@@ -36,11 +36,15 @@ sys.path.insert(0, HERE)
 import peer_bench as pb  # noqa: E402
 from denoise_quicklook import dump, edge_band, rel_mse, run  # noqa: E402
 
-SCENES = [("cornell_box", "cornell_box.gltf", "cornell"),
-          ("color_bars", "color_bars.gltf", "bars"),
-          ("color_spheres", "color_spheres.gltf", "spheres"),
-          ("glossy_closeup", "glossy_closeup.glb", "glossy"),
-          ("hanging_light_box", "hanging_light_box.gltf", "hanging")]
+# name, file, the peer benchmark's results name (None: no Cycles targets), f-number.
+SCENES = [("cornell_box", "cornell_box.gltf", "cornell", pb.WIDE_FSTOP["cornell_box"]),
+          ("color_bars", "color_bars.gltf", "bars", pb.WIDE_FSTOP["color_bars"]),
+          ("color_spheres", "color_spheres.gltf", "spheres", pb.WIDE_FSTOP["color_spheres"]),
+          ("glossy_closeup", "glossy_closeup.glb", "glossy", pb.WIDE_FSTOP["glossy_closeup"]),
+          ("hanging_light_box", "hanging_light_box.gltf", "hanging",
+           pb.WIDE_FSTOP["hanging_light_box"]),
+          # A small bright lamp beside a wall over a glossy floor: the firefly count's scene.
+          ("lamp_corner", "lamp_corner.gltf", None, 1.0)]
 
 
 def luminance_band(rgb, width, height, step=0.3, floor=0.05, radius=3):
@@ -102,6 +106,8 @@ def interpolate_loglog(points, x_key, y_key, x):
 
 
 def cycles_targets(short):
+    if short is None:
+        return {}, None
     path = os.path.join(REPO, "bench", "results", "peer_cycles_320_%s.json" % short)
     with open(path) as f:
         rows = json.load(f)["results"]["rows"]
@@ -123,11 +129,10 @@ def main():
     a = p.parse_args()
     os.makedirs(a.work, exist_ok=True)
     rows, ladders = [], {}
-    for name, file, short in SCENES:
+    for name, file, short, fstop in SCENES:
         if a.scenes and name not in a.scenes:
             continue
         scene = os.path.join(REPO, "scenes", file)
-        fstop = pb.WIDE_FSTOP[name]
         lens = ["--fstop", repr(fstop), "--bounces", "1", "--width", str(a.width),
                 "--threads", str(a.threads)]
         ref = os.path.join(a.refs, "ref_%s_f%s_b1_%d.exr" % (name, fstop, a.width))

@@ -15,6 +15,8 @@ Outputs:
   color_spheres.gltf                 self-contained; one KHR_lights_punctual spot light
   glossy_closeup.glb                 binary glTF with embedded PNG textures
   hanging_light_box.gltf             self-contained; a two-sided panel 2 cm below the ceiling, f/0.2
+  lamp_corner.gltf                   self-contained; a small bright lamp 4 cm from a wall over a
+                                     glossy floor (fireflies)
   gallery.glb                        a 12 m gallery to walk through (scenes/paths/gallery_walk.json):
                                      columns, pedestals with objects, a tiled floor texture, ceiling
                                      panels 5 cm below the ceiling, a lit doorway; 50 mm f/0.7
@@ -878,6 +880,38 @@ def hanging_light_box():
     return g
 
 
+def lamp_corner():
+    """A 2 m room lit only by a small bright lamp (a 10 cm square, both sides emitting) 4 cm in
+    front of the back wall near a corner, above a glossy floor (roughness 0.15), with a polished
+    metal sphere and a diffuse cube. Light reaches most of the room by one bounce off the wall
+    patch beside the lamp, and the floor reflects both: the paths a path tracer turns into
+    fireflies (the clean-frames benchmark's firefly count). 50 mm f/1.0, focused on the sphere."""
+    g = Gltf("lamp_corner")
+    white = g.material("white", (0.75, 0.75, 0.72), double_sided=True)
+    floor = g.material("glossy_floor", (0.35, 0.3, 0.26), roughness=0.15, double_sided=True)
+    lamp = g.material("lamp", (0.8, 0.8, 0.8), emissive=(1.0, 0.85, 0.6), strength=400.0,
+                      double_sided=True)
+    chrome = g.material("chrome", (0.9, 0.9, 0.92), metallic=1.0, roughness=0.05)
+    clay = g.material("clay", (0.7, 0.35, 0.2))
+    q = quad()
+    w, h, d = 2.0, 2.0, 2.0
+    flip = rot_x(math.pi)
+    to_plus_x = ((0, 1, 0), (-1, 0, 0), (0, 0, 1))
+    to_minus_x = ((0, -1, 0), (1, 0, 0), (0, 0, 1))
+    g.add("floor", q, floor, (0.0, 0.0, -d / 2), None, (w, 1.0, d))
+    g.add("ceiling", q, white, (0.0, h, -d / 2), flip, (w, 1.0, d))
+    g.add("back_wall", q, white, (0.0, h / 2, -d), rot_x(math.pi / 2), (w, 1.0, h))
+    g.add("left_wall", q, white, (-w / 2, h / 2, -d / 2), to_plus_x, (h, 1.0, d))
+    g.add("right_wall", q, white, (w / 2, h / 2, -d / 2), to_minus_x, (h, 1.0, d))
+    g.add("lamp", q, lamp, (0.7, 1.5, -d + 0.04), rot_x(math.pi / 2), (0.1, 1.0, 0.1))
+    sphere, cube = uv_sphere(), box()  # both kept alive: meshes are shared by identity
+    g.add("chrome_sphere", sphere, chrome, (-0.3, 0.3, -1.1), None, (0.3, 0.3, 0.3))
+    g.add("clay_cube", cube, clay, (0.45, 0.2, -1.4), rot_y(math.radians(30)), (0.4, 0.4, 0.4))
+    g.add_camera(eye=(0.0, 1.0, 1.6), target=(0.0, 0.8, -1.0), yfov=0.8, focal_length=0.05,
+                 fstop=1.0, focus_object="chrome_sphere")
+    return g
+
+
 def gallery():
     """A gallery 3 m wide, 3 m high and 12 m long that a camera walks through (the sequence
     benchmark's production-sized path, scenes/paths/gallery_walk.json): a tiled floor, columns
@@ -976,6 +1010,10 @@ def main():
 
     g = gallery()
     g.write_glb(os.path.join(HERE, "gallery.glb"))
+    report(g, g.finish())
+
+    g = lamp_corner()
+    g.write_gltf_embedded(os.path.join(HERE, "lamp_corner.gltf"))
     report(g, g.finish())
 
 

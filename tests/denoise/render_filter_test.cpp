@@ -1,8 +1,9 @@
 // The lens-aware filter of a render against what it must do by construction: cut the measured
 // noise of a surface and keep its mean, never cross an in-focus edge, never sharpen a defocused
 // one (whose centre-ray ids step where the colour ramps), leave emission and pixels that see
-// nothing as rendered, keep a firefly from spreading; and the circle of confusion against hand-
-// computed values.
+// nothing as rendered, keep a firefly from spreading, pull in a spot its measured noise misses
+// (a shared cache sample) but not a shadow edge; and the circle of confusion against hand-computed
+// values.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -150,6 +151,23 @@ TEST(RenderFilter, AFireflyDoesNotSpread) {
     for (int dx = -3; dx <= 3; ++dx)
       if (dx || dy) EXPECT_LT(out.at(fx + dx, fy + dy, 0), 1.3f) << dx << "," << dy;
   EXPECT_LT(out.at(fx, fy, 0), 5.0f);
+}
+
+TEST(RenderFilter, ASpotTheNoiseMissesJoinsItsSurroundingsButAShadowEdgeStays) {
+  Render r;
+  // A shadow edge on one object (a step of 1 to 3 at x = 32, as sharp as the film) and a bright
+  // cached spot in the shadow, one pixel whose lens samples all read one cache sample: its
+  // measured noise is as small as everyone's.
+  r.fill([](int x) { return x < kW / 2 ? 1.0f : 3.0f; }, 0.02f, 8);
+  const int sx = 10, sy = 15;
+  for (int c = 0; c < 3; ++c) r.color.pixel(sx, sy)[c] = 20.0f;
+  const Image out = denoise::render_filter(r.color, r.guides());
+  EXPECT_LT(out.at(sx, sy, 0), 2.0f);
+  for (int dy = -2; dy <= 2; ++dy)
+    for (int dx = -2; dx <= 2; ++dx)
+      if (dx || dy) EXPECT_LT(out.at(sx + dx, sy + dy, 0), 1.2f) << dx << "," << dy;
+  EXPECT_NEAR(column_mean(out, kW / 2 - 1), 1.0, 0.02);
+  EXPECT_NEAR(column_mean(out, kW / 2), 3.0, 0.02);
 }
 
 TEST(RenderFilter, BadGuidesAreRefused) {
