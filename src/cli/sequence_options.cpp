@@ -35,6 +35,7 @@ void add_sequence_options(CLI::App* cmd, request::RenderRequest& r) {
                        "Random seed; each frame's seed is derived from it and the frame "
                        "number, so any subset of frames reproduces");
   add_shading_options(cmd, r);
+  add_denoise_option(cmd, r);
   add_environment_options(cmd, r.environment);
   add_cache_options(cmd, r,
                     "Radiance cache: none, octree or vdb (a fresh cache per frame unless "

@@ -65,9 +65,8 @@ ImageResult render_preview_image(const ResolvedRequest& r, const scene::Scene& s
   return result;
 }
 
-// The render's image file: its colour (denoised for an 8-bit file with --denoise on; the raw
-// render for EXR, which keeps the denoised colour and the denoiser's guides as layers beside it)
-// and the centre ray's depth, normal and id.
+}  // namespace
+
 void write_render(const std::string& path, const render::RenderOutput& out,
                   const std::optional<image::Image>& denoised) {
   std::vector<image::NamedChannels> layers = {
@@ -88,8 +87,6 @@ void write_render(const std::string& path, const render::RenderOutput& out,
                                {{"variance.Y"}, f.variance}});
   image::write_image(path, out.color, layers);
 }
-
-}  // namespace
 
 image::Image denoised(const render::RenderOutput& out, const render::RenderSettings& settings,
                       const scene::Camera& camera) {

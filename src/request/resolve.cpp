@@ -130,19 +130,17 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
   if (q.denoise == Choice::Auto) {
     // An 8-bit image is for looking at: it gets the denoised colour. An EXR is for further work
     // (compositing, references): its beauty stays the raw, unbiased render.
-    const bool png_image = q.kind == Kind::Image && !q.out.empty() && !image::is_exr_path(q.out);
+    const bool png_image = q.kind != Kind::View && !q.out.empty() && !image::is_exr_path(q.out);
     q.denoise = r.preview || q.kind == Kind::View || png_image ? Choice::On : Choice::Off;
     chose(std::string("denoise: auto -> ") + choice_name(q.denoise) +
           (r.preview || q.kind == Kind::View ? " (the pinhole inputs)"
            : png_image                      ? " (a PNG shows the denoised render)"
-           : q.kind == Kind::Image          ? " (an EXR keeps the raw render)"
+           : !q.out.empty()                 ? " (an EXR keeps the raw render)"
                                             : ""));
   }
-  if (q.denoise == Choice::On && q.kind == Kind::Sequence)
-    throw Error("denoise: a sequence's frames are not denoised yet (docs/denoise.md)");
   r.preview_options.denoise = q.denoise == Choice::On;
   // The integrators' renders keep the lens features their denoiser needs (request::denoised).
-  s.lens_features = q.denoise == Choice::On && !r.preview && q.kind == Kind::Image;
+  s.lens_features = q.denoise == Choice::On && !r.preview && q.kind != Kind::View;
   r.preview_options.threads = s.threads;
   r.preview_options.layer_composite = q.composite;
   r.preview_options.edge_rays = q.edge_rays;

@@ -16,6 +16,7 @@
 #include "dofcache/core/rng.h"
 #include "dofcache/core/stopwatch.h"
 #include "dofcache/image/image_io.h"
+#include "dofcache/request/image_render.h"
 #include "dofcache/sequence/cache_file.h"
 #include "dofcache/sequence/checkpoint_store.h"
 
@@ -441,12 +442,13 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
       rep.cache = cache_->end_frame();
       rep.cache_seconds = rep.cache.maintenance_seconds;
     }
+    if (rs.lens_features) {  // --denoise: each frame by the render's filter (request::denoised)
+      const Stopwatch clock;
+      rep.denoised = request::denoised(rep.output, rs, spec.camera);
+      rep.denoise_seconds = clock.seconds();
+    }
     auto t_write = std::chrono::steady_clock::now();
-    if (!rep.path.empty())
-      image::write_image(rep.path, rep.output.color,
-                         {{{"Z"}, rep.output.depth},
-                          {{"N.X", "N.Y", "N.Z"}, rep.output.normal},
-                          {{"id"}, rep.output.ids}});
+    if (!rep.path.empty()) request::write_render(rep.path, rep.output, rep.denoised);
     if (store) {
       auto t_checkpoint = std::chrono::steady_clock::now();
       const double cpu = cpu_seconds();

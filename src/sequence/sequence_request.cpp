@@ -63,11 +63,12 @@ std::string describe_start(const PreparedSequence& p) {
   const render::RenderSettings& r = s.render;
   std::string text = fmt::format(
       "scene    {}: {} triangles, camera '{}'\npath     {}, frames {}-{} at {:g} fps "
-      "({:.3g}-{:.3g} s)\nrender   {}x{} {}, {} spp; cache {}{}\n",
+      "({:.3g}-{:.3g} s)\nrender   {}x{} {}, {} spp; cache {}{}{}\n",
       p.scene->source, p.scene->mesh.triangles.size(), p.camera->name, p.path.source, p.first,
       p.last, p.fps, p.first / p.fps, p.last / p.fps, r.width, r.height, render::mode_name(r.mode),
       r.spp, cache_mode_name(s.cache_mode),
-      s.cache_mode == CacheMode::None ? std::string() : " (" + s.cache_backend + ")");
+      s.cache_mode == CacheMode::None ? std::string() : " (" + s.cache_backend + ")",
+      r.lens_features ? "; each frame denoised (no temporal filter yet)" : "");
   if (p.frames.front().autofocus)
     text += "notice   no focus distance given: autofocus on the image centre, per frame\n";
   return text;
@@ -99,6 +100,7 @@ nlohmann::json frame_stats_json(const FrameReport& f) {
   return {{"frame", f.frame}, {"skipped", false}, {"output", f.path},
           {"seconds", f.seconds()}, {"render_seconds", f.render_seconds},
           {"cache_seconds", f.cache_seconds}, {"write_seconds", f.write_seconds},
+          {"denoise_seconds", f.denoise_seconds},
           {"rays", f.output.stats.rays}, {"shading_points", f.output.stats.shading_points},
           {"cache_lookups", c.lookups}, {"cache_hits", c.hits}, {"cache_reused", c.reused},
           {"reuse_rate", c.reuse_rate()}, {"samples_inserted", c.inserted},

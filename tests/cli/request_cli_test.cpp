@@ -104,7 +104,7 @@ TEST_F(RequestCli, RequestFileRendersWhatTheOptionsRenderAndOptionsOverrideIt) {
 
 // A one-frame sequence renders frame 0 with the seed frame_seed(seed, 0) and the camera of the
 // path at frame 0 (the dolly's node sits at its first key): `render` with that seed is the same
-// request, and gives the same image.
+// request, and gives the same image, raw (EXR) or denoised (PNG).
 TEST_F(RequestCli, RenderEqualsAOneFrameSequenceOfTheSameRequest) {
   const std::string scene = kScenes + "cornell_box_dolly.gltf";
   const std::string seed = std::to_string(dofcache::sequence::frame_seed(5, 0));
@@ -120,6 +120,17 @@ TEST_F(RequestCli, RenderEqualsAOneFrameSequenceOfTheSameRequest) {
           shared);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   expect_same_image(path("seq/0000.exr"), path("render.exr"));
+  // PNG: both denoised (auto), by the same filter from the same features.
+  ASSERT_EQ(run("sequence -q " + scene + " --frames 0 --seed 5 -o " + path("seq/####.png") +
+                shared).exit_code, 0);
+  r = run("render -q " + scene + " --adaptive off --seed " + seed + " -o " + path("render.png") +
+          shared);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  expect_same_image(path("seq/0000.png"), path("render.png"));
+  r = run("render -q " + scene + " --adaptive off --seed " + seed + " -o " + path("raw.png") +
+          " --denoise off" + shared);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(slurp(path("raw.png")), slurp(path("render.png")));
 }
 
 // A farm chunk runs its stored request: the same frames as a local sequence started from the same

@@ -201,8 +201,13 @@ TEST_F(Resolve, AutoRulesAsDocumented) {
   EXPECT_THROW(resolved(s), Error);  // persistent without a cache
   s.cache = "auto";
   s.denoise = Choice::On;
-  EXPECT_THROW(resolved(s), Error);  // a sequence's frames are not denoised yet
+  EXPECT_TRUE(resolved(s).settings.lens_features);  // the frames, denoised one by one
   s.denoise = Choice::Auto;
+  RenderRequest frames = s;
+  frames.out = "f/####.png";
+  EXPECT_TRUE(resolve(frames, scene, accel, camera).settings.lens_features);  // auto: PNG frames
+  frames.out = "f/####.exr";
+  EXPECT_FALSE(resolve(frames, scene, accel, camera).settings.lens_features);  // EXR: raw
 
   RenderRequest v = default_request(Kind::View);
   v.spp = 4;

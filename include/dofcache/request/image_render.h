@@ -36,6 +36,12 @@ ImageResult render_image(const ResolvedRequest& resolved, const scene::Scene& sc
 image::Image denoised(const render::RenderOutput& out, const render::RenderSettings& settings,
                       const scene::Camera& camera);
 
+// An integrator's image file, atomically: its colour (with `denoised`, that for an 8-bit file;
+// an EXR keeps the raw render, with the denoised colour and the denoiser's guides as layers beside
+// it) and the centre ray's depth, normal and id. What `render` and `sequence` write.
+void write_render(const std::string& path, const render::RenderOutput& out,
+                  const std::optional<image::Image>& denoised);
+
 // What is about to be rendered, in words, as `render` prints it: the scene, the environment, a
 // synthesized camera, the camera and lens. Each line ends with a newline.
 std::string describe_setup(const ResolvedRequest& resolved, const scene::Scene& scene,

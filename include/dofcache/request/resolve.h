@@ -19,9 +19,9 @@
 //   lens     each unset value from the camera's extras.lens, else 50 mm f/4 focused on what the
 //            image centre sees (render::resolve_lens);
 //   denoise  auto: on for the preview modes and the viewer's inputs (their pinhole colour is
-//            denoised before the post-process) and for an integrator's image written as PNG;
-//            off for EXR images (their beauty stays the raw render), sequences and library
-//            callers without an output;
+//            denoised before the post-process) and for an integrator's image or frames written
+//            as PNG; off for EXR (the beauty stays the raw render) and for library callers
+//            without an output;
 //   threads  0: core/threads.h's rule under the request's core policy.
 #include <optional>
 #include <string>

@@ -16,6 +16,7 @@
 // starts from the first frame.
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -68,6 +69,9 @@ struct FrameReport {
   bool skipped = false;      // complete from an earlier run: not rendered (output is empty)
   std::string path;          // output file (empty if not writing)
   render::RenderOutput output;
+  // With RenderSettings::lens_features (--denoise): output.color denoised, and the filter's time.
+  std::optional<image::Image> denoised;
+  double denoise_seconds = 0.0;
   cache::FrameCacheStats cache;      // zero without a cache
   double render_seconds = 0.0;  // the renderer
   double cache_seconds = 0.0;   // cache maintenance (reuse rule, rebuilds, eviction)
@@ -78,7 +82,9 @@ struct FrameReport {
   std::uint64_t checkpoint_bytes = 0;
   bool checkpoint_full = false;
   double checkpoint_seconds = 0.0, checkpoint_cpu_seconds = 0.0;
-  double seconds() const { return render_seconds + cache_seconds + write_seconds; }
+  double seconds() const {
+    return render_seconds + denoise_seconds + cache_seconds + write_seconds;
+  }
 };
 
 struct SequenceSummary {
