@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""Flicker: how a sequence's frames differ from one another beyond how the converged frames do.
+
+For a camera path, renders frames FIRST-LAST with `sequence` (defaults: 320x240, 16 spp, the
+persistent vdb cache) raw (`--denoise off`) and denoised (`--denoise on`, each frame filtered
+on its own), and the same frames converged (uncached, --ref-spp, cached under --refs). Reports
+
+  * the per-frame error: relMSE, mean over pixels and frames of (x - r)^2 / (r^2 + 0.01);
+  * the temporal error: mean over pixels and frame pairs of
+    ((x[t+1] - x[t]) - (r[t+1] - r[t]))^2 / (((r[t] + r[t+1]) / 2)^2 + 0.01)
+    (issue 37). Independent noise in every frame makes it twice the per-frame error; a filter
+    that carries samples from frame to frame brings it under.
+
+Writes bench/results/NAME.json and .csv (machine description + rows). Needs numpy (Debian's
+python3-numpy; the benchmark runs it with /usr/bin/python3 if the default python lacks it).
+
+    python3 bench/temporal_stability.py --dofcache build/dofcache --refs DIR
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+sys.path.insert(0, os.path.join(HERE, "peer"))
+import peer_bench as pb  # noqa: E402
+
+try:
+    import numpy as np
+except ImportError:  # a Python without Debian's numpy: run again with the system one
+    if sys.executable != "/usr/bin/python3" and os.path.exists("/usr/bin/python3"):
+        os.execv("/usr/bin/python3", ["/usr/bin/python3"] + sys.argv)
+    raise SystemExit("temporal_stability.py needs numpy (apt-get install python3-numpy)")
+
+PATHS = {"dolly": ("cornell_box_dolly.gltf", None),
+         "focus_pull": ("cornell_box.gltf", "paths/cornell_focus_pull.json"),
+         "gallery_walk": ("gallery.glb", "paths/gallery_walk.json")}
+
+
+def run(cmd):
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if p.returncode != 0:
+        raise SystemExit("failed: %s\n%s" % (" ".join(cmd), p.stderr.strip()))
+    return p.stdout
+
+
+def load(path, channels="R,G,B"):
+    """The named channels of an image as a float array (height, width, channels)."""
+    text = run(["oiiotool", path, "--ch", channels, "-o", path + ".sel.exr"])
+    text = run(["oiiotool", "--dumpdata", path + ".sel.exr"])
+    os.remove(path + ".sel.exr")
+    pixels = {}
+    for line in text.splitlines():
+        line = line.strip()
+        if line.startswith("Pixel ("):
+            head, _, data = line.partition("):")
+            x, y = (int(v) for v in head[len("Pixel ("):].split(","))
+            pixels[(x, y)] = [float(v) for v in data.split()]
+    w = 1 + max(x for x, _ in pixels)
+    h = 1 + max(y for _, y in pixels)
+    a = np.zeros((h, w, len(next(iter(pixels.values())))))
+    for (x, y), v in pixels.items():
+        a[y, x] = v
+    return a
+
+
+def errors(frames, refs):
+    per_frame = np.mean([np.mean((x - r) ** 2 / (r * r + 1e-2)) for x, r in zip(frames, refs)])
+    temporal = np.mean([np.mean(((frames[t + 1] - frames[t]) - (refs[t + 1] - refs[t])) ** 2 /
+                                (((refs[t] + refs[t + 1]) / 2) ** 2 + 1e-2))
+                        for t in range(len(frames) - 1)])
+    return float(per_frame), float(temporal)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--dofcache", default=os.path.join(REPO, "build", "dofcache"))
+    p.add_argument("--refs", required=True, help="directory of the converged frames (made here)")
+    p.add_argument("--paths", nargs="+", default=["dolly"], choices=sorted(PATHS))
+    p.add_argument("--frames", default="0-5")
+    p.add_argument("--width", type=int, default=320)
+    p.add_argument("--spp", type=int, default=16)
+    p.add_argument("--ref-spp", type=int, default=256)
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--work", default="/tmp/dofcache-temporal")
+    p.add_argument("--results", default="temporal_stability")
+    a = p.parse_args()
+    first, last = (int(v) for v in a.frames.split("-"))
+    numbers = range(first, last + 1)
+    rows = []
+    for name in a.paths:
+        scene_file, path_file = PATHS[name]
+        base = [a.dofcache, "sequence", os.path.join(REPO, "scenes", scene_file), "--frames",
+                a.frames, "--width", str(a.width), "--threads", str(a.threads), "-q"]
+        if path_file:
+            base += ["--path", os.path.join(REPO, "scenes", path_file)]
+        ref_dir = os.path.join(a.refs, "%s_%d_%d" % (name, a.width, a.ref_spp))
+        if not all(os.path.isfile(os.path.join(ref_dir, "%04d.exr" % n)) for n in numbers):
+            os.makedirs(ref_dir, exist_ok=True)
+            # Frames already there are kept (the sequence resumes past them).
+            run(base + ["--spp", str(a.ref_spp), "--cache", "none", "--seed", "1000003",
+                        "-o", os.path.join(ref_dir, "####.exr")])
+        refs = [load(os.path.join(ref_dir, "%04d.exr" % n)) for n in numbers]
+        work = os.path.join(a.work, name)
+        os.makedirs(work, exist_ok=True)
+        out = os.path.join(work, "####.exr")
+        stats = os.path.join(work, "stats.json")
+        run(base + ["--spp", str(a.spp), "--persistent", "--denoise", "on", "--restart", "-o",
+                    out, "--stats-json", stats])
+        with open(stats) as f:
+            frame_stats = json.load(f)["per_frame"]
+        seconds = sum(f["seconds"] for f in frame_stats)
+        denoise_seconds = sum(f.get("denoise_seconds", 0.0) for f in frame_stats)
+        raw = [load(os.path.join(work, "%04d.exr" % n)) for n in numbers]
+        denoised = [load(os.path.join(work, "%04d.exr" % n), "denoised.R,denoised.G,denoised.B")
+                    for n in numbers]
+        for kind, frames in (("raw", raw), ("denoised", denoised)):
+            per_frame, temporal = errors(frames, refs)
+            row = {"path": name, "frames": a.frames, "width": a.width, "spp": a.spp,
+                   "ref_spp": a.ref_spp, "kind": kind, "per_frame_rel_mse": per_frame,
+                   "temporal_error": temporal, "ratio": temporal / per_frame,
+                   "seconds": seconds - (denoise_seconds if kind == "raw" else 0.0)}
+            rows.append(row)
+            print("%-12s %-9s per-frame %.5f  temporal %.5f  (x%.2f)  %.1f s" % (
+                name, kind, per_frame, temporal, row["ratio"], row["seconds"]), flush=True)
+    path = pb.write_results(a.results, {
+        "description": "per-frame and temporal error of sequences against converged frames, "
+                       "raw and denoised frame by frame (issue 37's temporal measure)",
+        "columns": list(rows[0].keys()), "rows": rows}, None)
+    print("wrote %s" % path)
+
+
+if __name__ == "__main__":
+    main()
