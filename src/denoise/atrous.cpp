@@ -2,13 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <cstring>
-#include <string>
 #include <vector>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "dofcache/core/error.h"
 #include "dofcache/core/threads.h"
@@ -46,11 +40,7 @@ image::Image atrous_filter(const image::Image& color, const Guides& g,
   std::vector<float> cur(n * 3), next(n * 3), var(n), next_var(n), lum(n);
   const float floor = o.albedo_floor;
   const int r = o.variance_radius;
-  auto rows = [&](const auto& f) {
-    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& b) {
-      for (int y = b.begin(); y < b.end(); ++y) f(y);
-    });
-  };
+  auto rows = [h](const auto& f) { for_rows(h, f); };
   run_with_threads(o.threads, [&] {
     // The guides per pixel, and the demodulated irradiance (RGB) with its luminance.
     rows([&](int y) {
@@ -74,26 +64,9 @@ image::Image atrous_filter(const image::Image& color, const Guides& g,
         const std::size_t i = static_cast<std::size_t>(y) * w + x;
         Pixel& p = px[i];
         if (!p.hit) continue;
-        float grad = 0.0f;
-        for (auto [dx, dy] :
-             {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
-          const int qx = x + dx, qy = y + dy;
-          if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
-          const Pixel& q = px[static_cast<std::size_t>(qy) * w + qx];
-          if (q.hit && q.id == p.id) grad = std::max(grad, std::abs(q.depth - p.depth));
-        }
-        p.gradient = grad;
-        double sum = 0, sum2 = 0;
-        int count = 0;
-        for (int qy = std::max(0, y - r); qy <= std::min(h - 1, y + r); ++qy)
-          for (int qx = std::max(0, x - r); qx <= std::min(w - 1, x + r); ++qx) {
-            const std::size_t j = static_cast<std::size_t>(qy) * w + qx;
-            if (!px[j].hit || px[j].id != p.id) continue;
-            sum += lum[j], sum2 += double(lum[j]) * lum[j], ++count;
-          }
-        var[i] = count > 1
-                     ? static_cast<float>(std::max(0.0, (sum2 - sum * sum / count) / (count - 1)))
-                     : 0.0f;
+        p.gradient = depth_gradient(px, w, h, x, y);
+        var[i] = window_variance(lum, w, h, x, y, r,
+                                 [&](std::size_t j) { return px[j].hit && px[j].id == p.id; });
       }
     });
   });
@@ -148,14 +121,7 @@ image::Image atrous_filter(const image::Image& color, const Guides& g,
             next_var[i] = vsum / (wsum * wsum);
           }
       });
-      std::swap(cur, next);
-      std::swap(var, next_var);
-      rows([&](int y) {
-        for (int x = 0; x < w; ++x) {
-          const std::size_t i = static_cast<std::size_t>(y) * w + x;
-          lum[i] = luminance(&cur[i * 3]);
-        }
-      });
+      next_iteration(cur, next, var, next_var, lum, w, h);
     }
   });
 

@@ -1,10 +1,16 @@
 #pragma once
 // What the a-trous filters share (atrous.cpp, render_filter.cpp): the B3-spline taps, fast
 // weights, and the checks of their guides.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "dofcache/core/error.h"
 #include "dofcache/image/image.h"
@@ -58,6 +64,62 @@ inline float exp_neg(float e) {
   float scale;
   std::memcpy(&scale, &bits, sizeof scale);
   return p * scale;
+}
+
+// f(y) for every row y in [0, h), rows in parallel (inside the caller's thread arena).
+template <class Row>
+void for_rows(int h, const Row& f) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& b) {
+    for (int y = b.begin(); y < b.end(); ++y) f(y);
+  });
+}
+
+// The largest depth step from pixel (x, y) to a 4-neighbour on the same object (id) that sees
+// something (finite depth): how much depth may change per pixel along a surface, so that a
+// tilted floor is not cut at every pixel. `px` is row-major w x h, each with .depth and .id.
+template <class Pixel>
+float depth_gradient(const std::vector<Pixel>& px, int w, int h, int x, int y) {
+  const Pixel& p = px[static_cast<std::size_t>(y) * w + x];
+  float grad = 0.0f;
+  for (auto [dx, dy] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+    const int qx = x + dx, qy = y + dy;
+    if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
+    const Pixel& q = px[static_cast<std::size_t>(qy) * w + qx];
+    if (std::isfinite(q.depth) && q.id == p.id) grad = std::max(grad, std::abs(q.depth - p.depth));
+  }
+  return grad;
+}
+
+// The sample variance of `lum` over the (2r + 1)^2 window around (x, y), over the pixels j for
+// which takes(j) holds; 0 with fewer than two.
+template <class Takes>
+float window_variance(const std::vector<float>& lum, int w, int h, int x, int y, int r,
+                      const Takes& takes) {
+  double sum = 0, sum2 = 0;
+  int count = 0;
+  for (int qy = std::max(0, y - r); qy <= std::min(h - 1, y + r); ++qy)
+    for (int qx = std::max(0, x - r); qx <= std::min(w - 1, x + r); ++qx) {
+      const std::size_t j = static_cast<std::size_t>(qy) * w + qx;
+      if (!takes(j)) continue;
+      sum += lum[j], sum2 += double(lum[j]) * lum[j], ++count;
+    }
+  return count > 1 ? static_cast<float>(std::max(0.0, (sum2 - sum * sum / count) / (count - 1)))
+                   : 0.0f;
+}
+
+// After an iteration: the filtered values become the current ones (each buffer swapped with its
+// `next`) and their luminance is taken again.
+inline void next_iteration(std::vector<float>& value, std::vector<float>& next_value,
+                           std::vector<float>& variance, std::vector<float>& next_variance,
+                           std::vector<float>& luma, int w, int h) {
+  std::swap(value, next_value);
+  std::swap(variance, next_variance);
+  for_rows(h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * w + x;
+      luma[i] = luminance(&value[i * 3]);
+    }
+  });
 }
 
 }  // namespace dofcache::denoise::detail

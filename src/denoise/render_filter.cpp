@@ -2,12 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <utility>
 #include <vector>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "dofcache/core/error.h"
 #include "dofcache/core/threads.h"
@@ -71,11 +66,7 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
   const std::size_t n = static_cast<std::size_t>(w) * h;
   std::vector<Pixel> px(n);
   std::vector<float> cur(n * 3), raw_var(n), var(n), lum(n), scale(n * 3);
-  auto rows = [&](const auto& f) {
-    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& b) {
-      for (int y = b.begin(); y < b.end(); ++y) f(y);
-    });
-  };
+  auto rows = [h](const auto& f) { for_rows(h, f); };
   auto index = [w](int x, int y) { return static_cast<std::size_t>(y) * w + x; };
 
   run_with_threads(o.threads, [&] {
@@ -112,15 +103,7 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
         const std::size_t i = index(x, y);
         Pixel& p = px[i];
         if (!p.active) continue;
-        float grad = 0.0f;
-        for (auto [dx, dy] :
-             {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
-          const int qx = x + dx, qy = y + dy;
-          if (qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
-          const Pixel& q = px[index(qx, qy)];
-          if (std::isfinite(q.depth) && q.id == p.id) grad = std::max(grad, std::abs(q.depth - p.depth));
-        }
-        p.gradient = grad;
+        p.gradient = depth_gradient(px, w, h, x, y);
         float sum = 0.0f, wsum = 0.0f;
         for (int dy = -1; dy <= 1; ++dy)
           for (int dx = -1; dx <= 1; ++dx) {
@@ -130,21 +113,11 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
             sum += k * raw_var[index(qx, qy)], wsum += k;
           }
         var[i] = sum / wsum;
-        if (var[i] == 0.0f) {
-          // One sample per pixel measures no noise: the local spread of the demodulated
-          // luminance over the 5x5 active pixels of the same object stands in (the quick look's
-          // estimate).
-          double s1 = 0, s2 = 0;
-          int count = 0;
-          for (int qy = std::max(0, y - 2); qy <= std::min(h - 1, y + 2); ++qy)
-            for (int qx = std::max(0, x - 2); qx <= std::min(w - 1, x + 2); ++qx) {
-              const std::size_t j = index(qx, qy);
-              if (!px[j].active || px[j].id != p.id) continue;
-              s1 += lum[j], s2 += double(lum[j]) * lum[j], ++count;
-            }
-          if (count > 1)
-            var[i] = static_cast<float>(std::max(0.0, (s2 - s1 * s1 / count) / (count - 1)));
-        }
+        // One sample per pixel measures no noise: the local spread of the demodulated luminance
+        // over the 5x5 active pixels of the same object stands in (the quick look's estimate).
+        if (var[i] == 0.0f)
+          var[i] = window_variance(lum, w, h, x, y, 2,
+                                   [&](std::size_t j) { return px[j].active && px[j].id == p.id; });
       }
     });
   });
@@ -229,11 +202,7 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
             next_variance[i] = vsum / (wsum * wsum);
           }
         });
-        std::swap(value, next_value);
-        std::swap(variance, next_variance);
-        rows([&](int y) {
-          for (int x = 0; x < w; ++x) luma[index(x, y)] = luminance(&value[index(x, y) * 3]);
-        });
+        next_iteration(value, next_value, variance, next_variance, luma, w, h);
       }
     });
   };
