@@ -371,13 +371,26 @@ std::uint64_t render_samples(const Context& c, const Tile& t, std::uint32_t s0, 
   return taken;
 }
 
+// The unbiased sample variance over n, that of the mean, from a sum and a sum of squares.
+float variance_of_mean(double sum, double sum2, double n) {
+  const double mean = sum / n;
+  return n > 1 ? static_cast<float>(std::max(0.0, sum2 - n * mean * mean) / ((n - 1) * n)) : 0.0f;
+}
+
+// Pixel i's emission and albedo estimates from its sums `s` (kFeatureSums layout) over m samples:
+// the colour's own, and any extra ones add_feature_samples added.
+void set_feature_estimates(LensFeatures& f, std::size_t i, const double* s, double m) {
+  for (int k = 0; k < 3; ++k) {
+    f.emission_estimate.data()[i * 3 + k] = static_cast<float>(s[10 + k] / m);
+    f.albedo_estimate.data()[i * 3 + k] = static_cast<float>(s[k] / m);
+  }
+  f.emission_variance.data()[i] = variance_of_mean(s[13], s[14], m);
+}
+
 // The lens features' images from their per-pixel sums (kFeatureSums per pixel); `samples(i)`:
-// the samples pixel i took.
+// the samples pixel i took. The estimates are those of these samples until refined.
 template <class Samples>
-LensFeatures lens_features_from(const std::vector<double>& sums,
-                                const std::vector<double>& emission_sums,
-                                const std::vector<std::uint32_t>& emission_samples, int w, int h,
-                                Samples samples) {
+LensFeatures lens_features_from(const std::vector<double>& sums, int w, int h, Samples samples) {
   LensFeatures f;
   f.albedo = image::Image(w, h, 3, 0.0f);
   f.normal = image::Image(w, h, 3, 0.0f);
@@ -388,12 +401,6 @@ LensFeatures lens_features_from(const std::vector<double>& sums,
   f.emission_estimate = image::Image(w, h, 3, 0.0f);
   f.albedo_estimate = image::Image(w, h, 3, 0.0f);
   f.emission_variance = image::Image(w, h, 1, 0.0f);
-  // The unbiased sample variance over n, that of the mean, from a sum and a sum of squares.
-  auto variance_of_mean = [](double sum, double sum2, double n) {
-    const double mean = sum / n;
-    return n > 1 ? static_cast<float>(std::max(0.0, sum2 - n * mean * mean) / ((n - 1) * n))
-                 : 0.0f;
-  };
   for (std::size_t i = 0; i < f.depth.pixel_count(); ++i) {
     const double* s = &sums[i * kFeatureSums];
     const double n = samples(i);
@@ -406,15 +413,7 @@ LensFeatures lens_features_from(const std::vector<double>& sums,
     if (s[7] > 0) f.depth.data()[i] = static_cast<float>(s[6] / s[7]);
     f.coverage.data()[i] = static_cast<float>(s[7] / n);
     f.variance.data()[i] = variance_of_mean(s[8], s[9], n);
-    // The emission and albedo over the colour's samples and the extra ones
-    // (add_feature_samples).
-    const double* e = &emission_sums[i * kFeatureSums];
-    const double m = n + emission_samples[i];
-    for (int k = 0; k < 3; ++k) {
-      f.emission_estimate.data()[i * 3 + k] = static_cast<float>(e[10 + k] / m);
-      f.albedo_estimate.data()[i * 3 + k] = static_cast<float>(e[k] / m);
-    }
-    f.emission_variance.data()[i] = variance_of_mean(e[13], e[14], m);
+    set_feature_estimates(f, i, s, n);
   }
   return f;
 }
@@ -713,9 +712,8 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
           }
         return false;
       };
-      std::vector<double> emission_sums = feature_sums;
-      std::vector<std::uint32_t> extra(rendered.size(), 0);
-      std::vector<RayCounters> emission_rays(tiles.size());
+      out.lens_features = lens_features_from(feature_sums, w, h, samples_of);
+      std::vector<RayCounters> feature_rays(tiles.size());
       arena.execute([&] {
         tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles.size(), 1), [&](const auto& r) {
           for (size_t t = r.begin(); t != r.end(); ++t)
@@ -724,15 +722,16 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
                 const std::size_t i = static_cast<std::size_t>(y) * w + x;
                 const std::uint32_t n = samples_of(i);
                 if (n == 0 || !varies(x, y)) continue;
-                extra[i] = std::max(kFeatureSamples, n);
-                add_feature_samples(c, x, y, n, n + extra[i], emission_rays[t],
-                                    &emission_sums[i * kFeatureSums]);
+                // The pixel's sums, continued: `varies` reads its neighbours' as they were.
+                double sums[kFeatureSums];
+                std::copy_n(&feature_sums[i * kFeatureSums], kFeatureSums, sums);
+                const std::uint32_t extra = std::max(kFeatureSamples, n);
+                add_feature_samples(c, x, y, n, n + extra, feature_rays[t], sums);
+                set_feature_estimates(out.lens_features, i, sums, double(n) + extra);
               }
         });
       });
-      for (const RayCounters& rc : emission_rays) rays += rc.rays;
-      out.lens_features =
-          lens_features_from(feature_sums, emission_sums, extra, w, h, samples_of);
+      for (const RayCounters& rc : feature_rays) rays += rc.rays;
     }
     if (!pixel_samples.empty()) {
       out.samples = image::Image(w, h, 1, 0.0f);
