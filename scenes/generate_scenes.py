@@ -846,6 +846,21 @@ def glossy_closeup():
     return g
 
 
+def add_room(g, floor, ceiling, back, left, right, w=2.0, h=2.0, d=2.0):
+    """A room w wide, h high and d deep, open towards +Z: floor at y = 0, its back wall at z = -d,
+    each surface a quad of the given material facing inwards. Returns the quad, for the scene's
+    other quads to share its mesh."""
+    q = quad()
+    to_plus_x = ((0, 1, 0), (-1, 0, 0), (0, 0, 1))
+    to_minus_x = ((0, -1, 0), (1, 0, 0), (0, 0, 1))
+    g.add("floor", q, floor, (0.0, 0.0, -d / 2), None, (w, 1.0, d))
+    g.add("ceiling", q, ceiling, (0.0, h, -d / 2), rot_x(math.pi), (w, 1.0, d))
+    g.add("back_wall", q, back, (0.0, h / 2, -d), rot_x(math.pi / 2), (w, 1.0, h))
+    g.add("left_wall", q, left, (-w / 2, h / 2, -d / 2), to_plus_x, (h, 1.0, d))
+    g.add("right_wall", q, right, (w / 2, h / 2, -d / 2), to_minus_x, (h, 1.0, d))
+    return q
+
+
 def hanging_light_box():
     """A 2 m room lit by a 0.5 m square panel hanging 2 cm below the ceiling, emitting on both sides,
     so the ceiling right above it and the walls' nearest points see a light centimetres away; two
@@ -860,17 +875,9 @@ def hanging_light_box():
                        double_sided=True)
     blue = g.material("blue", (0.12, 0.2, 0.6))
     ivory = g.material("ivory", (0.8, 0.75, 0.6))
-    q = quad()
-    w, h, d = 2.0, 2.0, 2.0
-    flip = rot_x(math.pi)  # +Y normal to -Y
-    to_plus_x = ((0, 1, 0), (-1, 0, 0), (0, 0, 1))
-    to_minus_x = ((0, -1, 0), (1, 0, 0), (0, 0, 1))
-    g.add("floor", q, white, (0.0, 0.0, -d / 2), None, (w, 1.0, d))
-    g.add("ceiling", q, white, (0.0, h, -d / 2), flip, (w, 1.0, d))
-    g.add("back_wall", q, white, (0.0, h / 2, -d), rot_x(math.pi / 2), (w, 1.0, h))
-    g.add("left_wall", q, red, (-w / 2, h / 2, -d / 2), to_plus_x, (h, 1.0, d))
-    g.add("right_wall", q, green, (w / 2, h / 2, -d / 2), to_minus_x, (h, 1.0, d))
-    g.add("panel", q, panel, (0.0, h - 0.02, -d / 2), flip, (0.5, 1.0, 0.5))
+    h, d = 2.0, 2.0
+    q = add_room(g, white, white, white, red, green, h=h, d=d)
+    g.add("panel", q, panel, (0.0, h - 0.02, -d / 2), rot_x(math.pi), (0.5, 1.0, 0.5))
     s = uv_sphere()
     g.add("near_sphere", s, ivory, (-0.45, 0.35, -0.75), None, (0.35, 0.35, 0.35))
     g.add("far_sphere", s, blue, (0.5, 0.3, -1.45), None, (0.3, 0.3, 0.3))
@@ -893,16 +900,8 @@ def lamp_corner():
                       double_sided=True)
     chrome = g.material("chrome", (0.9, 0.9, 0.92), metallic=1.0, roughness=0.05)
     clay = g.material("clay", (0.7, 0.35, 0.2))
-    q = quad()
-    w, h, d = 2.0, 2.0, 2.0
-    flip = rot_x(math.pi)
-    to_plus_x = ((0, 1, 0), (-1, 0, 0), (0, 0, 1))
-    to_minus_x = ((0, -1, 0), (1, 0, 0), (0, 0, 1))
-    g.add("floor", q, floor, (0.0, 0.0, -d / 2), None, (w, 1.0, d))
-    g.add("ceiling", q, white, (0.0, h, -d / 2), flip, (w, 1.0, d))
-    g.add("back_wall", q, white, (0.0, h / 2, -d), rot_x(math.pi / 2), (w, 1.0, h))
-    g.add("left_wall", q, white, (-w / 2, h / 2, -d / 2), to_plus_x, (h, 1.0, d))
-    g.add("right_wall", q, white, (w / 2, h / 2, -d / 2), to_minus_x, (h, 1.0, d))
+    d = 2.0
+    q = add_room(g, floor, white, white, white, white, d=d)
     g.add("lamp", q, lamp, (0.7, 1.5, -d + 0.04), rot_x(math.pi / 2), (0.1, 1.0, 0.1))
     sphere, cube = uv_sphere(), box()  # both kept alive: meshes are shared by identity
     g.add("chrome_sphere", sphere, chrome, (-0.3, 0.3, -1.1), None, (0.3, 0.3, 0.3))
