@@ -51,6 +51,15 @@ def dump(path, channels):
     return out
 
 
+def render_reference(dofcache, scene, out, spp, extra=()):
+    """The converged reference both denoising benchmarks compare with: uncached DRT, uniform
+    sampling, the shading budget that converges fastest (4 gather rays, 2 light samples), its own
+    seed."""
+    run([dofcache, "render", scene, "--spp", str(spp), "--cache", "none", "--adaptive", "off",
+         "--gather-rays", "4", "--light-samples", "2", "--seed", "1000003", "-q", "-o", out] +
+        list(extra))
+
+
 def edge_band(depth, width, height, jump=0.05, radius=3):
     band = set()
     for y in range(height):
@@ -99,9 +108,7 @@ def main():
         if not os.path.isfile(ref):
             if not a.make_refs:
                 raise SystemExit("no reference %s (--make-refs renders it)" % ref)
-            run([a.dofcache, "render", scene, "--width", str(a.width), "--spp", str(a.ref_spp),
-                 "--cache", "none", "--adaptive", "off", "--gather-rays", "4", "--light-samples",
-                 "2", "--seed", "1000003", "-q", "-o", ref])
+            render_reference(a.dofcache, scene, ref, a.ref_spp, ["--width", str(a.width)])
         ref_rgb, ref_z = dump(ref, "R,G,B"), dump(ref, "Z")
         height = 1 + max(y for _, y in ref_z)
         band = edge_band(ref_z, a.width, height)

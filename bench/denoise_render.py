@@ -34,7 +34,7 @@ REPO = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(HERE, "peer"))
 sys.path.insert(0, HERE)
 import peer_bench as pb  # noqa: E402
-from denoise_quicklook import dump, edge_band, rel_mse, run  # noqa: E402
+from denoise_quicklook import dump, edge_band, rel_mse, render_reference, run  # noqa: E402
 
 # name, file, the peer benchmark's results name (None: no Cycles targets), f-number.
 SCENES = [("cornell_box", "cornell_box.gltf", "cornell", pb.WIDE_FSTOP["cornell_box"]),
@@ -139,9 +139,7 @@ def main():
         if not os.path.isfile(ref):
             if not a.make_refs:
                 raise SystemExit("no reference %s (--make-refs renders it)" % ref)
-            run([a.dofcache, "render", scene, "--spp", str(a.ref_spp), "--cache", "none",
-                 "--adaptive", "off", "--gather-rays", "4", "--light-samples", "2", "--seed",
-                 "1000003", "-q", "-o", ref] + lens)
+            render_reference(a.dofcache, scene, ref, a.ref_spp, lens)
         ref_rgb, ref_z = dump(ref, "R,G,B"), dump(ref, "Z")
         height = 1 + max(y for _, y in ref_z)
         band = edge_band(ref_z, a.width, height) | luminance_band(ref_rgb, a.width, height)

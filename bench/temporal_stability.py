@@ -20,13 +20,14 @@ python3-numpy; the benchmark runs it with /usr/bin/python3 if the default python
 import argparse
 import json
 import os
-import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(HERE, "peer"))
+sys.path.insert(0, HERE)
 import peer_bench as pb  # noqa: E402
+from denoise_quicklook import dump, run  # noqa: E402
 
 try:
     import numpy as np
@@ -40,25 +41,9 @@ PATHS = {"dolly": ("cornell_box_dolly.gltf", None),
          "gallery_walk": ("gallery.glb", "paths/gallery_walk.json")}
 
 
-def run(cmd):
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if p.returncode != 0:
-        raise SystemExit("failed: %s\n%s" % (" ".join(cmd), p.stderr.strip()))
-    return p.stdout
-
-
 def load(path, channels="R,G,B"):
     """The named channels of an image as a float array (height, width, channels)."""
-    text = run(["oiiotool", path, "--ch", channels, "-o", path + ".sel.exr"])
-    text = run(["oiiotool", "--dumpdata", path + ".sel.exr"])
-    os.remove(path + ".sel.exr")
-    pixels = {}
-    for line in text.splitlines():
-        line = line.strip()
-        if line.startswith("Pixel ("):
-            head, _, data = line.partition("):")
-            x, y = (int(v) for v in head[len("Pixel ("):].split(","))
-            pixels[(x, y)] = [float(v) for v in data.split()]
+    pixels = dump(path, channels)
     w = 1 + max(x for x, _ in pixels)
     h = 1 + max(y for _, y in pixels)
     a = np.zeros((h, w, len(next(iter(pixels.values())))))
