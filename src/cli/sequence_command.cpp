@@ -6,6 +6,7 @@
 #include "common_options.h"
 #include "sequence_options.h"
 #include "dofcache/core/atomic_file.h"
+#include "dofcache/core/stopwatch.h"
 #include "dofcache/sequence/sequence_request.h"
 
 namespace dofcache::cli {
@@ -38,14 +39,29 @@ int run_sequence(const request::RenderRequest& q, bool print_request) {
   auto notice = [&](const std::string& text) {
     if (!q.quiet) std::printf("notice   %s\n", text.c_str());
   };
-  const sequence::SequenceSummary sum = renderer.run(on_frame, notice);
+  const bool temporal_only = p.resolved.request.sequence.temporal_only;
+  const sequence::SequenceSummary sum =
+      temporal_only ? sequence::SequenceSummary{} : renderer.run(on_frame, notice);
+  if (!q.quiet && !temporal_only) std::printf("%s", sequence::describe_summary(sum).c_str());
+
+  nlohmann::json temporal_rows;  // null: no temporal pass
+  std::string first_path = sequence::frame_path(q.out, p.first);
+  if (s.temporal_window > 0) {
+    temporal_rows = nlohmann::json::array();
+    const Stopwatch clock;
+    sequence::run_temporal_pass(p.frames, s, [&](const sequence::TemporalFrameReport& f) {
+      temporal_rows.push_back(sequence::temporal_stats_json(f));
+      if (!q.quiet) std::printf("%s", sequence::describe_temporal_frame(f).c_str());
+    });
+    if (!q.quiet)
+      std::printf("temporal %zu frames filtered, %.2f s\n", p.frames.size(), clock.seconds());
+    first_path = sequence::frame_path(s.temporal_output, p.frames.front().number);
+  }
   if (!q.stats_json.empty())
-    write_bytes_atomically(q.stats_json,
-                           sequence::sequence_stats_json(p, sum, rows).dump(2) + "\n");
-  if (!q.quiet) std::printf("%s", sequence::describe_summary(sum).c_str());
-  std::printf("wrote    %s\n", std::filesystem::absolute(sequence::frame_path(q.out, p.first))
-                                     .lexically_normal()
-                                     .c_str());
+    write_bytes_atomically(
+        q.stats_json, sequence::sequence_stats_json(p, sum, rows, temporal_rows).dump(2) + "\n");
+  std::printf("wrote    %s\n",
+              std::filesystem::absolute(first_path).lexically_normal().c_str());
   return 0;
 }
 

@@ -59,6 +59,16 @@ void add_sequence_options(CLI::App* cmd, request::RenderRequest& r) {
                   "checkpoint until it reaches this many times the checkpoint's size, then "
                   "rewrite the checkpoint (0: rewrite it after every frame)")
       ->capture_default_str()->check(CLI::Range(0.0, 1e6));
+  cmd->add_option("--temporal", q.temporal,
+                  "After the frames exist, average each with this many frames on each side, "
+                  "reprojected by depth and camera (docs/denoise.md); needs EXR frames, which "
+                  "keep the raw render and the denoiser's layers (0: off)")
+      ->capture_default_str()->check(CLI::Range(0, request::kMaxTemporalWindow));
+  cmd->add_option("--temporal-output", q.temporal_output,
+                  "Pattern of the temporally filtered frames, .png or .exr (default: --out with "
+                  "'.temporal' before its extension)");
+  cmd->add_flag("--temporal-only", q.temporal_only,
+                "Filter frames written already, render none (the farm's last job)");
   cmd->add_flag("--restart", q.restart,
                 "Render every frame again, ignoring complete frames and the checkpoint");
   cmd->add_option("--stats-json", r.stats_json, "Write per-frame statistics as JSON to this file");

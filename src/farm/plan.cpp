@@ -75,6 +75,8 @@ void FarmSettings::validate() const {
     throw Error("farm plan: job name '" + slurm.job_name + "' must be one plain word");
   if (request.kind != request::Kind::Sequence)
     throw Error("farm plan: the request must be a sequence's");
+  if (request.sequence.temporal_only)
+    throw Error("farm plan: the plan runs the temporal filter itself (drop --temporal-only)");
   for (const std::string& f : job_owned_fields(request))
     throw Error("farm plan: the sequence request must not set " + f + " (the plan sets it per job)");
   for (const std::string& e : slurm.extra)
@@ -132,10 +134,14 @@ namespace {
 
 // The plan's request with what every job sets: the cluster's CPUs as threads (unless the request
 // names a count), and the job's statistics file.
+// The warm pass and the chunks render only: the temporal filter needs frames of other chunks, so
+// the last job runs it over the whole path (temporal_request).
 request::RenderRequest job_request(const FarmSettings& s, std::string stats) {
   request::RenderRequest r = s.request;
   if (s.slurm.cpus_per_task > 0 && r.threads == 0) r.threads = s.slurm.cpus_per_task;
   r.stats_json = std::move(stats);
+  r.sequence.temporal = 0;
+  r.sequence.temporal_output.clear();
   return r;
 }
 
@@ -160,6 +166,22 @@ request::RenderRequest FarmPlan::chunk_request(const Chunk& c) const {
   if (has_warm_pass()) r.sequence.cache_in = warm_cache_file();
   if (settings_.carry) r.sequence.checkpoint = checkpoint_file(c);
   return r;
+}
+
+bool FarmPlan::has_temporal_pass() const { return settings_.request.sequence.temporal > 0; }
+
+request::RenderRequest FarmPlan::temporal_request() const {
+  const FarmSettings& s = settings_;
+  request::RenderRequest r = s.request;
+  if (s.slurm.cpus_per_task > 0 && r.threads == 0) r.threads = s.slurm.cpus_per_task;
+  r.stats_json = (fs::path(s.work_dir) / "stats" / "temporal.json").string();
+  r.sequence.frames = fmt::format("{}-{}", s.first, s.last);
+  r.sequence.temporal_only = true;
+  return r;
+}
+
+std::vector<std::string> FarmPlan::temporal_command() const {
+  return {settings_.dofcache, "sequence", "--request", request_file("temporal")};
 }
 
 std::vector<std::string> FarmPlan::warm_command() const {
@@ -221,9 +243,12 @@ std::string FarmPlan::render_script() const {
 }
 
 std::string FarmPlan::verify_script() const {
-  return sbatch_header("verify", false) +
-         "# Checks that every frame exists and reads back; lists the missing ones.\n"
-         "exec " + shell_join(verify_command()) + "\n";
+  std::string s = sbatch_header("verify", false) +
+                  "# Checks that every frame exists and reads back; lists the missing ones.\n";
+  if (!has_temporal_pass()) return s + "exec " + shell_join(verify_command()) + "\n";
+  return s + shell_join(verify_command()) + "\n" +
+         "# Then the temporal filter over the whole path, which reads every chunk's frames.\n"
+         "exec " + shell_join(temporal_command()) + "\n";
 }
 
 std::string FarmPlan::commands_script() const {
@@ -236,6 +261,7 @@ std::string FarmPlan::commands_script() const {
   if (has_warm_pass()) s << shell_join(warm_command()) << "\n";
   for (const Chunk& c : chunks_) s << shell_join(chunk_command(c)) << "\n";
   s << shell_join(verify_command()) << "\n";
+  if (has_temporal_pass()) s << shell_join(temporal_command()) << "\n";
   return s.str();
 }
 
@@ -251,6 +277,9 @@ void FarmPlan::write() const {
   for (const Chunk& c : chunks_)
     write_bytes_atomically(chunk_request_file(c),
                            request::to_json(chunk_request(c)).dump(2) + "\n");
+  if (has_temporal_pass())
+    write_bytes_atomically(request_file("temporal"),
+                           request::to_json(temporal_request()).dump(2) + "\n");
   write_bytes_atomically(script_file("warm"), warm_script(), FileMode::Executable);
   write_bytes_atomically(script_file("render"), render_script(), FileMode::Executable);
   write_bytes_atomically(script_file("verify"), verify_script(), FileMode::Executable);

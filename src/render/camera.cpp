@@ -23,6 +23,15 @@ glm::vec3 ThinLensCamera::direction_to_film(glm::vec2 film) const {
   return forward_ + sx * right_ + sy * up_;
 }
 
+glm::mat4 ThinLensCamera::film_to_world() const {
+  // direction_to_film is affine in (x, y): forward + sx right + sy up with sx, sy as there.
+  const float ax = 2.0f * tan_half_x_ / static_cast<float>(width_);
+  const float ay = 2.0f * tan_half_y_ / static_cast<float>(height_);
+  return glm::mat4(glm::vec4(ax * right_, 0.0f), glm::vec4(-ay * up_, 0.0f),
+                   glm::vec4(forward_ - tan_half_x_ * right_ + tan_half_y_ * up_, 0.0f),
+                   glm::vec4(position_, 1.0f));
+}
+
 scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
   scene::Ray ray;
   ray.origin = position_;

@@ -295,7 +295,10 @@ json to_json(const RenderRequest& r) {
                      {"cache_out", s.cache_out},
                      {"checkpoint", s.checkpoint},
                      {"checkpoint_journal", s.checkpoint_journal},
-                     {"restart", s.restart}};
+                     {"restart", s.restart},
+                     {"temporal", s.temporal},
+                     {"temporal_output", s.temporal_output},
+                     {"temporal_only", s.temporal_only}};
   }
   return j;
 }
@@ -410,6 +413,9 @@ RenderRequest request_from_json(const json& j) {
     s.get("checkpoint", q.checkpoint);
     s.get("checkpoint_journal", q.checkpoint_journal, 0, 1e6);
     s.get("restart", q.restart);
+    s.get("temporal", q.temporal, 0, kMaxTemporalWindow);
+    s.get("temporal_output", q.temporal_output);
+    s.get("temporal_only", q.temporal_only);
   });
   top.has("choices");  // written by resolved_json for the reader's information only
   top.finish();

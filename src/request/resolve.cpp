@@ -1,5 +1,7 @@
 #include "dofcache/request/resolve.h"
 
+#include <filesystem>
+
 #include <nlohmann/json.hpp>
 
 #include "dofcache/cache/radiance_cache.h"
@@ -127,6 +129,29 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
     q.lens = {s.lens.focal_length, s.lens.fstop, s.lens.focus_distance};
   }
 
+  if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {
+    // The temporal filter reads each frame's denoised colour and its guides back from the EXR.
+    SequenceChoices& t = q.sequence;
+    if (q.denoise == Choice::Off)
+      throw Error("--temporal filters the denoised frames: drop --denoise off");
+    if (!image::is_exr_path(q.out))
+      throw Error("--temporal reads the frames' feature layers back: write the frames as EXR "
+                  "(e.g. --out frames/####.exr) and the filtered ones to --temporal-output "
+                  "(PNG or EXR)");
+    if (q.denoise == Choice::Auto) {
+      q.denoise = Choice::On;
+      chose("denoise: auto -> on (--temporal filters the denoised frames)");
+    }
+    if (t.temporal_output.empty()) {
+      const std::filesystem::path out(q.out);
+      t.temporal_output =
+          (out.parent_path() / (out.stem().string() + ".temporal" + out.extension().string()))
+              .string();
+      chose("temporal output: " + t.temporal_output);
+    }
+  } else if (q.kind == Kind::Sequence && q.sequence.temporal_only) {
+    throw Error("--temporal-only needs --temporal N (frames on each side)");
+  }
   if (q.denoise == Choice::Auto) {
     // An 8-bit image is for looking at: it gets the denoised colour. An EXR is for further work
     // (compositing, references): its beauty stays the raw, unbiased render.

@@ -193,6 +193,16 @@ void SequenceSettings::validate() const {
       (!cache_in.empty() || !cache_out.empty()))
     throw Error("--cache-in and --cache-out do not record --material-override; render without "
                 "cache files");
+  if (temporal_window < 0 || temporal_window > request::kMaxTemporalWindow)
+    throw Error("--temporal must be 0 to " + std::to_string(request::kMaxTemporalWindow) +
+                " frames on each side");
+  if (temporal_window > 0) {
+    if (output.empty() || !image::is_exr_path(output) || !render.lens_features)
+      throw Error("--temporal filters denoised EXR frames (--out frames/####.exr --denoise on)");
+    frame_path(temporal_output, 0);
+    if (temporal_output == output)
+      throw Error("--temporal-output must differ from --out: the filter reads the frames there");
+  }
   render::RenderSettings r = render;
   r.cache.cache = nullptr;
   r.validate();

@@ -50,6 +50,8 @@ PreparedSequence prepare_sequence(const request::RenderRequest& request) {
   s.checkpoint = q.checkpoint;
   s.checkpoint_journal_ratio = q.checkpoint_journal;
   s.resume = !q.restart;
+  s.temporal_window = r.sequence.temporal;  // resolved: the output's default filled in
+  s.temporal_output = r.sequence.temporal_output;
   s.validate();  // before planning frames (which may probe the scene for autofocus)
 
   p.frames = keep_every(plan_frames(scene, *p.accel, camera, p.path, p.fps, p.first, p.last,
@@ -68,7 +70,11 @@ std::string describe_start(const PreparedSequence& p) {
       p.last, p.fps, p.first / p.fps, p.last / p.fps, r.width, r.height, render::mode_name(r.mode),
       r.spp, cache_mode_name(s.cache_mode),
       s.cache_mode == CacheMode::None ? std::string() : " (" + s.cache_backend + ")",
-      r.lens_features ? "; each frame denoised (no temporal filter yet)" : "");
+      !r.lens_features        ? ""
+      : s.temporal_window > 0 ? fmt::format("; each frame denoised, then filtered with {} frames "
+                                            "on each side into {}",
+                                            s.temporal_window, s.temporal_output)
+                              : "; each frame denoised");
   if (p.frames.front().autofocus)
     text += "notice   no focus distance given: autofocus on the image centre, per frame\n";
   return text;
@@ -112,8 +118,19 @@ nlohmann::json frame_stats_json(const FrameReport& f) {
           {"checkpoint_cpu_seconds", f.checkpoint_cpu_seconds}};
 }
 
+std::string describe_temporal_frame(const TemporalFrameReport& f) {
+  return fmt::format("temporal {:4d}  {:6.2f} s  {} neighbours  wrote {}\n", f.frame, f.seconds,
+                     f.neighbours, f.path);
+}
+
+nlohmann::json temporal_stats_json(const TemporalFrameReport& f) {
+  return {{"frame", f.frame}, {"output", f.path}, {"neighbours", f.neighbours},
+          {"seconds", f.seconds}};
+}
+
 nlohmann::json sequence_stats_json(const PreparedSequence& p, const SequenceSummary& sum,
-                                   const nlohmann::json& rows) {
+                                   const nlohmann::json& rows,
+                                   const nlohmann::json& temporal_rows) {
   const SequenceSettings& s = p.settings;
   const render::RenderSettings& r = s.render;
   nlohmann::json j = {
@@ -127,6 +144,10 @@ nlohmann::json sequence_stats_json(const PreparedSequence& p, const SequenceSumm
       {"resumed_after", sum.resumed_after}, {"seconds", sum.seconds}, {"per_frame", rows}};
   j["cache"].update({{"mode", cache_mode_name(s.cache_mode)},
                      {"evict_after", s.evict_after}, {"memory_mb", s.cache_memory_mb}});
+  if (!temporal_rows.is_null())
+    j["temporal"] = {{"window", s.temporal_window},
+                     {"output", s.temporal_output},
+                     {"per_frame", temporal_rows}};
   return j;
 }
 

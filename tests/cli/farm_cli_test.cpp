@@ -77,6 +77,35 @@ TEST_F(FarmCli, PlanRunLocallyEqualsPlainSequenceCallsAndVerifyFindsLostFrames) 
   expect_one_line_error(lost, "1 of 3 frames missing or incomplete: 1 (chunks 0)", 1);
 }
 
+TEST_F(FarmCli, TemporalFilterRunsAfterVerifyOverEveryChunksFrames) {
+  auto p = plan("--temporal 1");
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  // The chunks render only; the verify job then filters the whole path.
+  for (const char* job : {"warm.json", "chunk-000.json", "chunk-001.json"})
+    EXPECT_EQ(nlohmann::json::parse(slurp(dir_ / "work" / "jobs" / job))
+                  .at("sequence").at("temporal"), 0) << job;
+  const nlohmann::json t = nlohmann::json::parse(slurp(dir_ / "work" / "jobs" / "temporal.json"));
+  EXPECT_EQ(t.at("sequence").at("temporal_only"), true);
+  EXPECT_EQ(t.at("sequence").at("frames"), "0-2");
+  EXPECT_EQ(t.at("denoise"), "on");  // the chunks write the denoiser's layers
+  const std::string verify = slurp(dir_ / "work" / "verify.sbatch");
+  EXPECT_LT(verify.find("farm verify"), verify.find("temporal.json")) << verify;
+  int status = std::system(("bash " + path("work/commands.sh") + " >" + path("log") + " 2>&1").c_str());
+  ASSERT_EQ(status, 0) << slurp(dir_ / "log");
+  // Frame 1 of the chunk (0-1) was filtered with frame 2 of the next chunk, as one sequence
+  // process filters it.
+  auto whole = run("sequence " + kDolly + " --frames 0-2" + kQuick + "--out " +
+                   path("f/####.exr") + " --temporal 1 --temporal-only --temporal-output " +
+                   path("w/####.exr") + " -q");
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  for (const char* f : {"0000", "0001", "0002"}) {
+    auto cmp = run("compare " + path(std::string("f/") + f + ".temporal.exr") + " " +
+                   path(std::string("w/") + f + ".exr") + " --json");
+    EXPECT_NE(cmp.out.find("\"mse\": 0.0,"), std::string::npos) << f << cmp.out;
+  }
+  expect_one_line_error(plan("--temporal 1 --temporal-only"), "drop --temporal-only", 1);
+}
+
 TEST_F(FarmCli, SubmitChainsJobsThroughSbatch) {
   ASSERT_EQ(plan("--partition render --time 1:00:00").exit_code, 0);
   // A stand-in sbatch: records its arguments, answers with job ids 41, 42, 43.

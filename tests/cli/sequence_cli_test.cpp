@@ -155,6 +155,61 @@ TEST_F(SequenceCli, RefusesForeignAndDamagedCacheFiles) {
                         "cut.vdb");
 }
 
+TEST_F(SequenceCli, TemporalPassFiltersTheWrittenFramesAndRunsAlone) {
+  const std::string dolly = "sequence " + kScenes + "cornell_box_dolly.gltf --frames 0-3 ";
+  dofcache::testing::CliResult both =
+      run(dolly + "--persistent --temporal 1 -o '" + at("t/####.exr") + "'" + kQuick);
+  ASSERT_EQ(both.exit_code, 0) << both.err;
+  EXPECT_NE(both.out.find("filtered with 1 frames on each side"), std::string::npos) << both.out;
+  EXPECT_NE(both.out.find("4 frames filtered"), std::string::npos) << both.out;
+  // The ends have one neighbour, the others two.
+  EXPECT_NE(both.out.find("temporal    0"), std::string::npos) << both.out;
+  EXPECT_NE(both.out.find("2 neighbours"), std::string::npos) << both.out;
+  // The frames keep the raw render with the denoiser's layers; the filtered ones are new files
+  // that differ from each frame's own denoised colour.
+  const dofcache::image::Image raw = dofcache::image::read_image(at("t/0001.exr"));
+  const dofcache::image::Image own =
+      dofcache::image::read_channels(at("t/0001.exr"), {"denoised.R", "denoised.G", "denoised.B"});
+  const dofcache::image::Image filtered = dofcache::image::read_image(at("t/0001.temporal.exr"));
+  ASSERT_EQ(filtered.width(), 32);
+  EXPECT_NE(raw.data(), own.data());
+  EXPECT_NE(own.data(), filtered.data());
+
+  // --temporal-only renders nothing and filters the same frames to the same images: what the
+  // farm's last job runs.
+  const std::string mtime_before = std::to_string(fs::last_write_time(at("t/0002.exr"))
+                                                      .time_since_epoch().count());
+  dofcache::testing::CliResult alone =
+      run(dolly + "--persistent --temporal 1 --temporal-only -o '" + at("t/####.exr") +
+          "' --temporal-output '" + at("u/####.png") + "'" + kQuick);
+  ASSERT_EQ(alone.exit_code, 0) << alone.err;
+  EXPECT_EQ(alone.out.find("rendered"), std::string::npos) << alone.out;
+  EXPECT_EQ(std::to_string(fs::last_write_time(at("t/0002.exr")).time_since_epoch().count()),
+            mtime_before);
+  auto again = run(dolly + "--persistent --temporal 1 --temporal-only -o '" + at("t/####.exr") +
+                   "' --temporal-output '" + at("v/####.exr") + "'" + kQuick);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(dofcache::image::read_image(at("v/0003.exr")).data(),
+            dofcache::image::read_image(at("t/0003.temporal.exr")).data());
+  EXPECT_TRUE(fs::exists(dir_ / "u" / "0000.png"));
+
+  // Frames without the layers, or missing, or not EXR, or not denoised: one line each.
+  expect_one_line_error(run(dolly + "--temporal 1 -o '" + at("p/####.png") + "'" + kQuick),
+                        "write the frames as EXR");
+  expect_one_line_error(
+      run(dolly + "--temporal 1 --denoise off -o '" + at("p/####.exr") + "'" + kQuick),
+      "drop --denoise off");
+  expect_one_line_error(run(dolly + "--temporal-only -o '" + at("t/####.exr") + "'" + kQuick),
+                        "--temporal-only needs --temporal");
+  expect_one_line_error(run(dolly + "--temporal 1 --temporal-only -o '" + at("none/####.exr") +
+                            "'" + kQuick),
+                        "temporal filter: frame 0");
+  ASSERT_EQ(run(dolly + "--denoise off -o '" + at("r/####.exr") + "'" + kQuick).exit_code, 0);
+  expect_one_line_error(run(dolly + "--temporal 1 --temporal-only -o '" + at("r/####.exr") +
+                            "'" + kQuick),
+                        "denoised.R");
+}
+
 TEST_F(SequenceCli, BadOptionsGiveOneLine) {
   const std::string dolly = "sequence " + kScenes + "cornell_box_dolly.gltf";
   expect_one_line_error(run(dolly + " -o '" + at("x.png") + "'"), "'#'");

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
 
 namespace dofcache::render {
 namespace {
@@ -60,6 +61,22 @@ TEST(ThinLensCamera, NearPlaneParameter) {
   scene::Ray r = cam.pinhole_ray({0.0f, 0.0f});  // oblique corner ray
   float t = cam.t_at_depth(r, 1.5f);
   EXPECT_NEAR(cam.depth(r.origin + t * r.direction), 1.5f, 1e-5f);
+}
+
+TEST(ThinLensCamera, FilmToWorldMapsEachFilmPointAndDepthOntoItsPinholeRay) {
+  const ThinLensCamera cam(
+      glm::rotate(glm::translate(glm::mat4(1.0f), glm::vec3(1, 2, 3)), 0.4f, glm::vec3(0, 1, 0)),
+      0.7f, lens::ThinLens{}, 64, 40);
+  const glm::mat4 m = cam.film_to_world();
+  for (glm::vec2 film : {glm::vec2(0.0f, 0.0f), glm::vec2(31.5f, 20.25f), glm::vec2(64, 40)})
+    for (float z : {0.5f, 3.0f}) {
+      const scene::Ray ray = cam.pinhole_ray(film);
+      const glm::vec3 expected = ray.origin + ray.direction * (z / glm::dot(ray.direction,
+                                                                            cam.forward()));
+      const glm::vec4 got = m * glm::vec4(film.x * z, film.y * z, z, 1.0f);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], expected[c], 1e-5f);
+      EXPECT_FLOAT_EQ(got.w, 1.0f);
+    }
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 #pragma once
 // A render-farm plan: a camera-path sequence split into chunks of frames, each chunk one plain
 // `dofcache sequence --request FILE` command, preceded by a warm-cache pass and followed by a
-// check that every frame is complete. Each job's request is the plan's resolved sequence request
+// check that every frame is complete (and, with --temporal, the temporal filter over the path). Each job's request is the plan's resolved sequence request
 // with the job's own fields set (frames, cache files, checkpoint, statistics, threads), stored as
 // JSON in the work directory: no command line is edited. The plan is written as Slurm batch
 // scripts (a job array, one task per chunk) plus the same commands as a plain shell script, so any
@@ -99,11 +99,16 @@ class FarmPlan {
   // The requests the jobs render: the plan's request with each job's own fields.
   request::RenderRequest warm_request() const;
   request::RenderRequest chunk_request(const Chunk& c) const;
+  // With --temporal: the filter over every frame of the plan (sequence/temporal_pass.h), run by
+  // the verify job once every frame is complete. The other jobs render only.
+  bool has_temporal_pass() const;
+  request::RenderRequest temporal_request() const;
 
   // The commands (argument vectors) that the jobs run.
   std::vector<std::string> warm_command() const;
   std::vector<std::string> chunk_command(const Chunk& c) const;
   std::vector<std::string> verify_command() const;
+  std::vector<std::string> temporal_command() const;
 
   // Script texts.
   std::string warm_script() const;

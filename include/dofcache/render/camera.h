@@ -25,6 +25,11 @@ class ThinLensCamera {
   scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u) const;
   scene::Ray pinhole_ray(glm::vec2 film) const;
 
+  // (x z, y z, z, 1) -> world, for film position (x, y) in pixels at camera-space depth z: the
+  // pinhole projection through the lens centre, which every lens ray of a film point's focus
+  // shares (w = 0 maps (x, y, 1) to the centre ray's direction). Its inverse projects.
+  glm::mat4 film_to_world() const;
+
   // Camera-space depth (distance along the optical axis) of a world point.
   float depth(glm::vec3 world) const { return glm::dot(world - position_, forward_); }
   // Ray parameter at which `ray` crosses the plane at camera-space depth `z` (0 if it never does

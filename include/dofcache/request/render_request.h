@@ -51,6 +51,9 @@ std::vector<std::string> mode_names();     // the integrators', then the preview
 // Whether `mode` integrates over the lens (drt, accumulation): the modes a radiance cache serves.
 bool integrates_lens(const Mode& mode);
 
+// The most frames on each side the temporal filter averages (17 frames in all).
+constexpr int kMaxTemporalWindow = 8;
+
 // The camera-path part of a sequence request (Kind::Sequence only).
 struct SequenceChoices {
   std::string path;       // JSON keyframe file; empty: the glTF animation that moves the camera
@@ -64,6 +67,12 @@ struct SequenceChoices {
   std::string cache_in, cache_out, checkpoint;
   double checkpoint_journal = 1.0;
   bool restart = false;
+  // The temporal filter over the written frames (sequence/temporal_pass.h): frames on each side
+  // (0: none), where the filtered frames go (empty: the output pattern with ".temporal" before
+  // its extension), and whether to filter frames written already without rendering any.
+  int temporal = 0;
+  std::string temporal_output;
+  bool temporal_only = false;
 };
 
 struct RenderRequest {

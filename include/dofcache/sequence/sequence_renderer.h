@@ -59,6 +59,11 @@ struct SequenceSettings {
   // the full checkpoint, then one rewrites the full checkpoint (CheckpointStore). 0: the full
   // checkpoint after every frame.
   double checkpoint_journal_ratio = 1.0;
+  // The temporal filter over the written frames (temporal_pass.h): frames on each side (0: none)
+  // and the pattern of the filtered frames. It needs EXR frames with the denoiser's layers
+  // (render.lens_features).
+  int temporal_window = 0;
+  std::string temporal_output;
 
   void validate() const;  // throws dofcache::Error
 };

@@ -14,6 +14,7 @@
 #include "dofcache/scene/scene.h"
 #include "dofcache/sequence/camera_path.h"
 #include "dofcache/sequence/sequence_renderer.h"
+#include "dofcache/sequence/temporal_pass.h"
 
 namespace dofcache::sequence {
 
@@ -40,10 +41,15 @@ std::string describe_start(const PreparedSequence& sequence);
 std::string describe_frame(const FrameReport& frame, bool cached);
 // The run's last line: frames rendered and complete already, time, the mean reuse.
 std::string describe_summary(const SequenceSummary& summary);
+// One frame's line of the temporal pass.
+std::string describe_temporal_frame(const TemporalFrameReport& frame);
 
-// Statistics as `sequence --stats-json` writes them: one row per frame, and the whole run.
+// Statistics as `sequence --stats-json` writes them: one row per frame, and the whole run, with
+// the temporal pass's rows (null: no pass).
 nlohmann::json frame_stats_json(const FrameReport& frame);
+nlohmann::json temporal_stats_json(const TemporalFrameReport& frame);
 nlohmann::json sequence_stats_json(const PreparedSequence& sequence, const SequenceSummary& summary,
-                                   const nlohmann::json& rows);
+                                   const nlohmann::json& rows,
+                                   const nlohmann::json& temporal_rows = nullptr);
 
 }  // namespace dofcache::sequence
