@@ -24,6 +24,7 @@ void check_frame(const TemporalFrame& f, const image::Image& like) {
     throw Error("temporal filter: every frame's colour must be RGB of one size");
   check_guide(f.depth, like, 1, "depth");
   check_guide(f.normal, like, 3, "normal");
+  check_guide(f.ids, like, 1, "id");
   check_guide(f.coc, like, 1, "circle of confusion");
   check_guide(f.variance, like, 1, "variance");
 }
@@ -54,6 +55,18 @@ std::vector<float> depth_steps(const image::Image& depth) {
   return steps;
 }
 
+// A frame's value at the pixel, its noise, and how well its luminance agrees (0 to 1).
+struct Candidate {
+  float rgb[3];
+  float var, accept;
+};
+
+float median(std::vector<float>& v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
 }  // namespace
 
 image::Image temporal_filter(const std::vector<TemporalFrame>& frames, std::size_t centre,
@@ -77,17 +90,20 @@ image::Image temporal_filter(const std::vector<TemporalFrame>& frames, std::size
   image::Image out(w, h, 3);
   run_with_threads(o.threads, [&] {
     for_rows(h, [&](int y) {
+      std::vector<Candidate> taken;
+      std::vector<float> order;
       for (int x = 0; x < w; ++x) {
         const float* c = t.color->pixel(x, y);
         const float z = t.depth->at(x, y, 0);
         const bool surface = std::isfinite(z) && z > 0.0f;
         const glm::vec3 n(t.normal->at(x, y, 0), t.normal->at(x, y, 1), t.normal->at(x, y, 2));
         const float coc = t.coc->at(x, y, 0), var = t.variance->at(x, y, 0);
+        const float id = t.ids->at(x, y, 0);
         const float lum = luminance(c);
         // The film position scaled by the depth, or a direction for the background.
         const glm::vec4 film = surface ? glm::vec4((x + 0.5f) * z, (y + 0.5f) * z, z, 1.0f)
                                        : glm::vec4(x + 0.5f, y + 0.5f, 1.0f, 0.0f);
-        double sum[3] = {c[0], c[1], c[2]}, weight = 1.0;
+        taken.assign(1, Candidate{{c[0], c[1], c[2]}, var, 1.0f});
         for (std::size_t s = 0; s < frames.size(); ++s) {
           if (s == centre) continue;
           const TemporalFrame& f = frames[s];
@@ -103,8 +119,8 @@ image::Image temporal_filter(const std::vector<TemporalFrame>& frames, std::size
             const float b = ((k & 1) ? fx : 1 - fx) * ((k >> 1) ? fy : 1 - fy);
             if (b <= 0.0f || qx < 0 || qy < 0 || qx >= w || qy >= h) continue;
             const float zq = f.depth->at(qx, qy, 0);
-            if (surface) {  // the same surface point: its depth and its normal
-              if (!std::isfinite(zq) ||
+            if (surface) {  // the same surface point: its object, depth and normal
+              if (f.ids->at(qx, qy, 0) != id || !std::isfinite(zq) ||
                   std::abs(zq - p.z) >
                       o.depth_tolerance * p.z + steps[s][static_cast<std::size_t>(qy) * w + qx])
                 continue;
@@ -127,9 +143,24 @@ image::Image temporal_filter(const std::vector<TemporalFrame>& frames, std::size
           const float allowed = o.sigma_luminance * std::sqrt(std::max(0.0f, var + var_s)) +
                                 o.relative_luminance * std::max(lum, luminance(rgb)) + 1e-6f;
           const float a = std::clamp(2.0f - std::abs(luminance(rgb) - lum) / allowed, 0.0f, 1.0f);
-          if (a <= 0.0f) continue;
-          for (int ch = 0; ch < 3; ++ch) sum[ch] += a * rgb[ch];
-          weight += a;
+          if (a > 0.0f) taken.push_back({{rgb[0], rgb[1], rgb[2]}, var_s, a});
+        }
+        // Each frame weighted by its inverse noise plus the least noise among them (and a floor:
+        // a small fraction of their median luminance): frames of similar noise count alike, and
+        // one whose estimate here is much noisier than another's (a defocused lamp caught by a
+        // few lens samples) hardly counts, be it the centre or a neighbour.
+        order.clear();
+        for (const Candidate& k : taken) order.push_back(k.var);
+        const float least_var = *std::min_element(order.begin(), order.end());
+        order.clear();
+        for (const Candidate& k : taken) order.push_back(luminance(k.rgb));
+        const float floor = o.relative_luminance * median(order);
+        const float base = least_var + floor * floor + 1e-12f;
+        double sum[3] = {0, 0, 0}, weight = 0;
+        for (const Candidate& k : taken) {
+          const double wk = k.accept / (k.var + base);
+          for (int ch = 0; ch < 3; ++ch) sum[ch] += wk * k.rgb[ch];
+          weight += wk;
         }
         float* o3 = out.pixel(x, y);
         for (int ch = 0; ch < 3; ++ch) o3[ch] = static_cast<float>(sum[ch] / weight);

@@ -23,7 +23,7 @@ struct WrittenFrame {
 // The layers request::write_render adds with --denoise on, read back as one block.
 const std::vector<std::string> kChannels = {"denoised.R", "denoised.G", "denoised.B", "Z",
                                             "N.X",        "N.Y",        "N.Z",        "id",
-                                            "lens.Z",     "variance.Y"};
+                                            "lens.Z",     "variance.Y", "emission_variance.Y"};
 
 image::Image channels_of(const image::Image& all, int first, int count) {
   image::Image out(all.width(), all.height(), count);
@@ -52,7 +52,10 @@ WrittenFrame read_frame(const std::string& path, const FrameSpec& spec,
   f.depth = channels_of(all, 3, 1);
   f.normal = channels_of(all, 4, 3);
   f.ids = channels_of(all, 7, 1);
+  // The pixel's noise: its reflected light's and its emission estimate's (a lamp's edge).
   f.variance = channels_of(all, 9, 1);
+  for (std::size_t i = 0; i < f.variance.pixel_count(); ++i)
+    f.variance.data()[i] += all.data()[i * all.channels() + 10];
   render::RenderSettings rs = s.render;
   rs.lens = spec.lens;  // the frame's own lens (a path may animate focus and aperture)
   const render::ThinLensCamera camera = render::make_camera(spec.camera, rs);
@@ -92,7 +95,8 @@ void run_temporal_pass(const std::vector<FrameSpec>& frames, const SequenceSetti
     std::vector<denoise::TemporalFrame> window;
     for (int j = lo; j <= hi; ++j) {
       const WrittenFrame& f = loaded.at(j);
-      window.push_back({&f.color, &f.depth, &f.normal, &f.coc, &f.variance, f.film_to_world});
+      window.push_back(
+          {&f.color, &f.depth, &f.normal, &f.ids, &f.coc, &f.variance, f.film_to_world});
     }
     const image::Image filtered =
         denoise::temporal_filter(window, static_cast<std::size_t>(i - lo), options);

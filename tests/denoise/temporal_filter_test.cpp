@@ -42,12 +42,13 @@ glm::mat4 film_to_world(float cx) {
 // deviation sd added to the colour and its variance recorded.
 struct Frame {
   Image color{kW, kH, 3, 0.0f}, depth{kW, kH, 1, kInf}, normal{kW, kH, 3, 0.0f},
+      ids{kW, kH, 1, -1.0f},
       coc{kW, kH, 1, 0.0f}, variance{kW, kH, 1, 0.0f};
   Image truth{kW, kH, 1, 0.0f};
   glm::mat4 film_to_world{1.0f};
 
   denoise::TemporalFrame view() const {
-    return {&color, &depth, &normal, &coc, &variance, film_to_world};
+    return {&color, &depth, &normal, &ids, &coc, &variance, film_to_world};
   }
 };
 
@@ -86,6 +87,7 @@ Frame render_frame(const World& world, float camera_x, float sd, std::uint64_t s
       for (int c = 0; c < 3; ++c) f.color.pixel(x, y)[c] = v;
       f.truth.at(x, y, 0) = value;
       f.depth.at(x, y, 0) = depth;
+      f.ids.at(x, y, 0) = depth == 1.0f ? 1.0f : depth == 4.0f ? 0.0f : -1.0f;
       f.normal.pixel(x, y)[2] = 1.0f;
       f.variance.at(x, y, 0) = sd * sd;
     }
@@ -188,6 +190,22 @@ TEST(TemporalFilter, KeepsAHighlightThatMovesAndRefusesAnotherBlur) {
   EXPECT_NEAR(diff / n, 0.0, 0.002);
   for (int y = 10; y < 14; ++y)
     for (int x = 8; x < 12; ++x) EXPECT_LT(out.at(x, y, 0), 1.0f);  // frame 0's spot
+}
+
+TEST(TemporalFilter, AFrameFarNoisierThanTheOthersHardlyCounts) {
+  // Still camera, noise-free frames; the centre frame's pixel (10, 10) caught a rare bright
+  // sample (value 2, variance 1), frame 3's pixel (30, 10) too.
+  std::vector<Frame> frames;
+  for (int i = 0; i < 5; ++i) frames.push_back(render_frame({}, 0.0f, 0.0f, 40 + i));
+  for (auto [f, x] : {std::pair{2, 10}, std::pair{3, 30}}) {
+    for (int c = 0; c < 3; ++c) frames[f].color.pixel(x, 10)[c] = 2.0f;
+    frames[f].variance.at(x, 10, 0) = 1.0f;
+  }
+  const Image out = denoise::temporal_filter(views(frames), 2);
+  // Weights 1 / (var + the least var + (0.05 median)^2): the spike's is under 1/1000 of the
+  // others' (median value under 0.8).
+  EXPECT_NEAR(out.at(10, 10, 0), frames[2].truth.at(10, 10, 0), 0.01f);
+  EXPECT_NEAR(out.at(30, 10, 0), frames[2].truth.at(30, 10, 0), 0.01f);
 }
 
 TEST(TemporalFilter, RefusesFramesOfAnotherSizeAndAMissingCentre) {

@@ -7,17 +7,19 @@
 //
 // A neighbour's value at the reprojected point counts only where it shows the same thing as the
 // pixel does:
-//   * the same surface: its centre depth is the reprojected point's depth within a relative
-//     tolerance plus the local depth step, and its centre normal agrees (disocclusions are
-//     refused, not smeared);
+//   * the same surface: the same object, its centre depth the reprojected point's depth within a
+//     relative tolerance plus the local depth step, and its centre normal agrees (disocclusions
+//     are refused, not smeared; nor is a lamp's edge into the ceiling it hangs from);
 //   * the same blur: its circle of confusion is the pixel's within half a pixel plus a fraction
 //     (a focus pull changes a point's blur from frame to frame);
 //   * the same light: its luminance is the pixel's within `sigma_luminance` measured standard
 //     deviations of the two frames' raw noise plus a small relative allowance (a highlight that
 //     moves across a glossy surface is not dragged along).
-// What passes is averaged with equal frame weights, bilinearly among the four pixels around the
-// reprojected point (renormalised over those that pass). Background (infinite depth) reprojects
-// by direction.
+// A neighbour's value is interpolated bilinearly among the four pixels around the reprojected
+// point (renormalised over those that pass). What passes is averaged with weights inverse to each
+// frame's measured noise plus the least among them: frames of similar noise count alike, and an
+// estimate far noisier than another frame's (a defocused lamp caught by a few lens samples)
+// hardly counts. Background (infinite depth) reprojects by direction.
 #include <cstddef>
 #include <vector>
 
@@ -32,8 +34,11 @@ struct TemporalFrame {
   const image::Image* depth = nullptr;     // 1 channel: camera-space depth through the pixel
                                            // centre (+inf: nothing)
   const image::Image* normal = nullptr;    // RGB: the centre ray's normal
+  const image::Image* ids = nullptr;       // 1 channel: the centre ray's object id
   const image::Image* coc = nullptr;       // 1 channel: circle of confusion radius, pixels
-  const image::Image* variance = nullptr;  // 1 channel: variance of the raw pixel's luminance
+  // 1 channel: the variance of the raw pixel's luminance (its reflected light's and its emission
+  // estimate's: render::LensFeatures).
+  const image::Image* variance = nullptr;
   // (x z, y z, z, 1) -> world, for film position (x, y) in pixels at camera-space depth z: the
   // pinhole projection through the lens centre (render::ThinLensCamera::film_to_world).
   glm::mat4 film_to_world{1.0f};
