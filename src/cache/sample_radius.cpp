@@ -8,7 +8,10 @@
 namespace dofcache::cache {
 
 double sample_radius_pixels(const lens::LensImaging& imaging, double depth, double min_factor) {
-  return std::max(imaging.coc_radius_pixels(depth), min_factor);  // eq. (4.2), CoC in pixels
+  // eq. (4.2), CoC in pixels; a shaped aperture's bokeh reaches its inradius in every direction
+  // (1 for the round one), so a sample is never reused beyond what the blur hides.
+  return std::max(imaging.coc_radius_pixels(depth) * imaging.lens.aperture.inner_scale(),
+                  min_factor);
 }
 
 double sample_radius(const lens::LensImaging& imaging, double depth, double min_factor) {

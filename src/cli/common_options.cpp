@@ -82,6 +82,18 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
   cmd->add_option("--fstop", lens.fstop, "f-number n (aperture diameter = focal length / n)" + note);
   cmd->add_option("--focal-length", lens.focal_length, "Focal length in metres (e.g. 0.05)" + note);
   cmd->add_option("--focus-distance", lens.focus_distance, "Distance in focus, metres" + note);
+  // The aperture's shape (docs/lens.md); 1-2 blades and the like are refused by the lens's check.
+  lens::ApertureChoices& a = lens.aperture;
+  cmd->add_option("--aperture-blades", a.blades,
+                  "Aperture blades: 0 round, 3-16 a polygon (polygonal highlights)" + note);
+  cmd->add_option("--aperture-rotation", a.rotation_deg,
+                  "Angle of a corner of a highlight behind the focus from the image's +x axis, "
+                  "degrees counter-clockwise" + note);
+  cmd->add_option("--aperture-roundness", a.roundness,
+                  "Blade curvature: 0 straight blades, 1 round" + note);
+  cmd->add_option("--anamorphic-ratio", a.anamorphic_ratio,
+                  "The bokeh's height over its width (2: tall ovals, as anamorphic lenses give)" +
+                      note);
 }
 
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help) {

@@ -54,6 +54,7 @@ void ThinLens::validate() const {
   if (focus_distance <= focal_length)
     throw Error("lens: focus distance (" + std::to_string(focus_distance) +
                 " m) must exceed the focal length (" + std::to_string(focal_length) + " m)");
+  aperture.validate();
 }
 
 double film_height(double film_distance, double yfov) {

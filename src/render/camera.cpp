@@ -8,7 +8,7 @@ namespace dofcache::render {
 
 ThinLensCamera::ThinLensCamera(const glm::mat4& camera_to_world, float yfov,
                                const lens::ThinLens& lens, int width, int height)
-    : imaging_{lens, yfov, height}, width_(width), height_(height) {
+    : imaging_{lens, yfov, height}, aperture_(lens.aperture), width_(width), height_(height) {
   position_ = glm::vec3(camera_to_world[3]);
   right_ = glm::normalize(glm::vec3(camera_to_world[0]));
   up_ = glm::normalize(glm::vec3(camera_to_world[1]));
@@ -44,7 +44,7 @@ scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u) const 
   // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
   glm::vec3 focus_point =
       position_ + direction_to_film(film) * static_cast<float>(imaging_.lens.focus_distance);
-  glm::vec2 disk = lens::concentric_disk(lens_u) * static_cast<float>(imaging_.lens.aperture_radius());
+  glm::vec2 disk = aperture_.sample(lens_u) * static_cast<float>(imaging_.lens.aperture_radius());
   scene::Ray ray;
   ray.origin = position_ + disk.x * right_ + disk.y * up_;
   ray.direction = glm::normalize(focus_point - ray.origin);

@@ -26,6 +26,7 @@ ResolvedLens resolve_lens(const scene::Scene& scene, const scene::Accel& accel,
   lens::ThinLens& l = r.lens;
   l.focal_length = overrides.focal_length.value_or(camera.lens.focal_length.value_or(0.05));
   l.fstop = overrides.fstop.value_or(camera.lens.fstop.value_or(4.0));
+  l.aperture = overrides.aperture.over(camera.lens.aperture).shape();
   if (overrides.focus_distance || camera.lens.focus_distance) {
     l.focus_distance = overrides.focus_distance.value_or(camera.lens.focus_distance.value_or(0.0));
     return r;

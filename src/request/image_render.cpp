@@ -134,11 +134,25 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   if (r.environment.environment) text += "env     " + r.environment.description + "\n";
   if (camera.synthesized)
     text += "notice  the scene has no camera; using one that frames its bounds\n";
-  return text + fmt::format("camera  '{}', lens {:.0f} mm f/{:.3g}, focus {:.3g} m (aperture "
-                            "{:.3g} mm){}\n",
-                            camera.name, l.focal_length * 1000.0, l.fstop, l.focus_distance,
-                            l.aperture_diameter() * 1000.0,
-                            r.focus_from_scene ? " (autofocus on the image centre)" : "");
+  text += fmt::format("camera  '{}', lens {:.0f} mm f/{:.3g}, focus {:.3g} m (aperture "
+                       "{:.3g} mm){}\n",
+                       camera.name, l.focal_length * 1000.0, l.fstop, l.focus_distance,
+                       l.aperture_diameter() * 1000.0,
+                       r.focus_from_scene ? " (autofocus on the image centre)" : "");
+  const lens::ApertureShape& a = l.aperture;
+  if (a.round()) return text;
+  text += "        aperture ";
+  if (a.blades > 0)
+    text += fmt::format("{} blades, a corner at {:g} deg, roundness {:g}", a.blades,
+                        a.rotation_deg, a.roundness);
+  else
+    text += "round";
+  if (a.anamorphic_ratio != 1.0) text += fmt::format(", anamorphic ratio {:g}", a.anamorphic_ratio);
+  text += "\n";
+  if (r.preview)
+    text += "notice  the preview modes blur with round bokeh; the aperture's shape shows in drt "
+            "and accumulation renders\n";
+  return text;
 }
 
 std::string describe(const ResolvedRequest& r, const ImageResult& result) {

@@ -262,7 +262,11 @@ json to_json(const RenderRequest& r) {
       {"lens",
        {{"focal_length", optional_number(r.lens.focal_length)},
         {"fstop", optional_number(r.lens.fstop)},
-        {"focus_distance", optional_number(r.lens.focus_distance)}}},
+        {"focus_distance", optional_number(r.lens.focus_distance)},
+        {"aperture_blades", r.lens.aperture.blades ? json(*r.lens.aperture.blades) : json(nullptr)},
+        {"aperture_rotation", optional_number(r.lens.aperture.rotation_deg)},
+        {"aperture_roundness", optional_number(r.lens.aperture.roundness)},
+        {"anamorphic_ratio", optional_number(r.lens.aperture.anamorphic_ratio)}}},
       {"shading", r.shading ? shading_json(*r.shading) : json(nullptr)},
       {"environment", environment_settings_json(r.environment)},
       {"cache", cache_json(r.cache, c)},
@@ -334,6 +338,10 @@ RenderRequest request_from_json(const json& j) {
     l.get("focal_length", r.lens.focal_length, 1e-6, 1e3);
     l.get("fstop", r.lens.fstop, 1e-3, 1e6);
     l.get("focus_distance", r.lens.focus_distance, 1e-6, 1e9);
+    l.get("aperture_blades", r.lens.aperture.blades, 0, lens::kMaxBlades);
+    l.get("aperture_rotation", r.lens.aperture.rotation_deg, -1e6, 1e6);
+    l.get("aperture_roundness", r.lens.aperture.roundness, 0, 1);
+    l.get("anamorphic_ratio", r.lens.aperture.anamorphic_ratio, 1e-2, 1e2);
   });
   if (top.has("shading")) {
     render::ShadingSettings sh;

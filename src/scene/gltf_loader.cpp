@@ -690,6 +690,28 @@ class Loader : gltf::Document {
     read("focal_length", lens.focal_length);
     read("fstop", lens.fstop);
     read("focus_distance", lens.focus_distance);
+    // The aperture's shape (lens/aperture.h), checked as a whole once read.
+    auto number = [&](const char* key) -> std::optional<double> {
+      if (!obj.Has(key)) return std::nullopt;
+      const tinygltf::Value& v = obj.Get(key);
+      if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble()))
+        fail(label, std::string(key) + " must be a number");
+      return v.GetNumberAsDouble();
+    };
+    lens::ApertureChoices& a = lens.aperture;
+    if (auto blades = number("aperture_blades")) {
+      if (*blades != std::floor(*blades) || std::abs(*blades) > 1e6)
+        fail(label, "aperture_blades must be a whole number");
+      a.blades = static_cast<int>(*blades);
+    }
+    a.rotation_deg = number("aperture_rotation");
+    a.roundness = number("aperture_roundness");
+    a.anamorphic_ratio = number("anamorphic_ratio");
+    try {
+      a.shape().validate();
+    } catch (const Error& e) {
+      fail(label, e.what());
+    }
   }
 
   // What glTF viewers do without a camera: look down -Z at the bounds centre from far enough for

@@ -56,6 +56,11 @@ PathSample CameraPath::at(double time) const {
   if (!focal_length.empty()) s.focal_length = focal_length.at(time);
   if (!fstop.empty()) s.fstop = fstop.at(time);
   if (!focus_distance.empty()) s.focus_distance = focus_distance.at(time);
+  if (!aperture_blades.empty())
+    s.aperture.blades = static_cast<int>(std::lround(aperture_blades.at(time)));
+  if (!aperture_rotation.empty()) s.aperture.rotation_deg = aperture_rotation.at(time);
+  if (!aperture_roundness.empty()) s.aperture.roundness = aperture_roundness.at(time);
+  if (!anamorphic_ratio.empty()) s.aperture.anamorphic_ratio = anamorphic_ratio.at(time);
   return s;
 }
 
@@ -96,6 +101,7 @@ std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel
     if (s.focal_length) o.focal_length = s.focal_length;
     if (s.fstop) o.fstop = s.fstop;
     if (s.focus_distance) o.focus_distance = s.focus_distance;
+    o.aperture = s.aperture.over(o.aperture);
     render::ResolvedLens lens = render::resolve_lens(scene, accel, spec.camera, o);
     spec.lens = lens.lens;
     spec.autofocus = lens.focus_from_scene;

@@ -92,6 +92,7 @@ class KeyframeParser {
     Track<glm::dvec3> position, target;
     Track<glm::dquat> rotation;
     Track<double> yfov, focal_length, fstop, focus;
+    Track<double> blades, rotation_deg, roundness, ratio;
     const double fps_for_frames = path.fps.value_or(24.0);
     double last_time = -INFINITY;
     const json& keys = doc["keys"];
@@ -101,13 +102,17 @@ class KeyframeParser {
       if (!key.is_object()) fail("must be an object");
       for (const auto& item : key.items()) {
         const std::string& member = item.key();
-        static const char* known[] = {"frame", "time", "position", "target", "rotation", "yfov",
-                                      "focal_length", "fstop", "focus_distance"};
+        static const char* known[] = {"frame",          "time",          "position",
+                                      "target",         "rotation",      "yfov",
+                                      "focal_length",   "fstop",         "focus_distance",
+                                      "aperture_blades", "aperture_rotation",
+                                      "aperture_roundness", "anamorphic_ratio"};
         if (std::find_if(std::begin(known), std::end(known),
                          [&](const char* m) { return member == m; }) == std::end(known))
           fail("unknown member '" + member +
                "' (valid: frame or time, position, target or rotation, yfov, focal_length, fstop, "
-               "focus_distance)");
+               "focus_distance, aperture_blades, aperture_rotation, aperture_roundness, "
+               "anamorphic_ratio)");
       }
       if (key.contains("frame") == key.contains("time"))
         fail("give exactly one of \"frame\" (a frame number) or \"time\" (seconds)");
@@ -124,6 +129,25 @@ class KeyframeParser {
       if (key.contains("fstop")) add(fstop, t, positive(key["fstop"], "fstop"));
       if (key.contains("focus_distance"))
         add(focus, t, positive(key["focus_distance"], "focus_distance"));
+      // The aperture's shape, each value checked as the lens checks it.
+      lens::ApertureChoices a;
+      if (key.contains("aperture_blades")) {
+        const double b = number(key["aperture_blades"], "aperture_blades");
+        if (b != std::floor(b) || std::abs(b) > 1e6) fail("aperture_blades must be a whole number");
+        a.blades = static_cast<int>(b);
+        add(blades, t, b);
+      }
+      if (key.contains("aperture_rotation"))
+        add(rotation_deg, t, *(a.rotation_deg = number(key["aperture_rotation"], "aperture_rotation")));
+      if (key.contains("aperture_roundness"))
+        add(roundness, t, *(a.roundness = number(key["aperture_roundness"], "aperture_roundness")));
+      if (key.contains("anamorphic_ratio"))
+        add(ratio, t, *(a.anamorphic_ratio = number(key["anamorphic_ratio"], "anamorphic_ratio")));
+      try {
+        a.shape().validate();
+      } catch (const Error& e) {
+        fail(e.what());
+      }
     }
     key_.clear();
     if (!target.empty() && !rotation.empty())
@@ -137,6 +161,10 @@ class KeyframeParser {
     finish(focal_length, mode, "focal_length", any);
     finish(fstop, mode, "fstop", any);
     finish(focus, mode, "focus_distance", any);
+    finish(blades, KeyInterpolation::Step, "aperture_blades", any);
+    finish(rotation_deg, mode, "aperture_rotation", any);
+    finish(roundness, mode, "aperture_roundness", any);
+    finish(ratio, mode, "anamorphic_ratio", any);
     if (!any) fail("no key animates anything (give position, target, rotation or lens values)");
     node.translation_track = std::move(position);
     node.rotation_track = std::move(rotation);
@@ -146,6 +174,10 @@ class KeyframeParser {
     path.focal_length = std::move(focal_length);
     path.fstop = std::move(fstop);
     path.focus_distance = std::move(focus);
+    path.aperture_blades = std::move(blades);
+    path.aperture_rotation = std::move(rotation_deg);
+    path.aperture_roundness = std::move(roundness);
+    path.anamorphic_ratio = std::move(ratio);
     path.start_time = keys_start_;
     path.end_time = keys_end_;
     return path;

@@ -169,6 +169,9 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
       for (int k = 0; k < 4; ++k) h.add(f.camera.camera_to_world[c][k]);
     h.add(f.camera.yfov);
     h.add(f.lens.focal_length), h.add(f.lens.fstop), h.add(f.lens.focus_distance);
+    const lens::ApertureShape& a = f.lens.aperture;
+    if (!a.round())  // a round aperture keeps the keys of runs made before shapes existed
+      h.add(a.blades), h.add(a.rotation_deg), h.add(a.roundness), h.add(a.anamorphic_ratio);
   }
   return h.value();
 }

@@ -3,6 +3,8 @@
 // optical axis (camera-space z), which is what the thin-lens law is written in.
 #include <glm/vec2.hpp>
 
+#include "dofcache/lens/aperture.h"
+
 namespace dofcache::lens {
 
 // Eq. (2.1): thin-lens law 1/F = 1/R1 + 1/R2, solved for F given the object distance R1 and the
@@ -29,6 +31,7 @@ struct ThinLens {
   double focal_length = 0.05;   // F, metres
   double fstop = 4.0;           // n, so the aperture diameter is F / n
   double focus_distance = 5.0;  // P, metres from the lens to the plane in focus
+  ApertureShape aperture;       // round by default (aperture.h)
 
   double aperture_diameter() const { return focal_length / fstop; }
   double aperture_radius() const { return 0.5 * focal_length / fstop; }
@@ -36,7 +39,8 @@ struct ThinLens {
   double coc_diameter(double depth) const;
   double cone_radius(double depth) const;
 
-  // Throws dofcache::Error naming the first absurd value (non-finite, non-positive, P <= F).
+  // Throws dofcache::Error naming the first absurd value (non-finite, non-positive, P <= F, an
+  // absurd aperture shape).
   void validate() const;
 };
 

@@ -21,7 +21,8 @@ class ThinLensCamera {
                  int width, int height);
 
   // `film` in pixels (x right, y down, pixel (i,j) covers [i,i+1)x[j,j+1)); `lens_u` in [0,1)^2 is
-  // mapped to the aperture disk by the concentric mapping. Direction is unit length.
+  // mapped to the aperture (lens::Aperture: the concentric mapping for a round one). Direction is
+  // unit length.
   scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u) const;
   scene::Ray pinhole_ray(glm::vec2 film) const;
 
@@ -49,6 +50,7 @@ class ThinLensCamera {
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
 
   lens::LensImaging imaging_;
+  lens::Aperture aperture_;  // where lens rays start: imaging_.lens.aperture's shape
   glm::vec3 position_, right_, up_, forward_;
   int width_, height_;
   float tan_half_y_, tan_half_x_;

@@ -18,6 +18,7 @@ scene::Scene load_scene(const std::string& path, int scene_index = -1,
 // Lens values given on the command line; each overrides the camera's `extras.lens`.
 struct LensOverrides {
   std::optional<double> focal_length, fstop, focus_distance;
+  lens::ApertureChoices aperture;
 };
 
 // Where each lens value came from, for messages.

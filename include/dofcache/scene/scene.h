@@ -12,6 +12,8 @@
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
 
+#include "dofcache/lens/aperture.h"
+
 namespace dofcache::scene {
 
 enum class Wrap { Repeat, ClampToEdge, MirroredRepeat };
@@ -121,6 +123,7 @@ struct Emitter {  // one emissive triangle, an area light
 // Depth-of-field settings carried in the camera node's `extras.lens` (see docs/scenes.md), metres.
 struct LensExtras {
   std::optional<double> focal_length, fstop, focus_distance;
+  lens::ApertureChoices aperture;  // aperture_blades, aperture_rotation, ... (lens/aperture.h)
 };
 
 struct Camera {

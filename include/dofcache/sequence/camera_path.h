@@ -47,6 +47,7 @@ struct PathSample {
   glm::dmat4 camera_to_world{1.0};  // rigid: orthonormal axes, the camera looks down -Z, +Y up
   // Animated values; unset where the path does not animate them.
   std::optional<double> yfov, focal_length, fstop, focus_distance;
+  lens::ApertureChoices aperture;
 };
 
 struct CameraPath {
@@ -58,6 +59,8 @@ struct CameraPath {
   Track<glm::dvec3> target;
   glm::dvec3 up{0.0, 1.0, 0.0};
   Track<double> yfov, focal_length, fstop, focus_distance;  // empty: not animated
+  // The aperture's shape (lens/aperture.h); blades hold from key to key (step).
+  Track<double> aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio;
   std::optional<double> fps;  // the frame rate the file suggests (keyframe files)
   double start_time = 0.0, end_time = 0.0;  // seconds: first and last key of any track
 

@@ -1,0 +1,84 @@
+#pragma once
+// The aperture's shape: round, or a polygon of `blades` straight or curved blades, rotated, and
+// squeezed by an anamorphic ratio. A defocused point's bokeh is this shape scaled by its circle of
+// confusion (behind the focal plane upright in the image, in front of it turned by 180 degrees),
+// so shaped highlights come from sampling lens rays over it.
+//
+// Geometry, in units of the round aperture's radius (F / 2n) and in the image's orientation (x
+// right, y up):
+//   * blades N >= 3: a regular N-gon inscribed in the unit circle, a corner at `rotation_deg`
+//     from +x counter-clockwise; its rim at angle t from the nearest edge's normal lies at
+//     cos(pi / N) / cos(t) (Cycles counts its blades' rotation from another axis: the peer
+//     benchmark maps it);
+//   * roundness r in [0, 1]: the rim's distance blended with the circle's, (1 - r) polygon + r;
+//   * anamorphic ratio q: the bokeh's height over its width, the larger axis kept at the
+//     f-number's diameter (x scaled by min(1, 1/q), y by min(1, q)).
+// The exposure stays the round lens's: every lens ray weighs the same whatever the shape's area.
+#include <optional>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+namespace dofcache::lens {
+
+constexpr int kMinBlades = 3, kMaxBlades = 16;
+
+struct ApertureShape {
+  int blades = 0;                 // 0: round; else kMinBlades..kMaxBlades
+  double rotation_deg = 0.0;      // a corner's angle from the image's +x, counter-clockwise
+  double roundness = 0.0;         // 0: straight blades, 1: round
+  double anamorphic_ratio = 1.0;  // the bokeh's height over its width
+
+  // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
+  bool round() const { return blades == 0 && anamorphic_ratio == 1.0; }
+  // The shape's nearest rim point: its inradius over the round aperture's radius. A footprint
+  // this large lies within the bokeh in every direction (the radiance cache's reuse radius).
+  double inner_scale() const;
+  // Throws dofcache::Error naming the first absurd value (1-2 or more than kMaxBlades blades,
+  // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation).
+  void validate() const;
+  bool operator==(const ApertureShape& o) const {
+    return blades == o.blades && rotation_deg == o.rotation_deg && roundness == o.roundness &&
+           anamorphic_ratio == o.anamorphic_ratio;
+  }
+};
+
+// The shape's values as given somewhere (the command line, a request, a glTF camera's
+// extras.lens, a camera path's key): each unset one falls back to the next source.
+struct ApertureChoices {
+  std::optional<int> blades;
+  std::optional<double> rotation_deg, roundness, anamorphic_ratio;
+
+  // Each value from here, else from `fallback`.
+  ApertureChoices over(const ApertureChoices& fallback) const;
+  // The shape with the unset values at their defaults (round).
+  ApertureShape shape() const;
+  bool any() const { return blades || rotation_deg || roundness || anamorphic_ratio; }
+};
+
+class Aperture {
+ public:
+  explicit Aperture(const ApertureShape& shape = {});  // validates
+
+  // A point of the aperture for u in [0, 1)^2, uniform over its area: the round aperture's
+  // concentric mapping (concentric_disk) exactly; a polygon by its angle, drawn with density
+  // proportional to the squared rim distance (a tabulated inverse over one half-sector, mirrored
+  // and repeated), then the radius by sqrt(u.y).
+  glm::vec2 sample(glm::vec2 u) const;
+  // The rim's distance from the centre in the direction `angle` (radians, from +x
+  // counter-clockwise).
+  double rim(double angle) const;
+  bool contains(glm::vec2 p) const;
+  const ApertureShape& shape() const { return shape_; }
+
+ private:
+  double polygon_rim(double angle) const;  // before the anamorphic squeeze
+
+  ApertureShape shape_;
+  glm::vec2 squeeze_{1.0f, 1.0f};
+  // The cumulative area over one half-sector [0, pi / N] from an edge's normal, normalised: the
+  // inverse of a uniform draw's angle.
+  std::vector<double> cdf_;
+};
+
+}  // namespace dofcache::lens
