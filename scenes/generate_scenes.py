@@ -912,26 +912,26 @@ def lamp_corner():
 
 
 def bokeh_lights():
-    """For bokeh: a vase and a chrome ball on a dark glossy floor in focus at 1.5 m, 48 small
+    """For bokeh: a vase and a chrome ball on a dark floor in focus at 1.5 m, 48 small
     coloured lamps (spheres of 3 cm radius) 6 to 11 m behind them and four 0.7 m in front of
     the camera, under a soft overhead panel; black beyond. Every lamp far from the focus draws
     the aperture's shape (about 20 px across at 640x480); the chrome ball and the floor add
     specular highlights. 85 mm f/1.4 (docs/lens.md)."""
     g = Gltf("bokeh_lights")
-    floor = g.material("dark_glossy_floor", (0.05, 0.05, 0.06), roughness=0.2)
+    floor = g.material("dark_floor", (0.05, 0.05, 0.06), roughness=0.6)
     clay = g.material("clay", (0.72, 0.4, 0.25))
     chrome = g.material("chrome", (0.9, 0.9, 0.92), metallic=1.0, roughness=0.05)
     panel = g.material("panel", (0.8, 0.8, 0.8), emissive=(1.0, 1.0, 1.0), strength=6.0)
     colours = [(1.0, 0.78, 0.45), (1.0, 0.55, 0.2), (0.45, 0.8, 1.0), (1.0, 0.45, 0.7),
                (0.7, 1.0, 0.55)]
-    lamps = [g.material("lamp_%d" % i, (0.8, 0.8, 0.8), emissive=c, strength=150.0)
+    lamps = [g.material("lamp_%d" % i, (0.8, 0.8, 0.8), emissive=c, strength=40.0)
              for i, c in enumerate(colours)]
     q = quad()
     g.add("floor", q, floor, (0.0, 0.0, -5.0), None, (12.0, 1.0, 16.0))
     g.add("panel", q, panel, (0.0, 3.0, -2.5), rot_x(math.pi), (2.0, 1.0, 2.0))
     vase_mesh, ball = vase(24), uv_sphere(12, 6)
     g.add("vase", vase_mesh, clay, (-0.08, 0.0, -0.5), None, (2.0, 2.0, 2.0))
-    g.add("chrome_ball", uv_sphere(24, 12), chrome, (0.2, 0.1, -0.4), None, (0.1, 0.1, 0.1))
+    g.add("chrome_ball", uv_sphere(24, 12), chrome, (0.2, 0.1, -0.55), None, (0.1, 0.1, 0.1))
     seed = 12345
     def rand():  # a fixed LCG: the file is the same on every run
         nonlocal seed
@@ -941,10 +941,10 @@ def bokeh_lights():
         x, y, z = -4.0 + 8.0 * rand(), 0.3 + 2.6 * rand(), -6.5 - 4.0 * rand()
         g.add("lamp_%02d" % i, ball, lamps[i % len(lamps)], (r6(x), r6(y), r6(z)), None,
               (0.03, 0.03, 0.03))
-    for i, (x, y) in enumerate([(-0.2, 0.62), (0.21, 0.64), (-0.18, 0.95), (0.2, 0.93)]):
+    for i, (x, y) in enumerate([(-0.2, 0.42), (0.21, 0.44), (-0.18, 0.75), (0.2, 0.73)]):
         g.add("near_lamp_%d" % i, ball, lamps[(i + 2) % len(lamps)], (x, y, 0.3), None,
               (0.005, 0.005, 0.005))
-    g.add_camera(eye=(0.0, 0.8, 1.0), target=(0.0, 0.5, -0.5), yfov=0.45, focal_length=0.085,
+    g.add_camera(eye=(0.0, 0.6, 1.0), target=(0.0, 0.45, -0.5), yfov=0.45, focal_length=0.085,
                  fstop=1.4, focus_object="vase")
     return g
 

@@ -704,9 +704,10 @@ class Loader : gltf::Document {
         fail(label, "aperture_blades must be a whole number");
       a.blades = static_cast<int>(*blades);
     }
-    a.rotation_deg = number("aperture_rotation");
-    a.roundness = number("aperture_roundness");
-    a.anamorphic_ratio = number("anamorphic_ratio");
+    // Key by key, like the others: the node's values win over the camera object's.
+    if (auto v = number("aperture_rotation")) a.rotation_deg = v;
+    if (auto v = number("aperture_roundness")) a.roundness = v;
+    if (auto v = number("anamorphic_ratio")) a.anamorphic_ratio = v;
     try {
       a.shape().validate();
     } catch (const Error& e) {

@@ -262,14 +262,27 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
   }
   if (get && path == "/api/status") return json_response(status_json(session_.status()));
   if (get && path == "/api/lens") return json_response(lens_and_method_json(session_.status()));
-  // Any of focal_length, fstop, focus_distance (metres, f-number), method and composite.
+  // Any of focal_length, fstop, focus_distance (metres, f-number), the aperture's shape
+  // (aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio: lens/aperture.h),
+  // method and composite.
   if (post && path == "/api/lens") {
     const json body = body_object(req);
-    check_keys(body, {"focal_length", "fstop", "focus_distance", "method", "composite"});
+    check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",
+                      "aperture_rotation", "aperture_roundness", "anamorphic_ratio", "method",
+                      "composite"});
     lens::ThinLens lens = session_.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
     if (auto v = optional_number(body, "focus_distance")) lens.focus_distance = *v;
+    lens::ApertureShape& a = lens.aperture;
+    if (auto v = optional_number(body, "aperture_blades")) {
+      if (*v != std::floor(*v) || std::abs(*v) > 1e6)
+        throw Error("'aperture_blades' must be a whole number");
+      a.blades = static_cast<int>(*v);
+    }
+    if (auto v = optional_number(body, "aperture_rotation")) a.rotation_deg = *v;
+    if (auto v = optional_number(body, "aperture_roundness")) a.roundness = *v;
+    if (auto v = optional_number(body, "anamorphic_ratio")) a.anamorphic_ratio = *v;
     std::optional<preview::PreviewMethod> method;
     if (auto it = body.find("method"); it != body.end()) {
       if (!it->is_string()) throw Error("'method' must be a string");

@@ -213,6 +213,26 @@ TEST_F(Cli, LensOptionsReadTheSameInEveryCommand) {
   EXPECT_NE(r.out.find("(default: the saved lens's)"), std::string::npos) << r.out;
 }
 
+// The aperture's shape: described before the render, in the request it prints, and the preview
+// says in one line that it blurs round.
+TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
+  const std::string out = (dir_ / "o.png").string();
+  const std::string small = " --width 24 --height 18 --spp 1 --gather-rays 2 --light-samples 1";
+  testing::CliResult drt = run("render --aperture-blades 6 --anamorphic-ratio 1.5 --out " + out +
+                               small);
+  ASSERT_EQ(drt.exit_code, 0) << drt.err;
+  EXPECT_NE(drt.out.find("aperture 6 blades, a corner at 0 deg, roundness 0, anamorphic ratio "
+                         "1.5"), std::string::npos) << drt.out;
+  EXPECT_EQ(drt.out.find("round bokeh"), std::string::npos) << drt.out;
+  testing::CliResult pre = run("render --mode preview --aperture-blades 6 --out " + out + small);
+  ASSERT_EQ(pre.exit_code, 0) << pre.err;
+  EXPECT_NE(pre.out.find("the preview modes blur with round bokeh"), std::string::npos) << pre.out;
+  testing::CliResult req = run("render --aperture-blades 7 --aperture-rotation 15 --print-request");
+  ASSERT_EQ(req.exit_code, 0) << req.err;
+  EXPECT_NE(req.out.find("\"aperture_blades\": 7"), std::string::npos) << req.out;
+  EXPECT_NE(req.out.find("\"aperture_rotation\": 15"), std::string::npos) << req.out;
+}
+
 // A scene with no light of any kind is lit by the default sky, with one notice naming the options;
 // a scene with lights, or an explicit environment, gets no notice; --no-default-sky keeps it dark.
 TEST_F(Cli, DefaultSkyNoticeExactlyWhenTheSceneHasNoLight) {
@@ -315,6 +335,12 @@ TEST_F(Cli, AbsurdParameters) {
   expect_clean_failure("render --focus-distance 0.01 --focal-length 0.05 --out " +
                            (dir_ / "o.png").string() + kTiny, "focus distance");
   expect_clean_failure("render --out " + (dir_ / "o.tiff2").string() + kTiny, "o.tiff2");
+  expect_clean_failure("render --aperture-blades 2 --out " + (dir_ / "o.png").string() + kTiny,
+                       "aperture blades");
+  expect_clean_failure("render --aperture-roundness 1.5 --out " + (dir_ / "o.png").string() +
+                           kTiny, "aperture roundness");
+  expect_clean_failure("render --anamorphic-ratio 0 --out " + (dir_ / "o.png").string() + kTiny,
+                       "anamorphic ratio");
   expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
 }
 

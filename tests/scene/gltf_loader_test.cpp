@@ -404,6 +404,34 @@ TEST_F(GltfLoaderTest, CameraLensExtrasAndScaleStripped) {
   EXPECT_FALSE(s.cameras[1].lens.fstop.has_value());
 }
 
+// The aperture's shape in extras.lens, key by key like the rest; an absurd one names the node.
+TEST_F(GltfLoaderTest, CameraApertureShapeExtras) {
+  auto scene_with = [](const std::string& camera_lens, const std::string& node_lens) {
+    Gltf g;
+    int pos = g.add_floats(kTriangle, "VEC3");
+    return g.json("\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,"
+                  "\"znear\":0.05},\"extras\":{\"lens\":" + camera_lens + "}}],"
+                  "\"nodes\":[{\"mesh\":0},{\"name\":\"cam\",\"camera\":0,"
+                  "\"extras\":{\"lens\":" + node_lens + "}}],\"meshes\":[" +
+                  triangle_mesh(pos) + "]");
+  };
+  Scene s = load("aperture.gltf",
+                 scene_with(R"({"aperture_blades": 6, "anamorphic_ratio": 1.5})",
+                            R"({"aperture_blades": 5, "aperture_rotation": 10})"));
+  const lens::ApertureChoices& a = s.cameras[0].lens.aperture;
+  ASSERT_TRUE(a.blades && a.rotation_deg && a.anamorphic_ratio);
+  EXPECT_EQ(*a.blades, 5);
+  EXPECT_DOUBLE_EQ(*a.rotation_deg, 10.0);
+  EXPECT_DOUBLE_EQ(*a.anamorphic_ratio, 1.5);
+  EXPECT_FALSE(a.roundness.has_value());
+  for (const char* bad : {R"({"aperture_blades": 2})", R"({"aperture_blades": 6.5})",
+                          R"({"aperture_roundness": 2})", R"({"anamorphic_ratio": 0})",
+                          R"({"aperture_rotation": "up"})"}) {
+    const std::string path = write("bad_aperture.gltf", scene_with("{}", bad));
+    expect_error([&] { load_gltf(path); }, {path, "cam"});
+  }
+}
+
 TEST_F(GltfLoaderTest, CameraSelectionByNameAndErrorListingNames) {
   Gltf g;
   Scene s = load("select.gltf", g.json(two_cameras(g)));

@@ -291,6 +291,33 @@ TEST(KeyframePath, LookAtAndLensTracks) {
   EXPECT_DOUBLE_EQ(*e.focus_distance, 3.0);
 }
 
+TEST(KeyframePath, ApertureShapeAnimates) {
+  // Blades hold from key to key; rotation and the anamorphic ratio interpolate.
+  CameraPath p = parse_keyframe_path(R"({
+    "dofcache_camera_path": 1, "fps": 10,
+    "keys": [
+      {"frame": 0,  "position": [0, 0, 5], "aperture_blades": 5, "aperture_rotation": 0,
+       "anamorphic_ratio": 1},
+      {"frame": 10, "position": [1, 0, 5], "aperture_blades": 8, "aperture_rotation": 90,
+       "anamorphic_ratio": 2}
+    ]})", "test.json", base_camera());
+  const PathSample s = p.at(0.5);
+  EXPECT_EQ(*s.aperture.blades, 5);
+  EXPECT_DOUBLE_EQ(*s.aperture.rotation_deg, 45.0);
+  EXPECT_DOUBLE_EQ(*s.aperture.anamorphic_ratio, 1.5);
+  EXPECT_FALSE(s.aperture.roundness.has_value());
+  EXPECT_EQ(*p.at(1.0).aperture.blades, 8);
+  auto bad = [](const std::string& member) {
+    return parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [{"time": 0, )" + member +
+                                   "}]}",
+                               "bad.json", base_camera());
+  };
+  EXPECT_THROW(bad(R"("aperture_blades": 2)"), Error);
+  EXPECT_THROW(bad(R"("aperture_blades": 5.5)"), Error);
+  EXPECT_THROW(bad(R"("aperture_roundness": -1)"), Error);
+  EXPECT_THROW(bad(R"("anamorphic_ratio": 0)"), Error);
+}
+
 TEST(KeyframePath, RotationStepAndSmooth) {
   const double h = std::sqrt(0.5);
   std::string rot = "[0, " + std::to_string(h) + ", 0, " + std::to_string(h) + "]";

@@ -89,6 +89,21 @@ TEST_F(ViewApiTest, RoutesByMethodAndPath) {
   EXPECT_EQ(json::parse(set.body).at("method").get<std::string>(), "preview-gather");
 }
 
+// The aperture's shape goes through the lens route; an absurd one is refused and changes nothing.
+TEST_F(ViewApiTest, LensRouteSetsTheAperturesShape) {
+  const ApiResponse set =
+      request("POST", "/api/lens", R"({"aperture_blades": 6, "anamorphic_ratio": 1.5})");
+  ASSERT_EQ(set.status, 200) << set.body;
+  EXPECT_EQ(session.lens().aperture.blades, 6);
+  EXPECT_EQ(json::parse(set.body).at("aperture_blades"), 6);
+  EXPECT_DOUBLE_EQ(json::parse(set.body).at("anamorphic_ratio").get<double>(), 1.5);
+  const ApiResponse bad = request("POST", "/api/lens", R"({"aperture_blades": 2})");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_NE(error_of(bad).find("aperture blades"), std::string::npos) << bad.body;
+  EXPECT_EQ(request("POST", "/api/lens", R"({"aperture_blades": 6.5})").status, 400);
+  EXPECT_EQ(session.lens().aperture.blades, 6);
+}
+
 // Before the first inputs: images are 503, pixels 400, both with a message.
 TEST_F(ViewApiTest, NothingToShowBeforeTheFirstInputs) {
   ApiRequest image;
