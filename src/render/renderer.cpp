@@ -204,11 +204,12 @@ class PixelSamples {
   PixelSamples(const RenderSettings& st, int x, int y)
       : pixel_(x, y),
         mode_(st.mode),
-        film_(pixel_key(st.seed, x, y, Dimension::Film)),
+        film_(pixel_key(st.pattern_seed.value_or(st.seed), x, y, Dimension::Film)),
         // Accumulation: one lens point per pass, shared by all pixels.
         lens_(st.mode == Mode::Accumulation
-                  ? hash_combine(st.seed, static_cast<std::uint64_t>(Dimension::Lens))
-                  : pixel_key(st.seed, x, y, Dimension::Lens)) {}
+                  ? hash_combine(st.pattern_seed.value_or(st.seed),
+                                 static_cast<std::uint64_t>(Dimension::Lens))
+                  : pixel_key(st.pattern_seed.value_or(st.seed), x, y, Dimension::Lens)) {}
 
   glm::vec2 film(std::uint32_t s) const { return pixel_ + film_(s); }
   glm::vec2 lens(std::uint32_t s) const {

@@ -40,6 +40,7 @@ render::RenderSettings frame_settings(const SequenceSettings& s, const FrameSpec
   render::RenderSettings rs = s.render;
   rs.lens = spec.lens;
   rs.seed = frame_seed(s.render.seed, spec.number);
+  rs.pattern_seed = s.render.seed;  // the lens pattern stays; shading draws anew per frame
   rs.progress = Progress::Display::Never;
   rs.cache.frame = static_cast<std::uint32_t>(spec.number);
   rs.cache.cache = nullptr;
@@ -141,7 +142,8 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
                            std::uint64_t initial_cache_hash) {
   const render::RenderSettings& r = settings.render;
   ContentHasher h(kSequenceHashSeed);
-  h.add(std::string("dofcache sequence 1"));
+  // 2: the frames share their pixels' lens patterns (RenderSettings::pattern_seed).
+  h.add(std::string("dofcache sequence 2"));
   h.add(scene.content_hash);
   h.add(r.width), h.add(r.height), h.add(r.spp), h.add(static_cast<int>(r.mode));
   h.add(r.seed);

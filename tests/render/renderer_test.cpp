@@ -127,6 +127,28 @@ TEST(Renderer, SameSeedSameImageForAnyThreadCount) {
   EXPECT_GT(a.stats.shading_points, 0u);
 }
 
+// The pattern seed alone places the film and lens samples: a scene of emitters only (nothing to
+// shade) renders the same image with another seed and the same pattern seed, and another image
+// with another pattern seed. What a camera path's frames share so their noise does not flicker.
+TEST(Renderer, PatternSeedAlonePlacesTheFilmAndLensSamples) {
+  scene::Scene s;
+  s.materials.push_back(testing::emissive_material({1.0f, 0.5f, 0.25f}));
+  add_quad_z(s, -0.4f, 0.4f, -0.3f, 0.3f, -4.0f, 0, 0);
+  add_quad_z(s, -0.1f, 0.1f, -0.5f, 0.5f, -1.0f, 0, 1);  // out of focus: the lens decides
+  testing::build_emitters(s);
+  s.cameras.push_back(testing::origin_camera(0.9f));
+  scene::Accel accel(s);
+  RenderSettings a = small_settings(2, 7);
+  a.pattern_seed = 99;
+  RenderSettings b = a;
+  b.seed = 8;
+  RenderSettings c = a;
+  c.pattern_seed = 100;
+  const RenderOutput ra = render(s, accel, s.cameras[0], a);
+  EXPECT_EQ(ra.color.data(), render(s, accel, s.cameras[0], b).color.data());
+  EXPECT_NE(ra.color.data(), render(s, accel, s.cameras[0], c).color.data());
+}
+
 TEST(Renderer, NearPlaneHidesNearerSurfaces) {
   scene::Scene s = shaded_scene();
   scene::Accel accel(s);

@@ -8,6 +8,7 @@
 // Rendering is parallel over 16x16 tiles with TBB. Every sample draws its random numbers from
 // (seed, pixel, sample index), so a fixed seed gives the same image for any thread count.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -105,6 +106,10 @@ struct RenderSettings {
   int spp = 16;  // samples per pixel (lens samples for drt, passes for accumulation)
   Mode mode = Mode::Drt;
   std::uint64_t seed = 1;
+  // Seeds each pixel's film and lens patterns instead of `seed` (unset: `seed`). A camera path's
+  // frames share one (the sequence's seed), so a pixel's lens samples do not reshuffle from frame
+  // to frame and their error moves with the picture instead of flickering (clean-frames issue).
+  std::optional<std::uint64_t> pattern_seed;
   int threads = 0;  // 0: every available core (core/threads.h)
   ShadingSettings shading;
   lens::ThinLens lens;
