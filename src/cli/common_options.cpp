@@ -98,6 +98,9 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
 
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help) {
   cmd->add_option("--seed", r.seed, seed_help)->capture_default_str();
+  cmd->add_option("--pattern-seed", r.pattern_seed,
+                  "Seed of the pixels' film and lens sample patterns (default: --seed; a "
+                  "sequence's frames all use its --seed, so lens noise does not flicker)");
   cmd->add_option("--threads", r.threads,
                   r.core_policy == CorePolicy::LeaveOneCore
                       ? "Worker threads (0: every core this process may use but one)"

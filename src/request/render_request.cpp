@@ -257,6 +257,7 @@ json to_json(const RenderRequest& r) {
       {"mode", mode_name(r.mode)},
       {"spp", r.spp ? json(*r.spp) : json(nullptr)},
       {"seed", r.seed},
+      {"pattern_seed", r.pattern_seed ? json(*r.pattern_seed) : json(nullptr)},
       {"threads", r.threads},
       {"leave_one_core", r.core_policy == CorePolicy::LeaveOneCore},
       {"lens",
@@ -330,6 +331,7 @@ RenderRequest request_from_json(const json& j) {
   named(top, "mode", r.mode, parse_mode);
   top.get("spp", r.spp, 1, 1 << 20);
   top.get("seed", r.seed, 0, kMaxU64);
+  top.get("pattern_seed", r.pattern_seed, 0, kMaxU64);
   top.get("threads", r.threads, 0, 4096);
   bool leave_one = r.core_policy == CorePolicy::LeaveOneCore;
   top.get("leave_one_core", leave_one);

@@ -97,6 +97,7 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
   s.spp = *q.spp;
   s.mode = r.preview ? render::Mode::Pinhole : q.mode.integrator;
   s.seed = q.seed;
+  s.pattern_seed = q.pattern_seed;
   s.threads = resolve_threads(q.threads, q.core_policy);
   s.shading = *q.shading;
   r.environment = render::resolve_environment(q.environment, scene, q.limits);

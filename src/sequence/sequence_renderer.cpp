@@ -40,7 +40,8 @@ render::RenderSettings frame_settings(const SequenceSettings& s, const FrameSpec
   render::RenderSettings rs = s.render;
   rs.lens = spec.lens;
   rs.seed = frame_seed(s.render.seed, spec.number);
-  rs.pattern_seed = s.render.seed;  // the lens pattern stays; shading draws anew per frame
+  // The lens pattern stays from frame to frame; the shading draws anew.
+  rs.pattern_seed = s.render.pattern_seed.value_or(s.render.seed);
   rs.progress = Progress::Display::Never;
   rs.cache.frame = static_cast<std::uint32_t>(spec.number);
   rs.cache.cache = nullptr;
@@ -146,7 +147,7 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
   h.add(std::string("dofcache sequence 2"));
   h.add(scene.content_hash);
   h.add(r.width), h.add(r.height), h.add(r.spp), h.add(static_cast<int>(r.mode));
-  h.add(r.seed);
+  h.add(r.seed), h.add(r.pattern_seed.value_or(r.seed));
   h.add(r.shading.light_samples), h.add(r.shading.gather_rays), h.add(r.shading.bounces);
   h.add(r.shading.specular_depth), h.add(r.shading.rough_lobe_rate);
   // Added only when set, so that the keys of checkpoints made before it existed still match.

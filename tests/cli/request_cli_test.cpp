@@ -115,19 +115,21 @@ TEST_F(RequestCli, RenderEqualsAOneFrameSequenceOfTheSameRequest) {
                 + shared)
                 .exit_code,
             0);
+  // A frame draws its shading from the frame's seed and its lens pattern from the sequence's.
+  const std::string seeds = " --seed " + seed + " --pattern-seed 5";
   dofcache::testing::CliResult r =
-      run("render -q " + scene + " --adaptive off --seed " + seed + " -o " + path("render.exr") +
+      run("render -q " + scene + " --adaptive off" + seeds + " -o " + path("render.exr") +
           shared);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   expect_same_image(path("seq/0000.exr"), path("render.exr"));
   // PNG: both denoised (auto), by the same filter from the same features.
   ASSERT_EQ(run("sequence -q " + scene + " --frames 0 --seed 5 -o " + path("seq/####.png") +
                 shared).exit_code, 0);
-  r = run("render -q " + scene + " --adaptive off --seed " + seed + " -o " + path("render.png") +
+  r = run("render -q " + scene + " --adaptive off" + seeds + " -o " + path("render.png") +
           shared);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   expect_same_image(path("seq/0000.png"), path("render.png"));
-  r = run("render -q " + scene + " --adaptive off --seed " + seed + " -o " + path("raw.png") +
+  r = run("render -q " + scene + " --adaptive off" + seeds + " -o " + path("raw.png") +
           " --denoise off" + shared);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(slurp(path("raw.png")), slurp(path("render.png")));

@@ -88,6 +88,10 @@ struct RenderRequest {
   std::optional<int> spp;  // unset: 16, or preview::kQuickInputSpp in the preview modes
   Mode mode;
   std::uint64_t seed = 1;
+  // The pixels' film and lens patterns (RenderSettings::pattern_seed); unset: `seed`. A
+  // sequence's frames use the sequence's seed here, so `render --seed S' --pattern-seed S`
+  // reproduces a frame (S' = sequence::frame_seed(S, frame)).
+  std::optional<std::uint64_t> pattern_seed;
   int threads = 0;  // 0: the cores `core_policy` gives (core/threads.h)
   CorePolicy core_policy = CorePolicy::AllCores;
   render::LensOverrides lens;  // each unset value: the camera's extras.lens, else the fallback
