@@ -55,17 +55,36 @@ Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {
   squeeze_ = glm::vec2(static_cast<float>(std::min(1.0, 1.0 / shape_.anamorphic_ratio)),
                        static_cast<float>(std::min(1.0, shape_.anamorphic_ratio)));
   if (shape_.blades == 0) return;
+  const int n = shape_.blades;
+  if (shape_.roundness == 0.0) {
+    for (int k = 0; k <= n; ++k) {
+      const double a = radians(shape_.rotation_deg) + 2.0 * kPi * k / n;
+      corners_.push_back(glm::vec2(static_cast<float>(std::cos(a)),
+                                   static_cast<float>(std::sin(a))) *
+                         squeeze_);
+    }
+    return;
+  }
   // Area in [0, t] of the half-sector: the integral of rim(t)^2 / 2, by Simpson's rule per bin.
-  const double half = kPi / shape_.blades;
-  const auto r2 = [&](double t) {
-    const double r = (1.0 - shape_.roundness) * std::cos(half) / std::cos(t) + shape_.roundness;
-    return r * r;
+  const double half = kPi / n;
+  const auto rim = [&](double t) {
+    return (1.0 - shape_.roundness) * std::cos(half) / std::cos(t) + shape_.roundness;
   };
   cdf_.assign(kTableBins + 1, 0.0);
+  rim_.assign(kTableBins + 1, 0.0);
+  cos_.assign(kTableBins + 1, 0.0);
+  sin_.assign(kTableBins + 1, 0.0);
   const double dt = half / kTableBins;
+  for (int i = 0; i <= kTableBins; ++i)
+    rim_[i] = rim(i * dt), cos_[i] = std::cos(i * dt), sin_[i] = std::sin(i * dt);
+  for (int k = 0; k < n; ++k) {
+    const double a = radians(shape_.rotation_deg) + half + 2.0 * half * k;
+    normals_.push_back({std::cos(a), std::sin(a)});
+  }
   for (int i = 0; i < kTableBins; ++i) {
-    const double t = i * dt;
-    cdf_[i + 1] = cdf_[i] + dt / 6.0 * (r2(t) + 4.0 * r2(t + 0.5 * dt) + r2(t + dt));
+    const double mid = rim((i + 0.5) * dt);
+    cdf_[i + 1] = cdf_[i] + dt / 6.0 * (rim_[i] * rim_[i] + 4.0 * mid * mid +
+                                        rim_[i + 1] * rim_[i + 1]);
   }
   for (double& c : cdf_) c /= cdf_.back();
 }
@@ -98,24 +117,35 @@ bool Aperture::contains(glm::vec2 p) const {
 glm::vec2 Aperture::sample(glm::vec2 u) const {
   if (shape_.blades == 0) return concentric_disk(u) * squeeze_;
   const int n = shape_.blades;
-  const double half = kPi / n;
+  if (!corners_.empty()) {
+    // The triangle (centre, corner k, corner k + 1), uniformly: sqrt(u.y) of the way out, at a
+    // fraction along the edge.
+    const float scaled = u.x * static_cast<float>(n);
+    const int k = std::min(static_cast<int>(scaled), n - 1);
+    const float along = scaled - static_cast<float>(k);
+    const float out = std::sqrt(u.y);
+    return out * ((1.0f - along) * corners_[k] + along * corners_[k + 1]);
+  }
   // Which of the 2N half-sectors, and where in it. Each spans an edge's normal to a corner; the
   // even ones are walked from the corner, so that u.x sweeps the angle continuously.
   const double scaled = static_cast<double>(u.x) * 2 * n;
   const int h = std::min(static_cast<int>(scaled), 2 * n - 1);
   const double f = h % 2 == 0 ? 1.0 - (scaled - h) : scaled - h;
   // t, the angle from the normal, with density proportional to rim(t)^2: the table's inverse.
-  const auto it = std::upper_bound(cdf_.begin(), cdf_.end(), f);
-  const int i = std::clamp(static_cast<int>(it - cdf_.begin()) - 1, 0, kTableBins - 1);
+  // The density varies little within a half-sector, so the bin is found near f's own.
+  int i = std::clamp(static_cast<int>(f * kTableBins), 0, kTableBins - 1);
+  while (i > 0 && cdf_[i] > f) --i;
+  while (i < kTableBins - 1 && cdf_[i + 1] <= f) ++i;
   const double width = cdf_[i + 1] - cdf_[i];
-  const double t = (i + (width > 0 ? (f - cdf_[i]) / width : 0.0)) * half / kTableBins;
-  const double normal = radians(shape_.rotation_deg) + half + 2.0 * half * (h / 2);
-  const double angle = h % 2 == 0 ? normal - t : normal + t;
-  const double rim_here =
-      (1.0 - shape_.roundness) * std::cos(half) / std::cos(t) + shape_.roundness;
-  const double r = rim_here * std::sqrt(static_cast<double>(u.y));
-  return glm::vec2(static_cast<float>(r * std::cos(angle)),
-                   static_cast<float>(r * std::sin(angle))) *
+  const double w = width > 0 ? (f - cdf_[i]) / width : 0.0;
+  // The direction at t from the edge's normal, turned towards the half-sector's corner: the
+  // tables interpolated (bins of at most 0.06 degrees: errors under 1e-7) instead of sin and cos.
+  const double c = cos_[i] + w * (cos_[i + 1] - cos_[i]);
+  const double s = (h % 2 == 0 ? -1.0 : 1.0) * (sin_[i] + w * (sin_[i + 1] - sin_[i]));
+  const glm::dvec2 nd = normals_[h / 2];
+  const double r = (rim_[i] + w * (rim_[i + 1] - rim_[i])) * std::sqrt(static_cast<double>(u.y));
+  return glm::vec2(static_cast<float>(r * (nd.x * c - nd.y * s)),
+                   static_cast<float>(r * (nd.y * c + nd.x * s))) *
          squeeze_;
 }
 

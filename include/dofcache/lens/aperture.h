@@ -18,6 +18,7 @@
 #include <vector>
 
 #include <glm/vec2.hpp>
+#include <glm/ext/vector_double2.hpp>
 
 namespace dofcache::lens {
 
@@ -61,7 +62,9 @@ class Aperture {
   explicit Aperture(const ApertureShape& shape = {});  // validates
 
   // A point of the aperture for u in [0, 1)^2, uniform over its area: the round aperture's
-  // concentric mapping (concentric_disk) exactly; a polygon by its angle, drawn with density
+  // concentric mapping (concentric_disk) exactly; straight blades by the fan of triangles from
+  // the centre to each edge (u.x picks the triangle and the point along its edge, sqrt(u.y) the
+  // distance from the centre: no trigonometry); rounded blades by the angle, drawn with density
   // proportional to the squared rim distance (a tabulated inverse over one half-sector, mirrored
   // and repeated), then the radius by sqrt(u.y).
   glm::vec2 sample(glm::vec2 u) const;
@@ -76,9 +79,13 @@ class Aperture {
 
   ApertureShape shape_;
   glm::vec2 squeeze_{1.0f, 1.0f};
-  // The cumulative area over one half-sector [0, pi / N] from an edge's normal, normalised: the
-  // inverse of a uniform draw's angle.
-  std::vector<double> cdf_;
+  // Straight blades: the polygon's corners, squeezed, the first repeated at the end.
+  std::vector<glm::vec2> corners_;
+  // Rounded blades: the cumulative area over one half-sector [0, pi / N] from an edge's normal,
+  // normalised (the inverse of a uniform draw's angle), and the rim's distance and the angle's
+  // cosine and sine at the same angles; each edge's normal direction.
+  std::vector<double> cdf_, rim_, cos_, sin_;
+  std::vector<glm::dvec2> normals_;
 };
 
 }  // namespace dofcache::lens

@@ -28,6 +28,12 @@ double projected_cone_radius(double focal_length, double fstop, double focus_dis
 
 // The lens settings: the one source of truth, passed down to cameras, caches and previews.
 struct ThinLens {
+  ThinLens() = default;
+  ThinLens(double focal_length, double fstop, double focus_distance,
+           const ApertureShape& aperture = {})
+      : focal_length(focal_length), fstop(fstop), focus_distance(focus_distance),
+        aperture(aperture) {}
+
   double focal_length = 0.05;   // F, metres
   double fstop = 4.0;           // n, so the aperture diameter is F / n
   double focus_distance = 5.0;  // P, metres from the lens to the plane in focus
