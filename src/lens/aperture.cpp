@@ -11,7 +11,6 @@ namespace dofcache::lens {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kTableBins = 1024;  // per half-sector; the density is smooth within a bin
 
 double radians(double degrees) { return degrees * kPi / 180.0; }
 
@@ -55,38 +54,27 @@ Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {
   squeeze_ = glm::vec2(static_cast<float>(std::min(1.0, 1.0 / shape_.anamorphic_ratio)),
                        static_cast<float>(std::min(1.0, shape_.anamorphic_ratio)));
   if (shape_.blades == 0) return;
+  // The rim's points: the corners, and for rounded blades kRimSegments chords on each side of
+  // every edge's normal (the rim there is curved; chords of a convex rim stay inside it).
   const int n = shape_.blades;
-  if (shape_.roundness == 0.0) {
-    for (int k = 0; k <= n; ++k) {
-      const double a = radians(shape_.rotation_deg) + 2.0 * kPi * k / n;
-      corners_.push_back(glm::vec2(static_cast<float>(std::cos(a)),
-                                   static_cast<float>(std::sin(a))) *
-                         squeeze_);
-    }
-    return;
+  const int per_blade = shape_.roundness == 0.0 ? 1 : 2 * kRimSegments;
+  const double first = radians(shape_.rotation_deg);
+  for (int j = 0; j <= n * per_blade; ++j) {
+    const double angle = first + 2.0 * kPi * j / (n * per_blade);
+    const double r = polygon_rim(angle);
+    rim_points_.push_back(glm::vec2(static_cast<float>(r * std::cos(angle)),
+                                    static_cast<float>(r * std::sin(angle))) *
+                          squeeze_);
   }
-  // Area in [0, t] of the half-sector: the integral of rim(t)^2 / 2, by Simpson's rule per bin.
-  const double half = kPi / n;
-  const auto rim = [&](double t) {
-    return (1.0 - shape_.roundness) * std::cos(half) / std::cos(t) + shape_.roundness;
-  };
-  cdf_.assign(kTableBins + 1, 0.0);
-  rim_.assign(kTableBins + 1, 0.0);
-  cos_.assign(kTableBins + 1, 0.0);
-  sin_.assign(kTableBins + 1, 0.0);
-  const double dt = half / kTableBins;
-  for (int i = 0; i <= kTableBins; ++i)
-    rim_[i] = rim(i * dt), cos_[i] = std::cos(i * dt), sin_[i] = std::sin(i * dt);
-  for (int k = 0; k < n; ++k) {
-    const double a = radians(shape_.rotation_deg) + half + 2.0 * half * k;
-    normals_.push_back({std::cos(a), std::sin(a)});
+  double total = 0.0;
+  std::vector<double> cumulative = {0.0};
+  for (std::size_t j = 0; j + 1 < rim_points_.size(); ++j) {
+    const glm::vec2 p = rim_points_[j], q = rim_points_[j + 1];
+    total += 0.5 * (double(p.x) * q.y - double(p.y) * q.x);
+    cumulative.push_back(total);
   }
-  for (int i = 0; i < kTableBins; ++i) {
-    const double mid = rim((i + 0.5) * dt);
-    cdf_[i + 1] = cdf_[i] + dt / 6.0 * (rim_[i] * rim_[i] + 4.0 * mid * mid +
-                                        rim_[i + 1] * rim_[i + 1]);
-  }
-  for (double& c : cdf_) c /= cdf_.back();
+  for (double c : cumulative) area_cdf_.push_back(static_cast<float>(c / total));
+  area_cdf_.back() = 1.0f;
 }
 
 double Aperture::polygon_rim(double angle) const {
@@ -116,37 +104,16 @@ bool Aperture::contains(glm::vec2 p) const {
 
 glm::vec2 Aperture::sample(glm::vec2 u) const {
   if (shape_.blades == 0) return concentric_disk(u) * squeeze_;
-  const int n = shape_.blades;
-  if (!corners_.empty()) {
-    // The triangle (centre, corner k, corner k + 1), uniformly: sqrt(u.y) of the way out, at a
-    // fraction along the edge.
-    const float scaled = u.x * static_cast<float>(n);
-    const int k = std::min(static_cast<int>(scaled), n - 1);
-    const float along = scaled - static_cast<float>(k);
-    const float out = std::sqrt(u.y);
-    return out * ((1.0f - along) * corners_[k] + along * corners_[k + 1]);
-  }
-  // Which of the 2N half-sectors, and where in it. Each spans an edge's normal to a corner; the
-  // even ones are walked from the corner, so that u.x sweeps the angle continuously.
-  const double scaled = static_cast<double>(u.x) * 2 * n;
-  const int h = std::min(static_cast<int>(scaled), 2 * n - 1);
-  const double f = h % 2 == 0 ? 1.0 - (scaled - h) : scaled - h;
-  // t, the angle from the normal, with density proportional to rim(t)^2: the table's inverse.
-  // The density varies little within a half-sector, so the bin is found near f's own.
-  int i = std::clamp(static_cast<int>(f * kTableBins), 0, kTableBins - 1);
-  while (i > 0 && cdf_[i] > f) --i;
-  while (i < kTableBins - 1 && cdf_[i + 1] <= f) ++i;
-  const double width = cdf_[i + 1] - cdf_[i];
-  const double w = width > 0 ? (f - cdf_[i]) / width : 0.0;
-  // The direction at t from the edge's normal, turned towards the half-sector's corner: the
-  // tables interpolated (bins of at most 0.06 degrees: errors under 1e-7) instead of sin and cos.
-  const double c = cos_[i] + w * (cos_[i + 1] - cos_[i]);
-  const double s = (h % 2 == 0 ? -1.0 : 1.0) * (sin_[i] + w * (sin_[i + 1] - sin_[i]));
-  const glm::dvec2 nd = normals_[h / 2];
-  const double r = (rim_[i] + w * (rim_[i + 1] - rim_[i])) * std::sqrt(static_cast<double>(u.y));
-  return glm::vec2(static_cast<float>(r * (nd.x * c - nd.y * s)),
-                   static_cast<float>(r * (nd.y * c + nd.x * s))) *
-         squeeze_;
+  // The triangle holding u.x's share of the area: the fan's areas differ little, so it lies near
+  // u.x's own index.
+  const int m = static_cast<int>(area_cdf_.size()) - 1;
+  int i = std::min(static_cast<int>(u.x * static_cast<float>(m)), m - 1);
+  while (i > 0 && area_cdf_[i] > u.x) --i;
+  while (i < m - 1 && area_cdf_[i + 1] <= u.x) ++i;
+  const float share = area_cdf_[i + 1] - area_cdf_[i];
+  const float along = share > 0.0f ? std::clamp((u.x - area_cdf_[i]) / share, 0.0f, 1.0f) : 0.0f;
+  // Uniform in the triangle (centre, rim point i, rim point i + 1).
+  return std::sqrt(u.y) * ((1.0f - along) * rim_points_[i] + along * rim_points_[i + 1]);
 }
 
 }  // namespace dofcache::lens

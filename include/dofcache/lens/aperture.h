@@ -18,11 +18,12 @@
 #include <vector>
 
 #include <glm/vec2.hpp>
-#include <glm/ext/vector_double2.hpp>
 
 namespace dofcache::lens {
 
 constexpr int kMinBlades = 3, kMaxBlades = 16;
+// Chords per half-blade of a rounded blade's rim (aperture.cpp).
+constexpr int kRimSegments = 32;
 
 struct ApertureShape {
   int blades = 0;                 // 0: round; else kMinBlades..kMaxBlades
@@ -62,11 +63,11 @@ class Aperture {
   explicit Aperture(const ApertureShape& shape = {});  // validates
 
   // A point of the aperture for u in [0, 1)^2, uniform over its area: the round aperture's
-  // concentric mapping (concentric_disk) exactly; straight blades by the fan of triangles from
-  // the centre to each edge (u.x picks the triangle and the point along its edge, sqrt(u.y) the
-  // distance from the centre: no trigonometry); rounded blades by the angle, drawn with density
-  // proportional to the squared rim distance (a tabulated inverse over one half-sector, mirrored
-  // and repeated), then the radius by sqrt(u.y).
+  // concentric mapping (concentric_disk) exactly; a polygon by the fan of triangles from the
+  // centre to its rim: u.x picks a triangle in proportion to its area and the point along its
+  // outer edge, sqrt(u.y) the distance from the centre (no trigonometry). Straight blades are
+  // their N triangles exactly; a rounded blade's rim is 2 x kRimSegments chords, which lie within
+  // 2e-4 of its radius (a hundredth of a pixel for a bokeh 50 pixels across).
   glm::vec2 sample(glm::vec2 u) const;
   // The rim's distance from the centre in the direction `angle` (radians, from +x
   // counter-clockwise).
@@ -79,13 +80,10 @@ class Aperture {
 
   ApertureShape shape_;
   glm::vec2 squeeze_{1.0f, 1.0f};
-  // Straight blades: the polygon's corners, squeezed, the first repeated at the end.
-  std::vector<glm::vec2> corners_;
-  // Rounded blades: the cumulative area over one half-sector [0, pi / N] from an edge's normal,
-  // normalised (the inverse of a uniform draw's angle), and the rim's distance and the angle's
-  // cosine and sine at the same angles; each edge's normal direction.
-  std::vector<double> cdf_, rim_, cos_, sin_;
-  std::vector<glm::dvec2> normals_;
+  // The fan's rim points counter-clockwise, squeezed, the first repeated at the end, and the
+  // cumulative share of the area up to each (0 first, 1 last).
+  std::vector<glm::vec2> rim_points_;
+  std::vector<float> area_cdf_;
 };
 
 }  // namespace dofcache::lens
