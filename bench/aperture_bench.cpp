@@ -97,9 +97,7 @@ int run(const Options& o) {
   results["scene"] = "bokeh_lights.gltf";
   results["width"] = base.width, results["height"] = base.height, results["spp"] = o.spp;
   results["rays"] = o.rays, results["rounds"] = o.rounds;
-  results["rows"] = table.to_json();
-  results["columns"] = table.header();
-  std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
+  bench::write_table(o.results, table, results);
   return 0;
 }
 

@@ -473,6 +473,14 @@ void Table::print(std::FILE* out) const {
   std::fflush(out);
 }
 
+std::string write_table(const std::string& name, const Table& table, json results) {
+  results["columns"] = table.header();
+  results["rows"] = table.to_json();
+  const std::string path = write_results(name, results);
+  std::printf("wrote %s\n", path.c_str());
+  return path;
+}
+
 json Table::to_json() const {
   json rows = json::array();
   for (const auto& row : rows_) {

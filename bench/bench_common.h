@@ -152,4 +152,9 @@ class Table {
   int default_precision_;
 };
 
+// Writes `results` with the table's rows and columns added (write_results) and prints "wrote
+// <path>" on stdout, as every table-printing benchmark ends. Returns the JSON file's path.
+std::string write_table(const std::string& name, const Table& table,
+                        nlohmann::json results = nlohmann::json::object());
+
 }  // namespace dofcache::bench

@@ -46,9 +46,7 @@ int run(const Options& o) {
   nlohmann::json results;
   results["shading"] = {{"light_samples", shading.light_samples},
                         {"gather_rays", shading.gather_rays}, {"bounces", shading.bounces}};
-  results["rows"] = table.to_json();
-  results["columns"] = table.header();
-  std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
+  bench::write_table(o.results, table, results);
   return 0;
 }
 

@@ -224,8 +224,6 @@ int run(const Options& o) {
               embree.final_bytes * MB, embree.peak_bytes * MB, embree.seconds);
 
   nlohmann::json results;
-  results["columns"] = table.header();
-  results["rows"] = table.to_json();
   results["scene_memory_bytes"] = memory;
   results["content_hash"] = fmt::format("{:016x}", scene.content_hash);
   results["resident_set_bytes"] = {{"start", rss_start},       {"after_load", rss_loaded},
@@ -242,7 +240,7 @@ int run(const Options& o) {
                                    : nlohmann::json(nullptr);
   double load[3] = {0, 0, 0};
   if (getloadavg(load, 3) == 3) results["load_average"] = {load[0], load[1], load[2]};
-  std::printf("wrote %s\n", bench::write_results(o.results, results).c_str());
+  bench::write_table(o.results, table, results);
   return 0;
 }
 
