@@ -140,20 +140,22 @@ image::Image temporal_filter(const std::vector<TemporalFrame>& frames, std::size
           for (float& v3 : rgb) v3 /= taps;
           var_s /= taps;
           // Full weight within the allowed luminance step, none beyond twice it.
+          const float lum_s = luminance(rgb);
           const float allowed = o.sigma_luminance * std::sqrt(std::max(0.0f, var + var_s)) +
-                                o.relative_luminance * std::max(lum, luminance(rgb)) + 1e-6f;
-          const float a = std::clamp(2.0f - std::abs(luminance(rgb) - lum) / allowed, 0.0f, 1.0f);
+                                o.relative_luminance * std::max(lum, lum_s) + 1e-6f;
+          const float a = std::clamp(2.0f - std::abs(lum_s - lum) / allowed, 0.0f, 1.0f);
           if (a > 0.0f) taken.push_back({{rgb[0], rgb[1], rgb[2]}, var_s, a});
         }
         // Each frame weighted by its inverse noise plus the least noise among them (and a floor:
         // a small fraction of their median luminance): frames of similar noise count alike, and
         // one whose estimate here is much noisier than another's (a defocused lamp caught by a
         // few lens samples) hardly counts, be it the centre or a neighbour.
+        float least_var = taken[0].var;
         order.clear();
-        for (const Candidate& k : taken) order.push_back(k.var);
-        const float least_var = *std::min_element(order.begin(), order.end());
-        order.clear();
-        for (const Candidate& k : taken) order.push_back(luminance(k.rgb));
+        for (const Candidate& k : taken) {
+          least_var = std::min(least_var, k.var);
+          order.push_back(luminance(k.rgb));
+        }
         const float floor = o.relative_luminance * median(order);
         const float base = least_var + floor * floor + 1e-12f;
         double sum[3] = {0, 0, 0}, weight = 0;

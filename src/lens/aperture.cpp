@@ -36,6 +36,11 @@ double ApertureShape::inner_scale() const {
   return polygon * std::min(anamorphic_ratio, 1.0 / anamorphic_ratio);
 }
 
+std::optional<int> blade_count(double value) {
+  if (value != std::floor(value) || !(std::abs(value) <= 1e6)) return std::nullopt;
+  return static_cast<int>(value);
+}
+
 ApertureChoices ApertureChoices::over(const ApertureChoices& fallback) const {
   return {blades ? blades : fallback.blades,
           rotation_deg ? rotation_deg : fallback.rotation_deg,

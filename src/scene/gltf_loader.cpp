@@ -700,9 +700,8 @@ class Loader : gltf::Document {
     };
     lens::ApertureChoices& a = lens.aperture;
     if (auto blades = number("aperture_blades")) {
-      if (*blades != std::floor(*blades) || std::abs(*blades) > 1e6)
-        fail(label, "aperture_blades must be a whole number");
-      a.blades = static_cast<int>(*blades);
+      a.blades = lens::blade_count(*blades);
+      if (!a.blades) fail(label, "aperture_blades must be a whole number");
     }
     // Key by key, like the others: the node's values win over the camera object's.
     if (auto v = number("aperture_rotation")) a.rotation_deg = v;

@@ -133,8 +133,8 @@ class KeyframeParser {
       lens::ApertureChoices a;
       if (key.contains("aperture_blades")) {
         const double b = number(key["aperture_blades"], "aperture_blades");
-        if (b != std::floor(b) || std::abs(b) > 1e6) fail("aperture_blades must be a whole number");
-        a.blades = static_cast<int>(b);
+        a.blades = lens::blade_count(b);
+        if (!a.blades) fail("aperture_blades must be a whole number");
         add(blades, t, b);
       }
       if (key.contains("aperture_rotation"))

@@ -276,9 +276,9 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     if (auto v = optional_number(body, "focus_distance")) lens.focus_distance = *v;
     lens::ApertureShape& a = lens.aperture;
     if (auto v = optional_number(body, "aperture_blades")) {
-      if (*v != std::floor(*v) || std::abs(*v) > 1e6)
-        throw Error("'aperture_blades' must be a whole number");
-      a.blades = static_cast<int>(*v);
+      const std::optional<int> blades = lens::blade_count(*v);
+      if (!blades) throw Error("'aperture_blades' must be a whole number");
+      a.blades = *blades;
     }
     if (auto v = optional_number(body, "aperture_rotation")) a.rotation_deg = *v;
     if (auto v = optional_number(body, "aperture_roundness")) a.roundness = *v;

@@ -395,9 +395,7 @@ void ViewSession::set_lens(const lens::ThinLens& lens) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     State& st = *state_;
-    if (st.lens.focal_length == lens.focal_length && st.lens.fstop == lens.fstop &&
-        st.lens.focus_distance == lens.focus_distance && st.lens.aperture == lens.aperture)
-      return;
+    if (st.lens == lens) return;
     st.lens = lens;
     ++st.lens_version;
   }

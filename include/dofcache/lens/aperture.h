@@ -45,6 +45,10 @@ struct ApertureShape {
   }
 };
 
+// A blade count read as a number (JSON and glTF store numbers): the count if the number is whole
+// and within an int's reach, else nullopt. ApertureShape::validate judges the count.
+std::optional<int> blade_count(double value);
+
 // The shape's values as given somewhere (the command line, a request, a glTF camera's
 // extras.lens, a camera path's key): each unset one falls back to the next source.
 struct ApertureChoices {

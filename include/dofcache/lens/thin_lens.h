@@ -48,6 +48,10 @@ struct ThinLens {
   // Throws dofcache::Error naming the first absurd value (non-finite, non-positive, P <= F, an
   // absurd aperture shape).
   void validate() const;
+  bool operator==(const ThinLens& o) const {
+    return focal_length == o.focal_length && fstop == o.fstop &&
+           focus_distance == o.focus_distance && aperture == o.aperture;
+  }
 };
 
 // Film height i_height that gives the vertical field of view yfov with the film at distance V_P.
