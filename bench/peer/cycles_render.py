@@ -74,6 +74,16 @@ def parse_args():
                    help="replace Principled BSDFs by Diffuse BSDFs with the same base colour")
     p.add_argument("--two-sided-emission", action="store_true",
                    help="keep Cycles' emission from both faces of one-sided materials")
+    p.add_argument("--adaptive-threshold", type=float, default=None,
+                   help="adaptive sampling on, with this noise threshold (Blender's default: "
+                        "0.01; --spp is then the maximum); default off")
+    p.add_argument("--light-threshold", type=float, default=0.0,
+                   help="Cycles' light sampling threshold (Blender's default: 0.01; default 0, "
+                        "every light sampled)")
+    p.add_argument("--frames-json", default=None,
+                   help="render a camera path as an animation in this one process: the per-frame "
+                        "cameras and lenses of a `dofcache sequence --stats-json` file (--out "
+                        "then holds a run of '#' for the frame number; persistent data on)")
     p.add_argument("--json-out", default=None, help="also write the JSON line to this file")
     return p.parse_args(argv)
 
@@ -292,6 +302,108 @@ def rewire_materials(lambert, one_sided_emission):
     return changed
 
 
+def frame_path(pattern, frame):
+    """`pattern` with its last run of '#' replaced by the zero-padded frame (as Blender does)."""
+    i = pattern.rfind("#")
+    j = i
+    while j > 0 and pattern[j - 1] == "#":
+        j -= 1
+    return pattern[:j] + str(frame).zfill(i + 1 - j) + pattern[i + 1:]
+
+
+def read_frames(path, out):
+    """The per-frame cameras of a `dofcache sequence --stats-json` file, in frame order."""
+    try:
+        with open(path) as f:
+            rows = json.load(f)["per_frame"]
+        frames = sorted(({"frame": int(r["frame"]), "camera_to_world": r["camera"]["camera_to_world"],
+                          "yfov": float(r["camera"]["yfov"]), "lens": r["lens"]} for r in rows),
+                        key=lambda r: r["frame"])
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        fail("cannot read the frames' cameras from %s: %s" % (path, e))
+    if not frames:
+        fail("%s lists no frames" % path)
+    numbers = [f["frame"] for f in frames]
+    if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
+        fail("%s: the frames are not consecutive (an animation renders every frame)" % path)
+    if "#" not in os.path.basename(out):
+        fail("--out needs a run of '#' for the frame number with --frames-json")
+    return frames
+
+
+def key_camera_path(scene, cam_obj, frames):
+    """Keys the camera and its lens on every frame, held constant until the next (no in-between).
+
+    dofcache's camera-to-world matrix is glTF's (Y up, looking down -Z, +Y up); Blender's world is
+    Z up, with the same camera axes, so the camera's world matrix is the axis change times it."""
+    import mathutils
+
+    y_up_to_z_up = mathutils.Matrix(((1, 0, 0, 0), (0, 0, -1, 0), (0, 1, 0, 0), (0, 0, 0, 1)))
+    cam = cam_obj.data
+    cam_obj.parent = None
+    cam_obj.animation_data_clear()
+    cam.animation_data_clear()
+    cam_obj.rotation_mode = "QUATERNION"
+    cam_obj.scale = (1.0, 1.0, 1.0)
+    for f in frames:
+        m = f["camera_to_world"]  # column-major
+        world = y_up_to_z_up @ mathutils.Matrix([[m[c * 4 + r] for c in range(4)] for r in range(4)])
+        loc, rot, _ = world.decompose()
+        n = f["frame"]
+        cam_obj.location = loc
+        cam_obj.rotation_quaternion = rot
+        cam_obj.keyframe_insert("location", frame=n)
+        cam_obj.keyframe_insert("rotation_quaternion", frame=n)
+        lens = f["lens"]
+        cam.lens = 1000.0 * float(lens["focal_length"])
+        cam.sensor_height = 2.0 * cam.lens * math.tan(0.5 * f["yfov"])
+        cam.dof.focus_distance = float(lens["focus_distance"])
+        cam.dof.aperture_fstop = float(lens["fstop"])
+        cam.keyframe_insert("lens", frame=n)
+        cam.keyframe_insert("sensor_height", frame=n)
+        cam.dof.keyframe_insert("focus_distance", frame=n)
+        cam.dof.keyframe_insert("aperture_fstop", frame=n)
+    for data in (cam_obj, cam):
+        for fc in data.animation_data.action.fcurves:
+            for k in fc.keyframe_points:
+                k.interpolation = "CONSTANT"
+    scene.frame_start, scene.frame_end, scene.frame_step = frames[0]["frame"], frames[-1]["frame"], 1
+
+
+def render_animation(scene, frames, out):
+    """Renders the keyed frames as a user renders an animation: one process, persistent data on.
+    Returns the whole animation's seconds and each frame's in-render seconds."""
+    r = scene.render
+    r.use_persistent_data = True
+    r.filepath = out
+    r.use_file_extension = False
+    times = {}
+
+    def pre(sc, *_):
+        times[sc.frame_current] = [time.perf_counter()]
+
+    def post(sc, *_):
+        times[sc.frame_current].append(time.perf_counter())
+
+    bpy.app.handlers.render_pre.append(pre)
+    bpy.app.handlers.render_post.append(post)
+    t0 = time.perf_counter()
+    bpy.ops.render.render(animation=True)
+    total = time.perf_counter() - t0
+    per_frame = []
+    for f in frames:
+        n = f["frame"]
+        path = frame_path(out, n)
+        if not os.path.isfile(path):
+            fail("Cycles wrote no image to %s" % path)
+        t = times.get(n, [])
+        per_frame.append({"frame": n, "out": path,
+                          "render_seconds": t[1] - t[0] if len(t) == 2 else None})
+    if any(f["render_seconds"] is None for f in per_frame):
+        fail("the render handlers did not time every frame")
+    return total, per_frame
+
+
 def main():
     a = parse_args()
     t_start = time.perf_counter()
@@ -314,8 +426,15 @@ def main():
     focal_length = a.focal_length or lens_extras.get("focal_length", 0.05)
     fstop = a.fstop or lens_extras.get("fstop", 4.0)
     focus = a.focus_distance or lens_extras.get("focus_distance")
+    frames = read_frames(a.frames_json, a.out) if a.frames_json else None
+    if frames:
+        focus = frames[0]["lens"]["focus_distance"]  # every lens value is keyed per frame
     if focus is None:
         fail("the camera has no extras.lens.focus_distance; pass --focus-distance")
+    if a.adaptive_threshold is not None and not a.adaptive_threshold >= 0.0:
+        fail("--adaptive-threshold must be >= 0")
+    if not a.light_threshold >= 0.0:
+        fail("--light-threshold must be >= 0")
 
     if numpy is None:
         fail("numpy is not importable in Blender's Python, and the glTF importer needs it "
@@ -354,6 +473,8 @@ def main():
     cam.dof.aperture_blades = 0
     cam.dof.aperture_rotation = 0.0
     cam.dof.aperture_ratio = 1.0
+    if frames:
+        key_camera_path(scene, cam_obj, frames)
 
     # Punctual lights: point sources, as in glTF and dofcache.
     lights = []
@@ -404,7 +525,10 @@ def main():
     c.device = "CPU"
     c.feature_set = "SUPPORTED"
     c.samples = a.spp
-    c.use_adaptive_sampling = False
+    c.use_adaptive_sampling = a.adaptive_threshold is not None
+    if c.use_adaptive_sampling:  # as a user leaves it: min samples automatic
+        c.adaptive_threshold = a.adaptive_threshold
+        c.adaptive_min_samples = 0
     c.use_denoising = False
     if hasattr(c, "use_preview_denoising"):
         c.use_preview_denoising = False
@@ -419,7 +543,7 @@ def main():
     c.volume_bounces = 0
     c.sample_clamp_direct = 0.0
     c.sample_clamp_indirect = 0.0
-    c.light_sampling_threshold = 0.0
+    c.light_sampling_threshold = a.light_threshold
     c.blur_glossy = 0.0
     c.time_limit = 0.0
     for attr in ("use_guiding", "use_surface_guiding", "use_volume_guiding"):
@@ -437,14 +561,18 @@ def main():
     im.color_depth = "32"
     im.exr_codec = "ZIP"
 
-    t0 = time.perf_counter()
-    bpy.ops.render.render()
-    render_seconds = time.perf_counter() - t0
     out = os.path.abspath(a.out)
     os.makedirs(os.path.dirname(out), exist_ok=True)
-    bpy.data.images["Render Result"].save_render(out, scene=scene)
-    if not os.path.isfile(out):
-        fail("Cycles wrote no image to %s" % out)
+    per_frame = None
+    if frames:
+        render_seconds, per_frame = render_animation(scene, frames, out)
+    else:
+        t0 = time.perf_counter()
+        bpy.ops.render.render()
+        render_seconds = time.perf_counter() - t0
+        bpy.data.images["Render Result"].save_render(out, scene=scene)
+        if not os.path.isfile(out):
+            fail("Cycles wrote no image to %s" % out)
 
     principled = []
     for mat in bpy.data.materials:
@@ -466,7 +594,11 @@ def main():
         "materials": {"lambert": a.lambert, "principled_distributions": sorted(set(principled)),
                       **materials},
         "lights": lights,
+        "adaptive_threshold": a.adaptive_threshold, "light_threshold": a.light_threshold,
     }
+    if per_frame is not None:
+        result["frames"] = per_frame
+        result["render_seconds_sum"] = sum(f["render_seconds"] for f in per_frame)
     line = json.dumps(result)
     if a.json_out:
         with open(a.json_out + ".tmp", "w") as f:

@@ -58,6 +58,9 @@ DEFAULT_SCENES = [
     ("glossy_closeup", "scenes/glossy_closeup.glb"),
     ("hanging_light_box", "scenes/hanging_light_box.gltf"),
 ]
+# More scenes by name: the gallery, and the atrium, generated (deterministically) on first use
+# into the references' directory by scenes/generate_atrium.py.
+NAMED_SCENES = dict(DEFAULT_SCENES, gallery="scenes/gallery.glb", atrium=None)
 
 FULL = {
     "size": (320, 240),
@@ -71,6 +74,8 @@ FULL = {
     "min_cap_seconds": 20.0,
     "spp_cap": 65536,
     "cached_start": 4,
+    "reference_factor": 16,            # converged references: this many times the ladders' samples
+    "repeat": 3,                       # interleaved timing passes
 }
 QUICK = {
     "size": (80, 60),
@@ -84,14 +89,23 @@ QUICK = {
     "min_cap_seconds": 1.0,
     "spp_cap": 1024,
     "cached_start": 2,
+    "reference_factor": 16,
+    "repeat": 1,
 }
 # 160x120, as the measurements that opened issue 17: a whole run in well under an hour.
 MEDIUM = dict(FULL, size=(160, 120), cycles_ladder=[16, 32, 64, 128], targets=[16, 64, 128],
-              gather=[1, 2, 4, 8, 32], min_cap_seconds=10.0)
-REF_FACTOR = 16
+              gather=[1, 2, 4, 8, 32], min_cap_seconds=10.0, repeat=1)
+# Production size (issue 40): 1280x720 frames of the gallery and the 2.1 M-triangle atrium. Cycles
+# takes about 2 s a sample there on two cores, so the ladders are shorter and the references 8x
+# the ladders' samples (their noise then adds up to 1/8 to the smallest target's error).
+PRODUCTION = dict(FULL, size=(1280, 720), cycles_ladder=[8, 16, 32, 64], targets=[16, 64],
+                  probe_spp=2, gather=[1, 4, 16], light=[1, 4], top_configs=2, max_ratio=3.0,
+                  min_cap_seconds=60.0, reference_factor=8, repeat=1,
+                  scenes=["gallery", "atrium"])
 COLUMNS = [
     "scene", "width", "height", "fstop", "scene_fstop", "aperture_radius_m", "target", "target_rel_mse",
-    "cycles_s", "cycles_process_s",
+    "cycles_s", "cycles_process_s", "cycles_best_config", "cycles_best_config_process",
+    "cycles_fixed_s", "cycles_defaults_s", "cycles_fixed_process_s", "cycles_defaults_process_s",
     "dofcache_default_s", "dofcache_default_process_s",
     "dofcache_best_uncached_s", "dofcache_best_uncached_process_s", "dofcache_best_config",
     "dofcache_cached_s", "dofcache_cached_process_s",
@@ -331,7 +345,7 @@ class Cycles:
         self.version = m.group(1) if m else out.strip().splitlines()[0]
         self.script_sha = sha256_file(CYCLES_SCRIPT)
 
-    def render(self, scene, lens, spp, seed, out):
+    def render(self, scene, lens, spp, seed, out, config=None):
         j = out + ".json"
         cmd = [self.blender, "-b", "--factory-startup", "--python", CYCLES_SCRIPT, "--",
                scene, "--out", out, "--json-out", j, "--spp", str(spp), "--seed", str(seed),
@@ -341,12 +355,32 @@ class Cycles:
                "--focus-distance", repr(lens["focus_distance"])]
         if self.lambert:
             cmd.append("--lambert")
+        cmd += cycles_config_args(config or {})
         wall, _ = run(cmd, "Cycles render %s (%d spp)" % (os.path.basename(scene), spp))
         if not os.path.isfile(j):
             raise BenchError("Cycles render of %s wrote no JSON" % scene)
         with open(j) as f:
             st = json.load(f)
         return {"seconds": float(st["render_seconds"]), "process_seconds": wall, "stats": st}
+
+
+# Cycles' configurations: the one that sets the targets (every pixel the same samples, every light
+# sampled: the plain estimator dofcache's transport is checked against), and Cycles as a user runs
+# it, with Blender's defaults on: adaptive sampling (noise threshold 0.01, the ladder's sample
+# count the maximum) and the light threshold 0.01. Each error counts the faster of the two.
+CYCLES_CONFIGS = [
+    ("fixed", {}),
+    ("defaults", {"adaptive_threshold": 0.01, "light_threshold": 0.01}),
+]
+
+
+def cycles_config_args(config):
+    args = []
+    if config.get("adaptive_threshold") is not None:
+        args += ["--adaptive-threshold", repr(config["adaptive_threshold"])]
+    if config.get("light_threshold"):
+        args += ["--light-threshold", repr(config["light_threshold"])]
+    return args
 
 
 def config_args(config):
@@ -446,6 +480,42 @@ def pow2_floor(x):
     return 1 << max(0, math.floor(math.log2(max(1.0, x))))
 
 
+def interleave(queues):
+    """One timing pass's order over several renderers' ladder points.
+
+    Each queue's points are spread evenly over the pass (the i-th of n at (i + 0.5) / n of it), so
+    the renderers alternate and each meets the drift of the whole pass, whatever its length."""
+    tagged = []
+    for q, items in enumerate(queues):
+        for i, item in enumerate(items):
+            tagged.append(((i + 0.5) / len(items), q, i, item))
+    tagged.sort(key=lambda x: x[:3])
+    return [item for *_, item in tagged]
+
+
+def timing_passes(queues, passes, render):
+    """Times every point of `queues` (lists of point dicts) `passes` times, interleaved.
+
+    Odd passes run the order backwards, so a drift over the run falls alike on early and late
+    points. render(point) -> {"seconds", "process_seconds"}. Each point's times become the median
+    of its runs (the runs are kept; its first, untimed discovery render's times are kept as
+    discovery_*). Returns the number of renders."""
+    order = interleave(queues)
+    runs = {id(p): [] for p in order}
+    for k in range(passes):
+        for p in (order if k % 2 == 0 else order[::-1]):
+            runs[id(p)].append(render(p))
+    if passes < 1:
+        return 0
+    for p in order:
+        rs = runs[id(p)]
+        for key in ("seconds", "process_seconds"):
+            p["discovery_" + key] = p[key]
+            p[key + "_runs"] = [r[key] for r in rs]
+            p[key] = statistics.median(p[key + "_runs"])
+    return passes * len(order)
+
+
 # ---------------------------------------------------------------------------------------------
 # one scene
 
@@ -459,6 +529,7 @@ class SceneBench:
         self.cache_dir, self.images_dir = cache_dir, images_dir
         self.scene_sha = sha256_file(path)
         self.seed = a.seed
+        self.ref_factor = plan["reference_factor"]
 
     def out(self, stem):
         return os.path.join(self.work, stem + ".exr")
@@ -584,32 +655,36 @@ class SceneBench:
         return path, meta
 
     # -- ladders
-    # A ladder point's times: the median of --repeat renders of it (same seed, so the same image;
-    # the runs' times are kept). One render per point shows this machine's noise: the same 4-spp
-    # render took 0.37-0.55 s five times in a row.
-    def timed(self, render):
-        runs = [render() for _ in range(self.a.repeat)]
-        t = {k: statistics.median(r[k] for r in runs) for k in ("seconds", "process_seconds")}
-        if len(runs) > 1:
-            t["seconds_runs"] = [r["seconds"] for r in runs]
-            t["process_seconds_runs"] = [r["process_seconds"] for r in runs]
-        return t
-
-    def cycles_ladder(self, ref):
+    # Discovery renders each ladder point once, for its image and error (and where a ladder stops);
+    # its time is then measured in interleaved timing passes (timing_passes): one render per point
+    # shows this machine's noise (the same 4-spp render took 0.37-0.55 s five times in a row), and
+    # a drift over the minutes the ladders take would otherwise fall on one renderer only.
+    def cycles_ladder(self, ref, config, tag):
         pts = []
         for spp in self.plan["cycles_ladder"]:
-            out = self.out("cycles_%d" % spp)
-            r = self.timed(lambda: self.cyc.render(self.path, self.lens, spp, self.seed, out))
+            out = self.out("%s_%d" % (tag, spp))
+            r = self.cyc.render(self.path, self.lens, spp, self.seed, out, config)
             e = self.dof.compare(out, ref)
-            pts.append(dict(r, spp=spp, rel_mse=e, image=out))
-            log("    Cycles %5d spp: relMSE %.5g  %.2f s (process %.2f s)" % (
-                spp, e, r["seconds"], r["process_seconds"]))
+            pts.append({"seconds": r["seconds"], "process_seconds": r["process_seconds"],
+                        "spp": spp, "rel_mse": e, "image": out, "renderer": "cycles",
+                        "config": config})
+            log("    Cycles %-9s %5d spp: relMSE %.5g  %.2f s (process %.2f s)" % (
+                tag[len("cycles_"):], spp, e, r["seconds"], r["process_seconds"]))
         return pts
+
+    def time_point(self, p):
+        """Renders a ladder point again (same seed: the same image) for its time only."""
+        scratch = self.out("timing_" + p["renderer"])
+        if p["renderer"] == "cycles":
+            return self.cyc.render(self.path, self.lens, p["spp"], self.seed, scratch, p["config"])
+        return self.dof.render(self.path, self.lens, p["spp"], self.seed, scratch, p["config"],
+                               self.work)
 
     def dof_point(self, config, spp, ref, stem):
         out = self.out(stem)
-        r = self.timed(lambda: self.dof.render(self.path, self.lens, spp, self.seed, out, config,
-                                               self.work))
+        r = self.dof.render(self.path, self.lens, spp, self.seed, out, config, self.work)
+        r = {"seconds": r["seconds"], "process_seconds": r["process_seconds"],
+             "renderer": "dofcache", "config": config}
         e = self.dof.compare(out, ref)
         log("    dofcache %-22s %5d spp: relMSE %.5g  %.2f s (process %.2f s)" % (
             config_label(config), spp, e, r["seconds"], r["process_seconds"]))
@@ -667,9 +742,12 @@ class SceneBench:
             self.lens["focus_distance"], self.lens["aperture_radius"]))
 
         # Cycles: reference, ladder, targets.
-        cyc_ref_spp = REF_FACTOR * max(plan["cycles_ladder"])
+        cyc_ref_spp = self.ref_factor * max(plan["cycles_ladder"])
         cyc_ref, cyc_ref_meta = self.cycles_reference(cyc_ref_spp)
-        cyc_pts = self.cycles_ladder(cyc_ref)
+        cyc_ladders = {name: {"config": cfg,
+                              "points": self.cycles_ladder(cyc_ref, cfg, "cycles_" + name)}
+                       for name, cfg in CYCLES_CONFIGS}
+        cyc_pts = cyc_ladders["fixed"]["points"]
         targets = []
         for spp in plan["targets"]:
             p = next(p for p in cyc_pts if p["spp"] == spp)
@@ -720,10 +798,10 @@ class SceneBench:
 
         best = ranked[0]
         best_end_spp, best_end_t = predicted_end(best, start_spp(best))
-        ref_spp = min(REF_FACTOR * max(best_end_spp, pow2_ceil(needed_spp(best, min_target))),
+        ref_spp = min(self.ref_factor * max(best_end_spp, pow2_ceil(needed_spp(best, min_target))),
                       1 << 20)
         dof_ref, dof_ref_meta = self.dofcache_reference(
-            best["config"], ref_spp, REF_FACTOR * best["seconds"] / best["spp"]
+            best["config"], ref_spp, self.ref_factor * best["seconds"] / best["spp"]
             * needed_spp(best, min_target))
 
         # Ladders.
@@ -752,14 +830,23 @@ class SceneBench:
         # --max-reference-minutes) and measure every dofcache render again.
         same = [p["spp"] for L in ladders.values() if L["config"] == dof_ref_meta["config"]
                 for p in L["points"]]
-        if same and dof_ref_meta["spp"] < REF_FACTOR * max(same):
+        if same and dof_ref_meta["spp"] < self.ref_factor * max(same):
             dof_ref, dof_ref_meta = self.top_up_reference(dof_ref, dof_ref_meta,
-                                                          REF_FACTOR * max(same))
+                                                          self.ref_factor * max(same))
             for L in ladders.values():
                 for p in L["points"]:
                     p["rel_mse"] = self.dof.compare(p["image"], dof_ref)
-        for L in ladders.values():
+        for L in list(ladders.values()) + list(cyc_ladders.values()):
             L["slope_rel_mse_vs_spp"] = fitted_slope(L["points"])
+
+        # Times: every ladder point rendered again --repeat times, Cycles' and dofcache's points
+        # interleaved; each point's time is the median of its runs.
+        if a.repeat > 0:
+            queues = [[p for L in cyc_ladders.values() for p in L["points"]],
+                      [p for L in ladders.values() for p in L["points"]]]
+            log("  timing: %d interleaved pass(es) over %d Cycles and %d dofcache points ..." % (
+                a.repeat, len(queues[0]), len(queues[1])))
+            timing_passes(queues, a.repeat, self.time_point)
         longest = max(p["seconds"] for L in ladders.values() for p in L["points"])
         dof_ref_meta = dict(dof_ref_meta)
         if dof_ref_meta["config"] == best["config"]:
@@ -770,10 +857,10 @@ class SceneBench:
                 for p in L["points"]]
         dof_ref_meta["spp_factor_over_own_ladder"] = dof_ref_meta["spp"] / max(same) if same \
             else None
-        if (dof_ref_meta["spp_factor_over_own_ladder"] or REF_FACTOR) < REF_FACTOR:
+        if (dof_ref_meta["spp_factor_over_own_ladder"] or self.ref_factor) < self.ref_factor:
             log("  note: the dofcache reference has %.1fx the samples of its configuration's "
                 "largest ladder point (aimed at %dx)" % (dof_ref_meta["spp_factor_over_own_ladder"],
-                                                         REF_FACTOR))
+                                                         self.ref_factor))
 
         # Times to equal error.
         rows = []
@@ -789,7 +876,14 @@ class SceneBench:
                     if extrapolated:
                         extrap.append(tag)
                     return seconds
-                c_t = row["cycles%s_s" % col] = reach(cyc_pts, "cycles")
+                # Cycles at its best: whichever configuration reaches the error sooner.
+                c_t, c_label = None, None
+                for name, L in cyc_ladders.items():
+                    v = row["cycles_%s%s_s" % (name, col)] = reach(L["points"], "cycles_" + name)
+                    if v is not None and (c_t is None or v < c_t):
+                        c_t, c_label = v, name
+                row["cycles%s_s" % col] = c_t
+                row["cycles_best_config%s" % col] = c_label
                 d_t = row["dofcache_default%s_s" % col] = reach(ladders["default"]["points"],
                                                                   "default")
                 best_t, best_label, best_x = None, None, False
@@ -822,8 +916,8 @@ class SceneBench:
             "detail": {
                 "scene": os.path.relpath(self.path, REPO), "scene_sha256": self.scene_sha,
                 "lens": self.lens, "targets": targets,
-                "cycles": {"reference": {"path": cyc_ref, **cyc_ref_meta}, "ladder": cyc_pts,
-                           "slope_rel_mse_vs_spp": fitted_slope(cyc_pts)},
+                "cycles": {"reference": {"path": cyc_ref, **cyc_ref_meta},
+                           "ladders": cyc_ladders},
                 "dofcache": {"reference": {"path": dof_ref, **dof_ref_meta},
                              "search": search, "ladders": ladders},
                 "image": image,
@@ -861,8 +955,11 @@ class SceneBench:
             png = os.path.join(tmpdir, "panel%d.png" % i)
             emap = os.path.join(tmpdir, "error%d.png" % i)
             e = self.dof.compare(p["image"], ref, emap, emax)
-            run(["oiiotool", p["image"], "--ch", "R,G,B", "--tocolorspace", "sRGB", "-d", "uint8",
-                 "-o", png], "oiiotool (EXR to sRGB PNG)")
+            shrink = ["--resize", "640x0"] if self.cyc.width > 640 else []  # a page's width
+            run(["oiiotool", p["image"], "--ch", "R,G,B"] + shrink + ["--tocolorspace", "sRGB",
+                 "-d", "uint8", "-o", png], "oiiotool (EXR to sRGB PNG)")
+            if shrink:
+                run(["oiiotool", emap] + shrink + ["-o", emap], "oiiotool (error map)")
             tops.append(png)
             bottoms.append(emap)
             info.append({"panel": label, "spp": p["spp"], "seconds": p["seconds"],
@@ -893,12 +990,14 @@ def fmt(v, digits=3):
 
 
 def print_table(rows):
-    head = ["target", "relMSE", "Cycles s", "dof default s", "dof best s", "best config",
+    head = ["target", "relMSE", "Cycles s", "which", "fixed s", "defaults s", "dof default s", "dof best s", "best config",
             "dof cached s", "uniform s", "def/C", "best/C", "cached/C", "uniform/C",
             "best/cached", "extrapolated"]
     body = []
     for r in rows:
         body.append([r["target"], fmt(r["target_rel_mse"]), fmt(r["cycles_s"]),
+                     fmt(r["cycles_best_config"]), fmt(r["cycles_fixed_s"]),
+                     fmt(r["cycles_defaults_s"]),
                      fmt(r["dofcache_default_s"]), fmt(r["dofcache_best_uncached_s"]),
                      fmt(r["dofcache_best_config"]), fmt(r["dofcache_cached_s"]),
                      fmt(r["dofcache_cached_uniform_s"]),
@@ -920,6 +1019,18 @@ def print_table(rows):
         print("    %-16s %s" % (p[0], "  ".join(fmt(x) for x in p[1:])))
 
 
+def generated_atrium(directory):
+    """The 2.1 M-triangle atrium (scenes/generate_atrium.py: the same bytes on every run)."""
+    path = os.path.join(directory, "atrium.glb")
+    if not os.path.isfile(path):
+        log("generating %s ..." % path)
+        tmp = os.path.join(directory, ".atrium.tmp.glb")
+        run([sys.executable, os.path.join(REPO, "scenes", "generate_atrium.py"), tmp],
+            "scenes/generate_atrium.py")
+        os.replace(tmp, path)
+    return path
+
+
 def find_exe(given, name, fallback=None):
     cand = given or shutil.which(name, path=CHILD_ENV.get("PATH")) or fallback
     if cand and os.path.isfile(cand) and os.access(cand, os.X_OK):
@@ -932,14 +1043,16 @@ def main(argv=None):
         prog="peer_bench.py",
         description="dofcache against Blender Cycles at equal relMSE (see bench/README.md).")
     p.add_argument("--scenes", nargs="+", default=None,
-                   help="scene names (%s) or .gltf/.glb paths" %
-                        ", ".join(n for n, _ in DEFAULT_SCENES))
+                   help="scene names (%s) or .gltf/.glb paths" % ", ".join(NAMED_SCENES))
     p.add_argument("--width", type=int, default=None, help="default 320 (80 with --quick)")
     p.add_argument("--height", type=int, default=None, help="default 240 (60 with --quick)")
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--repeat", type=int, default=1,
-                   help="renders of each ladder point; its times are their median (default 1)")
+    p.add_argument("--repeat", type=int, default=None,
+                   help="interleaved timing passes: each ladder point is rendered again this many "
+                        "times, Cycles' and dofcache's points alternating, and its time is the "
+                        "median (default 3; 1 with --quick, --medium and --production; 0: the "
+                        "discovery render's time, not interleaved)")
     p.add_argument("--bounces", type=int, default=1,
                    help="Cycles max bounces and dofcache --bounces (default 1)")
     p.add_argument("--fstop", type=float, default=None,
@@ -952,6 +1065,9 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true", help="tiny ladders at 80x60 (smoke test)")
     p.add_argument("--medium", action="store_true",
                    help="160x120, Cycles up to 128 spp (about 10 minutes a scene)")
+    p.add_argument("--production", action="store_true",
+                   help="1280x720, the gallery and the atrium (2.1 M triangles), Cycles up to 64 "
+                        "spp, references 8x (hours)")
     p.add_argument("--blender", default=None, help="blender executable (default: on PATH)")
     p.add_argument("--dofcache", default=None,
                    help="dofcache executable (default: build/dofcache, then PATH)")
@@ -971,19 +1087,26 @@ def main(argv=None):
                         "--quick)")
     a = p.parse_args(argv)
 
-    plan = dict(QUICK if a.quick else MEDIUM if a.medium else FULL)
+    if a.quick + a.medium + a.production > 1:
+        p.error("choose one of --quick, --medium and --production")
+    plan = dict(QUICK if a.quick else MEDIUM if a.medium else PRODUCTION if a.production else FULL)
+    if a.repeat is None:
+        a.repeat = plan["repeat"]
     if a.max_reference_minutes is None:
         a.max_reference_minutes = 2.0 if a.quick else 40.0
     width = plan["size"][0] if a.width is None else a.width
     height = plan["size"][1] if a.height is None else a.height
     for name, v in (("--width", width), ("--height", height), ("--threads", a.threads),
-                    ("--repeat", a.repeat)):
+                    ):
         if v < 1:
             p.error("%s must be at least 1" % name)
+    if a.repeat < 0:
+        p.error("--repeat must be >= 0")
     if a.bounces < 0 or (a.fstop is not None and a.fstop <= 0) or a.fstop_scale <= 0:
         p.error("--bounces must be >= 0, --fstop and --fstop-scale > 0")
     results_name = a.results or ("peer_cycles_quick" if a.quick else
-                                 "peer_cycles_160" if a.medium else "peer_cycles")
+                                 "peer_cycles_160" if a.medium else
+                                 "peer_cycles_1280" if a.production else "peer_cycles")
     if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", results_name):
         p.error("the results name may hold only letters, digits, '_', '.', '-'")
     if a.lambert and not a.results:
@@ -1001,12 +1124,18 @@ def main(argv=None):
     if not shutil.which("oiiotool", path=CHILD_ENV.get("PATH")):
         raise BenchError("oiiotool not found (apt-get install openimageio-tools)")
 
+
+    out_dir = os.path.abspath(a.out_dir or os.path.join(tempfile.gettempdir(), "dofcache_peer"))
+    work = os.path.join(out_dir, "quick" if a.quick else "%dx%d" % (width, height))
+    cache_dir = os.path.abspath(a.cache_dir or os.path.join(out_dir, "references"))
+    os.makedirs(work, exist_ok=True)
+    os.makedirs(cache_dir, exist_ok=True)
     scenes = []
-    for s in (a.scenes or [n for n, _ in DEFAULT_SCENES]):
-        known = dict(DEFAULT_SCENES)
-        if s in known:
-            path = os.path.join(REPO, known[s])
+    for s in (a.scenes or plan.get("scenes") or [n for n, _ in DEFAULT_SCENES]):
+        if s in NAMED_SCENES:
             name = s
+            path = os.path.join(REPO, NAMED_SCENES[s]) if NAMED_SCENES[s] else \
+                generated_atrium(cache_dir)
         else:
             path = os.path.abspath(s)
             name = re.sub(r"[^A-Za-z0-9_.-]", "_", os.path.splitext(os.path.basename(s))[0])
@@ -1016,12 +1145,6 @@ def main(argv=None):
                 continue
             raise BenchError("scene not found: %s" % path)
         scenes.append((name, path))
-
-    out_dir = os.path.abspath(a.out_dir or os.path.join(tempfile.gettempdir(), "dofcache_peer"))
-    work = os.path.join(out_dir, "quick" if a.quick else "%dx%d" % (width, height))
-    cache_dir = os.path.abspath(a.cache_dir or os.path.join(out_dir, "references"))
-    os.makedirs(work, exist_ok=True)
-    os.makedirs(cache_dir, exist_ok=True)
     images_dir = a.images_dir or (os.path.join(out_dir, "images") if a.quick
                                   else os.path.join(REPO, "docs", "images"))
 
@@ -1061,7 +1184,7 @@ def main(argv=None):
             "repeat": a.repeat,
             "bounces": a.bounces, "lambert": a.lambert, "quick": a.quick,
             "fstop": a.fstop, "fstop_scale": a.fstop_scale, "plan": plan,
-            "reference_factor": REF_FACTOR, "nice": 10,
+            "reference_factor": plan["reference_factor"], "nice": 10,
             "blender": cyc.version, "cycles_script_sha256": cyc.script_sha,
             "dofcache_sha256": dof.binary_sha, "dofcache_version": dof.version_text,
             "dofcache_extra_args": extra,

@@ -427,6 +427,7 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
     const FrameSpec& spec = frames_[i];
     FrameReport rep;
     rep.frame = spec.number;
+    rep.spec = spec;
     rep.index = static_cast<int>(i);
     rep.count = static_cast<int>(n);
     rep.path = paths[i];

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "dofcache/core/error.h"
+#include "dofcache/lens/lens_json.h"
 #include "dofcache/request/image_render.h"
 
 namespace dofcache::sequence {
@@ -100,10 +101,27 @@ std::string describe_summary(const SequenceSummary& sum) {
   return text + "\n";
 }
 
+namespace {
+
+// A frame's camera as another renderer needs it to render the same view: the camera-to-world
+// matrix (column-major, as a glTF node's "matrix": looks down -Z, +Y up, Y-up world) and the
+// vertical field of view in radians.
+nlohmann::json frame_camera_json(const FrameSpec& spec) {
+  nlohmann::json m = nlohmann::json::array();
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) m.push_back(spec.camera.camera_to_world[c][r]);
+  return {{"camera_to_world", m}, {"yfov", spec.camera.yfov}};
+}
+
+}  // namespace
+
 nlohmann::json frame_stats_json(const FrameReport& f) {
-  if (f.skipped) return {{"frame", f.frame}, {"skipped", true}, {"output", f.path}};
+  if (f.skipped)
+    return {{"frame", f.frame}, {"skipped", true}, {"output", f.path},
+            {"camera", frame_camera_json(f.spec)}, {"lens", lens::lens_json(f.spec.lens)}};
   const cache::FrameCacheStats& c = f.cache;
   return {{"frame", f.frame}, {"skipped", false}, {"output", f.path},
+          {"camera", frame_camera_json(f.spec)}, {"lens", lens::lens_json(f.spec.lens)},
           {"seconds", f.seconds()}, {"render_seconds", f.render_seconds},
           {"cache_seconds", f.cache_seconds}, {"write_seconds", f.write_seconds},
           {"denoise_seconds", f.denoise_seconds},

@@ -1,10 +1,9 @@
 """The peer benchmark's arithmetic (bench/peer/peer_bench.py), checked against values worked out by
-hand, without Blender or a render: the time at which a ladder reaches an error, and the median
-time of a ladder point rendered several times."""
+hand, without Blender or a render: the time at which a ladder reaches an error, the interleaved
+order of the timing passes and the median time of a ladder point rendered several times."""
 import math
 import os
 import sys
-import types
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..",
@@ -70,28 +69,56 @@ class TimeToError(unittest.TestCase):
         self.assertEqual(peer_bench.time_to_error(points, 0.05), (None, True))
 
 
-class RepeatedRenders(unittest.TestCase):
+class InterleavedTiming(unittest.TestCase):
     @staticmethod
-    def timed(repeat, seconds):
-        """SceneBench.timed with --repeat `repeat` over renders taking `seconds` in turn."""
-        bench = types.SimpleNamespace(a=types.SimpleNamespace(repeat=repeat))
-        it = iter(seconds)
+    def points(tag, n):
+        return [{"id": "%s%d" % (tag, i), "seconds": 100.0, "process_seconds": 200.0}
+                for i in range(n)]
 
-        def render():
-            t = next(it)
-            return {"seconds": t, "process_seconds": 10.0 * t}
-        return peer_bench.SceneBench.timed(bench, render)
+    def test_each_renderers_points_are_spread_over_the_pass(self):
+        # 2 Cycles points at 1/4 and 3/4 of the pass, 4 dofcache points at 1/8, 3/8, 5/8, 7/8.
+        order = peer_bench.interleave([self.points("c", 2), self.points("d", 4)])
+        self.assertEqual([p["id"] for p in order], ["d0", "c0", "d1", "d2", "c1", "d3"])
 
-    def test_the_median_of_the_runs_is_the_time_and_the_runs_are_kept(self):
-        t = self.timed(3, [0.55, 0.37, 0.48])
-        self.assertEqual(t["seconds"], 0.48)
-        self.assertEqual(t["process_seconds"], 4.8)
-        self.assertEqual(t["seconds_runs"], [0.55, 0.37, 0.48])
-        self.assertEqual(t["process_seconds_runs"], [5.5, 3.7, 4.8])
+    def test_equal_queues_alternate(self):
+        order = peer_bench.interleave([self.points("c", 3), self.points("d", 3)])
+        self.assertEqual([p["id"] for p in order], ["c0", "d0", "c1", "d1", "c2", "d2"])
 
-    def test_one_render_is_its_own_time(self):
-        t = self.timed(1, [0.5])
-        self.assertEqual(t, {"seconds": 0.5, "process_seconds": 5.0})
+    def test_passes_alternate_direction_and_times_are_medians(self):
+        cyc, dof = self.points("c", 1), self.points("d", 2)
+        calls = []
+        # Times drift upwards over the run: 1, 2, 3, ... seconds in call order.
+        def render(p):
+            calls.append(p["id"])
+            t = float(len(calls))
+            return {"seconds": t, "process_seconds": t + 0.5}
+        renders = peer_bench.timing_passes([cyc, dof], 3, render)
+        self.assertEqual(renders, 9)
+        # d0 at 1/4, c0 at 1/2, d1 at 3/4; the second pass backwards.
+        self.assertEqual(calls, ["d0", "c0", "d1", "d1", "c0", "d0", "d0", "c0", "d1"])
+        # c0 ran 2nd, 5th and 8th: median 5 s; d0 1st, 6th, 7th: 6 s; d1 3rd, 4th, 9th: 4 s.
+        self.assertEqual(cyc[0]["seconds"], 5.0)
+        self.assertEqual(cyc[0]["seconds_runs"], [2.0, 5.0, 8.0])
+        self.assertEqual(cyc[0]["process_seconds"], 5.5)
+        self.assertEqual(dof[0]["seconds"], 6.0)
+        self.assertEqual(dof[1]["seconds"], 4.0)
+        # The untimed discovery render's times are kept beside them.
+        self.assertEqual(cyc[0]["discovery_seconds"], 100.0)
+        self.assertEqual(dof[1]["discovery_process_seconds"], 200.0)
+
+    def test_no_pass_keeps_the_discovery_times(self):
+        cyc = self.points("c", 2)
+        self.assertEqual(peer_bench.timing_passes([cyc, []], 0, None), 0)
+        self.assertEqual(cyc[0]["seconds"], 100.0)
+        self.assertNotIn("discovery_seconds", cyc[0])
+
+
+class CyclesAtItsBest(unittest.TestCase):
+    def test_the_defaults_configuration_passes_blenders_defaults(self):
+        configs = dict(peer_bench.CYCLES_CONFIGS)
+        self.assertEqual(peer_bench.cycles_config_args(configs["fixed"]), [])
+        self.assertEqual(peer_bench.cycles_config_args(configs["defaults"]),
+                         ["--adaptive-threshold", "0.01", "--light-threshold", "0.01"])
 
 
 if __name__ == "__main__":

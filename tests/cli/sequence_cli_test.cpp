@@ -18,6 +18,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "dofcache/image/image_io.h"
 
 namespace fs = std::filesystem;
@@ -61,7 +63,20 @@ TEST_F(SequenceCli, ShippedPathsRender) {
   ASSERT_EQ(pull.exit_code, 0) << pull.err;
   EXPECT_TRUE(fs::exists(dir_ / "pull/f34.exr"));
   EXPECT_TRUE(fs::exists(dir_ / "pull/f35.exr"));
-  EXPECT_NE(slurp(dir_ / "pull.json").find("\"per_frame\""), std::string::npos);
+  // Each frame's camera and lens, as another renderer needs them to render the same view: the
+  // path keeps the scene's camera (node translation 0, 0.3, 0.85, no rotation, yfov 0.72) and
+  // keys the focus at 1.3 m on frame 35.
+  const nlohmann::json stats = nlohmann::json::parse(slurp(dir_ / "pull.json"));
+  ASSERT_EQ(stats["per_frame"].size(), 2u);
+  const nlohmann::json& f35 = stats["per_frame"][1];
+  EXPECT_EQ(f35["frame"], 35);
+  EXPECT_NEAR(f35["lens"]["focus_distance"].get<double>(), 1.3, 1e-6);
+  EXPECT_NEAR(f35["lens"]["fstop"].get<double>(), 1.4, 1e-6);
+  EXPECT_NEAR(f35["camera"]["yfov"].get<double>(), 0.72, 1e-6);
+  const std::vector<double> m = f35["camera"]["camera_to_world"].get<std::vector<double>>();
+  const std::vector<double> expected = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0.3, 0.85, 1};
+  ASSERT_EQ(m.size(), 16u);
+  for (int i = 0; i < 16; ++i) EXPECT_NEAR(m[i], expected[i], 1e-6) << i;
 }
 
 // `extra`: more options; the run is killed once frame `kill_after` is on disk.

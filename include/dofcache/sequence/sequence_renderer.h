@@ -71,6 +71,7 @@ struct SequenceSettings {
 struct FrameReport {
   int frame = 0;
   int index = 0, count = 0;  // position in the sequence
+  FrameSpec spec;            // its camera and lens (statistics files report them)
   bool skipped = false;      // complete from an earlier run: not rendered (output is empty)
   std::string path;          // output file (empty if not writing)
   render::RenderOutput output;
