@@ -324,8 +324,8 @@ def read_frames(path, out):
     if not frames:
         fail("%s lists no frames" % path)
     numbers = [f["frame"] for f in frames]
-    if numbers != list(range(numbers[0], numbers[0] + len(numbers))):
-        fail("%s: the frames are not consecutive (an animation renders every frame)" % path)
+    if len(set(numbers)) != len(numbers):
+        fail("%s lists a frame twice" % path)
     if "#" not in os.path.basename(out):
         fail("--out needs a run of '#' for the frame number with --frames-json")
     return frames
@@ -371,7 +371,8 @@ def key_camera_path(scene, cam_obj, frames):
 
 
 def render_animation(scene, frames, out):
-    """Renders the keyed frames as a user renders an animation: one process, persistent data on.
+    """Renders the keyed frames as a user renders an animation: one process, persistent data on
+    (frames that are not consecutive, such as a reference set, one still after another).
     Returns the whole animation's seconds and each frame's in-render seconds."""
     r = scene.render
     r.use_persistent_data = True
@@ -387,8 +388,15 @@ def render_animation(scene, frames, out):
 
     bpy.app.handlers.render_pre.append(pre)
     bpy.app.handlers.render_post.append(post)
+    numbers = [f["frame"] for f in frames]
     t0 = time.perf_counter()
-    bpy.ops.render.render(animation=True)
+    if numbers == list(range(numbers[0], numbers[0] + len(numbers))):
+        bpy.ops.render.render(animation=True)
+    else:
+        for n in numbers:
+            scene.frame_set(n)
+            r.filepath = frame_path(out, n)
+            bpy.ops.render.render(write_still=True)
     total = time.perf_counter() - t0
     per_frame = []
     for f in frames:

@@ -94,6 +94,14 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
   cmd->add_option("--anamorphic-ratio", a.anamorphic_ratio,
                   "The bokeh's height over its width (2: tall ovals, as anamorphic lenses give)" +
                       note);
+  cmd->add_option_function<std::vector<double>>(
+         "--vignetting-stop",
+         [&a](const std::vector<double>& v) { a.vignetting_stop = lens::VignettingStop{v[0], v[1]}; },
+         "R,D: a second circular stop of radius R at D metres in front of the aperture, which "
+         "clips off-axis lens rays (cat's-eye bokeh towards the corners, optical vignetting)" +
+             note)
+      ->expected(2)
+      ->delimiter(',');
 }
 
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help) {

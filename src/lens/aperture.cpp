@@ -28,6 +28,11 @@ void ApertureShape::validate() const {
   if (!(anamorphic_ratio > 0.0) || !std::isfinite(anamorphic_ratio) || anamorphic_ratio > 100.0)
     throw Error("lens: anamorphic ratio must be > 0 and at most 100 (the bokeh's height over its "
                 "width), got " + std::to_string(anamorphic_ratio));
+  if (!(stop == VignettingStop{}) &&
+      !(stop.radius > 0.0 && stop.radius < 1e3 && stop.distance > 0.0 && stop.distance < 1e3))
+    throw Error("lens: the vignetting stop needs a radius and a distance in front of the "
+                "aperture, both > 0 and finite (metres), got " + std::to_string(stop.radius) +
+                ", " + std::to_string(stop.distance));
 }
 
 double ApertureShape::inner_scale() const {
@@ -45,13 +50,15 @@ ApertureChoices ApertureChoices::over(const ApertureChoices& fallback) const {
   return {blades ? blades : fallback.blades,
           rotation_deg ? rotation_deg : fallback.rotation_deg,
           roundness ? roundness : fallback.roundness,
-          anamorphic_ratio ? anamorphic_ratio : fallback.anamorphic_ratio};
+          anamorphic_ratio ? anamorphic_ratio : fallback.anamorphic_ratio,
+          vignetting_stop ? vignetting_stop : fallback.vignetting_stop};
 }
 
 ApertureShape ApertureChoices::shape() const {
   const ApertureShape round;
   return {blades.value_or(round.blades), rotation_deg.value_or(round.rotation_deg),
-          roundness.value_or(round.roundness), anamorphic_ratio.value_or(round.anamorphic_ratio)};
+          roundness.value_or(round.roundness), anamorphic_ratio.value_or(round.anamorphic_ratio),
+          vignetting_stop.value_or(round.stop)};
 }
 
 Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {

@@ -17,10 +17,14 @@ ThinLensCamera::ThinLensCamera(const glm::mat4& camera_to_world, float yfov,
   tan_half_x_ = tan_half_y_ * static_cast<float>(width) / static_cast<float>(height);
 }
 
+glm::vec2 ThinLensCamera::film_slopes(glm::vec2 film) const {
+  return {(2.0f * film.x / static_cast<float>(width_) - 1.0f) * tan_half_x_,
+          (1.0f - 2.0f * film.y / static_cast<float>(height_)) * tan_half_y_};
+}
+
 glm::vec3 ThinLensCamera::direction_to_film(glm::vec2 film) const {
-  float sx = (2.0f * film.x / static_cast<float>(width_) - 1.0f) * tan_half_x_;
-  float sy = (1.0f - 2.0f * film.y / static_cast<float>(height_)) * tan_half_y_;
-  return forward_ + sx * right_ + sy * up_;
+  const glm::vec2 s = film_slopes(film);
+  return forward_ + s.x * right_ + s.y * up_;
 }
 
 glm::mat4 ThinLensCamera::film_to_world() const {
@@ -40,11 +44,20 @@ scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
   return ray;
 }
 
-scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u) const {
+scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked) const {
   // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
-  glm::vec3 focus_point =
-      position_ + direction_to_film(film) * static_cast<float>(imaging_.lens.focus_distance);
+  const glm::vec2 slopes = film_slopes(film);
+  const float p = static_cast<float>(imaging_.lens.focus_distance);
+  glm::vec3 focus_point = position_ + (forward_ + slopes.x * right_ + slopes.y * up_) * p;
   glm::vec2 disk = aperture_.sample(lens_u) * static_cast<float>(imaging_.lens.aperture_radius());
+  if (blocked) {
+    // The ray from the lens point `disk` to the focus point (offset slopes * P, depth P) crosses
+    // the stop's plane, depth D, at disk (1 - D / P) + slopes D.
+    const lens::VignettingStop& stop = imaging_.lens.aperture.stop;
+    const float d = static_cast<float>(stop.distance), r = static_cast<float>(stop.radius);
+    const glm::vec2 at_stop = disk * (1.0f - d / p) + slopes * d;
+    *blocked = r > 0.0f && glm::dot(at_stop, at_stop) > r * r;
+  }
   scene::Ray ray;
   ray.origin = position_ + disk.x * right_ + disk.y * up_;
   ray.direction = glm::normalize(focus_point - ray.origin);

@@ -277,13 +277,15 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
   const PixelSamples samples(st, x, y);
   glm::dvec3 acc(0.0);
   for (std::uint32_t s = s0; s < end; ++s) {
-    scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(samples.film(s), samples.lens(s)));
+    bool blocked = false;  // by a vignetting stop: a lens sample that brings no light
+    scene::Ray ray = clipped(c.camera, st,
+                             c.camera.generate_ray(samples.film(s), samples.lens(s), &blocked));
     std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
     Rng rng(key, s);
     SampleFeatures f;
-    glm::vec3 l =
-        trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
+    glm::vec3 l(0.0f);
+    if (!blocked) l = trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
     if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
     acc += glm::dvec3(l);
     if (moments) {
@@ -322,13 +324,17 @@ void add_feature_samples(const Context& c, int x, int y, std::uint32_t s0, std::
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
   const PixelSamples samples(st, x, y);
   for (std::uint32_t s = s0; s < end; ++s) {
-    scene::Ray ray = clipped(c.camera, st, c.camera.generate_ray(samples.film(s), samples.lens(s)));
+    bool blocked = false;
+    scene::Ray ray = clipped(c.camera, st,
+                             c.camera.generate_ray(samples.film(s), samples.lens(s), &blocked));
     const std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));
-    ++counters.rays;
-    const scene::Hit hit = c.accel.intersect(ray);
     glm::vec3 e(0.0f), a(0.0f);
-    if (hit.valid()) {
+    const scene::Hit hit = blocked ? scene::Hit{} : c.accel.intersect(ray);
+    if (!blocked) ++counters.rays;
+    if (blocked) {
+      // Stopped by the vignetting stop: no light and no surface.
+    } else if (hit.valid()) {
       const ShadingPoint p = c.shader.prepare(ray, hit);
       e = c.shader.emitted(p);
       a = p.material.base_color;

@@ -140,7 +140,7 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
                        l.aperture_diameter() * 1000.0,
                        r.focus_from_scene ? " (autofocus on the image centre)" : "");
   const lens::ApertureShape& a = l.aperture;
-  if (a.round()) return text;
+  if (a.plain()) return text;
   text += "        aperture ";
   if (a.blades > 0)
     text += fmt::format("{} blades, a corner at {:g} deg, roundness {:g}", a.blades,
@@ -148,10 +148,13 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   else
     text += "round";
   if (a.anamorphic_ratio != 1.0) text += fmt::format(", anamorphic ratio {:g}", a.anamorphic_ratio);
+  if (a.vignetting())
+    text += fmt::format(", vignetting stop {:g} mm across at {:g} mm", 2000.0 * a.stop.radius,
+                        1000.0 * a.stop.distance);
   text += "\n";
   if (r.preview)
-    text += "notice  the preview modes blur with round bokeh; the aperture's shape shows in drt "
-            "and accumulation renders\n";
+    text += "notice  the preview modes blur with round bokeh; the aperture's shape and the "
+            "vignetting stop show in drt and accumulation renders\n";
   return text;
 }
 

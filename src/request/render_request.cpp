@@ -12,6 +12,7 @@
 #include "dofcache/cache/sample_radius.h"
 #include "dofcache/core/error.h"
 #include "dofcache/core/file.h"
+#include "dofcache/lens/lens_json.h"
 
 namespace dofcache::request {
 
@@ -267,7 +268,11 @@ json to_json(const RenderRequest& r) {
         {"aperture_blades", r.lens.aperture.blades ? json(*r.lens.aperture.blades) : json(nullptr)},
         {"aperture_rotation", optional_number(r.lens.aperture.rotation_deg)},
         {"aperture_roundness", optional_number(r.lens.aperture.roundness)},
-        {"anamorphic_ratio", optional_number(r.lens.aperture.anamorphic_ratio)}}},
+        {"anamorphic_ratio", optional_number(r.lens.aperture.anamorphic_ratio)},
+        {"vignetting_stop", r.lens.aperture.vignetting_stop
+                                ? json{r.lens.aperture.vignetting_stop->radius,
+                                       r.lens.aperture.vignetting_stop->distance}
+                                : json(nullptr)}}},
       {"shading", r.shading ? shading_json(*r.shading) : json(nullptr)},
       {"environment", environment_settings_json(r.environment)},
       {"cache", cache_json(r.cache, c)},
@@ -344,6 +349,11 @@ RenderRequest request_from_json(const json& j) {
     l.get("aperture_rotation", r.lens.aperture.rotation_deg, -1e6, 1e6);
     l.get("aperture_roundness", r.lens.aperture.roundness, 0, 1);
     l.get("anamorphic_ratio", r.lens.aperture.anamorphic_ratio, 1e-2, 1e2);
+    if (l.has("vignetting_stop")) {
+      r.lens.aperture.vignetting_stop = lens::vignetting_stop_from_json(l.at("vignetting_stop"));
+      if (!r.lens.aperture.vignetting_stop)
+        l.fail("must be [radius, distance] in metres (or null)", "vignetting_stop");
+    }
   });
   if (top.has("shading")) {
     render::ShadingSettings sh;

@@ -129,8 +129,10 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
     if (r.focus_from_scene) chose("focus: autofocus on the image centre");
     q.lens = {s.lens.focal_length, s.lens.fstop, s.lens.focus_distance, {}};
     // The shape as resolved (command line, then extras.lens); round stays unset.
-    if (const lens::ApertureShape& a = s.lens.aperture; !a.round())
-      q.lens.aperture = {a.blades, a.rotation_deg, a.roundness, a.anamorphic_ratio};
+    if (const lens::ApertureShape& a = s.lens.aperture; !a.plain())
+      q.lens.aperture = {a.blades, a.rotation_deg, a.roundness, a.anamorphic_ratio,
+                         a.vignetting() ? std::optional<lens::VignettingStop>(a.stop)
+                                        : std::nullopt};
   }
 
   if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {

@@ -707,6 +707,16 @@ class Loader : gltf::Document {
     if (auto v = number("aperture_rotation")) a.rotation_deg = v;
     if (auto v = number("aperture_roundness")) a.roundness = v;
     if (auto v = number("anamorphic_ratio")) a.anamorphic_ratio = v;
+    if (obj.Has("vignetting_stop")) {
+      const tinygltf::Value& v = obj.Get("vignetting_stop");
+      const auto item = [&](int i) {
+        const tinygltf::Value& x = v.Get(i);
+        return x.IsNumber() ? x.GetNumberAsDouble() : std::nan("");
+      };
+      if (!v.IsArray() || v.ArrayLen() != 2 || !std::isfinite(item(0)) || !std::isfinite(item(1)))
+        fail(label, "vignetting_stop must be [radius, distance] in metres");
+      a.vignetting_stop = lens::VignettingStop{item(0), item(1)};
+    }
     try {
       a.shape().validate();
     } catch (const Error& e) {

@@ -61,6 +61,9 @@ PathSample CameraPath::at(double time) const {
   if (!aperture_rotation.empty()) s.aperture.rotation_deg = aperture_rotation.at(time);
   if (!aperture_roundness.empty()) s.aperture.roundness = aperture_roundness.at(time);
   if (!anamorphic_ratio.empty()) s.aperture.anamorphic_ratio = anamorphic_ratio.at(time);
+  if (!vignetting_radius.empty())
+    s.aperture.vignetting_stop =
+        lens::VignettingStop{vignetting_radius.at(time), vignetting_distance.at(time)};
   return s;
 }
 

@@ -92,7 +92,7 @@ class KeyframeParser {
     Track<glm::dvec3> position, target;
     Track<glm::dquat> rotation;
     Track<double> yfov, focal_length, fstop, focus;
-    Track<double> blades, rotation_deg, roundness, ratio;
+    Track<double> blades, rotation_deg, roundness, ratio, stop_radius, stop_distance;
     const double fps_for_frames = path.fps.value_or(24.0);
     double last_time = -INFINITY;
     const json& keys = doc["keys"];
@@ -106,13 +106,14 @@ class KeyframeParser {
                                       "target",         "rotation",      "yfov",
                                       "focal_length",   "fstop",         "focus_distance",
                                       "aperture_blades", "aperture_rotation",
-                                      "aperture_roundness", "anamorphic_ratio"};
+                                      "aperture_roundness", "anamorphic_ratio",
+                                      "vignetting_stop"};
         if (std::find_if(std::begin(known), std::end(known),
                          [&](const char* m) { return member == m; }) == std::end(known))
           fail("unknown member '" + member +
                "' (valid: frame or time, position, target or rotation, yfov, focal_length, fstop, "
                "focus_distance, aperture_blades, aperture_rotation, aperture_roundness, "
-               "anamorphic_ratio)");
+               "anamorphic_ratio, vignetting_stop)");
       }
       if (key.contains("frame") == key.contains("time"))
         fail("give exactly one of \"frame\" (a frame number) or \"time\" (seconds)");
@@ -143,6 +144,12 @@ class KeyframeParser {
         add(roundness, t, *(a.roundness = number(key["aperture_roundness"], "aperture_roundness")));
       if (key.contains("anamorphic_ratio"))
         add(ratio, t, *(a.anamorphic_ratio = number(key["anamorphic_ratio"], "anamorphic_ratio")));
+      if (key.contains("vignetting_stop")) {
+        a.vignetting_stop = lens::vignetting_stop_from_json(key["vignetting_stop"]);
+        if (!a.vignetting_stop) fail("vignetting_stop must be [radius, distance] in metres");
+        add(stop_radius, t, a.vignetting_stop->radius);
+        add(stop_distance, t, a.vignetting_stop->distance);
+      }
       try {
         a.shape().validate();
       } catch (const Error& e) {
@@ -165,6 +172,8 @@ class KeyframeParser {
     finish(rotation_deg, mode, "aperture_rotation", any);
     finish(roundness, mode, "aperture_roundness", any);
     finish(ratio, mode, "anamorphic_ratio", any);
+    finish(stop_radius, mode, "vignetting_stop", any);
+    finish(stop_distance, mode, "vignetting_stop", any);
     if (!any) fail("no key animates anything (give position, target, rotation or lens values)");
     node.translation_track = std::move(position);
     node.rotation_track = std::move(rotation);
@@ -178,6 +187,8 @@ class KeyframeParser {
     path.aperture_rotation = std::move(rotation_deg);
     path.aperture_roundness = std::move(roundness);
     path.anamorphic_ratio = std::move(ratio);
+    path.vignetting_radius = std::move(stop_radius);
+    path.vignetting_distance = std::move(stop_distance);
     path.start_time = keys_start_;
     path.end_time = keys_end_;
     return path;

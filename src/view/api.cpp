@@ -263,13 +263,13 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
   if (get && path == "/api/status") return json_response(status_json(session_.status()));
   if (get && path == "/api/lens") return json_response(lens_and_method_json(session_.status()));
   // Any of focal_length, fstop, focus_distance (metres, f-number), the aperture's shape
-  // (aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio: lens/aperture.h),
-  // method and composite.
+  // (aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio, vignetting_stop:
+  // lens/aperture.h; a null vignetting_stop removes it), method and composite.
   if (post && path == "/api/lens") {
     const json body = body_object(req);
     check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",
-                      "aperture_rotation", "aperture_roundness", "anamorphic_ratio", "method",
-                      "composite"});
+                      "aperture_rotation", "aperture_roundness", "anamorphic_ratio",
+                      "vignetting_stop", "method", "composite"});
     lens::ThinLens lens = session_.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
@@ -283,6 +283,12 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     if (auto v = optional_number(body, "aperture_rotation")) a.rotation_deg = *v;
     if (auto v = optional_number(body, "aperture_roundness")) a.roundness = *v;
     if (auto v = optional_number(body, "anamorphic_ratio")) a.anamorphic_ratio = *v;
+    if (auto it = body.find("vignetting_stop"); it != body.end()) {
+      const std::optional<lens::VignettingStop> stop =
+          it->is_null() ? lens::VignettingStop{} : lens::vignetting_stop_from_json(*it);
+      if (!stop) throw Error("'vignetting_stop' must be [radius, distance] in metres, or null");
+      a.stop = *stop;
+    }
     std::optional<preview::PreviewMethod> method;
     if (auto it = body.find("method"); it != body.end()) {
       if (!it->is_string()) throw Error("'method' must be a string");

@@ -6,6 +6,8 @@
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
 
+#include <nlohmann/json.hpp>
+
 #include <sys/wait.h>
 
 #include <array>
@@ -230,6 +232,15 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
   testing::CliResult req = run("render --aperture-blades 7 --aperture-rotation 15 --print-request");
   ASSERT_EQ(req.exit_code, 0) << req.err;
   EXPECT_NE(req.out.find("\"aperture_blades\": 7"), std::string::npos) << req.out;
+  // A vignetting stop: described in millimetres, and kept by the request it prints.
+  testing::CliResult stop = run("render --vignetting-stop 0.01,0.02 --out " + out + small);
+  ASSERT_EQ(stop.exit_code, 0) << stop.err;
+  EXPECT_NE(stop.out.find("vignetting stop 20 mm across at 20 mm"), std::string::npos) << stop.out;
+  testing::CliResult stop_req = run("render --vignetting-stop 0.01,0.02 --print-request");
+  ASSERT_EQ(stop_req.exit_code, 0) << stop_req.err;
+  const nlohmann::json printed =
+      nlohmann::json::parse(stop_req.out.substr(stop_req.out.find('{')));
+  EXPECT_EQ(printed["lens"]["vignetting_stop"], nlohmann::json({0.01, 0.02})) << stop_req.out;
   EXPECT_NE(req.out.find("\"aperture_rotation\": 15"), std::string::npos) << req.out;
 }
 
@@ -341,6 +352,8 @@ TEST_F(Cli, AbsurdParameters) {
                            kTiny, "aperture roundness");
   expect_clean_failure("render --anamorphic-ratio 0 --out " + (dir_ / "o.png").string() + kTiny,
                        "anamorphic ratio");
+  expect_clean_failure("render --vignetting-stop 0.01,-0.02 --out " + (dir_ / "o.png").string() +
+                           kTiny, "vignetting stop");
   expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
 }
 

@@ -41,26 +41,26 @@ TEST(Aperture, RoundIsTheConcentricMappingExactly) {
 
 TEST(Aperture, PolygonRimHasCornersOnTheCircleAndEdgesAtTheInradius) {
   // Six blades, a corner at 30 degrees: corners at 30, 90, ...; edge normals at 0, 60, ...
-  const Aperture hex(ApertureShape{6, 30.0, 0.0, 1.0});
+  const Aperture hex(ApertureShape{6, 30.0, 0.0, 1.0, {}});
   EXPECT_NEAR(hex.rim(deg(30)), 1.0, 1e-9);
   EXPECT_NEAR(hex.rim(deg(90)), 1.0, 1e-9);
   EXPECT_NEAR(hex.rim(deg(0)), std::cos(kPi / 6), 1e-9);
   EXPECT_NEAR(hex.rim(deg(-60)), std::cos(kPi / 6), 1e-9);
   // Along an edge, from its normal by 15 degrees: the inradius over cos 15.
   EXPECT_NEAR(hex.rim(deg(75)), std::cos(kPi / 6) / std::cos(deg(15)), 1e-9);
-  EXPECT_NEAR(ApertureShape({6, 30.0, 0.0, 1.0}).inner_scale(), std::cos(kPi / 6), 1e-12);
+  EXPECT_NEAR(ApertureShape({6, 30.0, 0.0, 1.0, {}}).inner_scale(), std::cos(kPi / 6), 1e-12);
   // Half round: halfway between the edge and the circle.
-  const Aperture soft(ApertureShape{6, 30.0, 0.5, 1.0});
+  const Aperture soft(ApertureShape{6, 30.0, 0.5, 1.0, {}});
   EXPECT_NEAR(soft.rim(deg(0)), 0.5 * std::cos(kPi / 6) + 0.5, 1e-9);
   EXPECT_NEAR(soft.rim(deg(30)), 1.0, 1e-9);
-  const Aperture full(ApertureShape{6, 30.0, 1.0, 1.0});
+  const Aperture full(ApertureShape{6, 30.0, 1.0, 1.0, {}});
   EXPECT_NEAR(full.rim(deg(17)), 1.0, 1e-9);
 }
 
 TEST(Aperture, PolygonSamplesAreUniformOverItsArea) {
   // A pentagon, a corner at 10 degrees. Area (N / 2) sin(2 pi / N).
   const int n = 5;
-  const Aperture pent(ApertureShape{n, 10.0, 0.0, 1.0});
+  const Aperture pent(ApertureShape{n, 10.0, 0.0, 1.0, {}});
   const double area = 0.5 * n * std::sin(2 * kPi / n);
   int total = 0, in_disc = 0, in_wedge = 0, outside = 0;
   const double normal = deg(10) + kPi / n;  // an edge's normal
@@ -85,7 +85,7 @@ TEST(Aperture, PolygonSamplesAreUniformOverItsArea) {
 TEST(Aperture, RoundedBladeSamplesAreUniformOverTheirArea) {
   // Six blades, roundness 0.5: the rim at t from an edge's normal is 0.5 cos 30 / cos t + 0.5.
   // Its area, 12 half-sectors of the integral of rim^2 / 2, by the midpoint rule here.
-  const Aperture soft(ApertureShape{6, 15.0, 0.5, 1.0});
+  const Aperture soft(ApertureShape{6, 15.0, 0.5, 1.0, {}});
   double area = 0;
   const int steps = 100000;
   for (int i = 0; i < steps; ++i) {
@@ -110,7 +110,7 @@ TEST(Aperture, RoundedBladeSamplesAreUniformOverTheirArea) {
 
 TEST(Aperture, AnamorphicRatioSqueezesTheWidth) {
   // Ratio 2: twice as tall as wide, the height kept at the round aperture's.
-  const Aperture oval(ApertureShape{0, 0.0, 0.0, 2.0});
+  const Aperture oval(ApertureShape{0, 0.0, 0.0, 2.0, {}});
   EXPECT_NEAR(oval.rim(0.0), 0.5, 1e-6);
   EXPECT_NEAR(oval.rim(kPi / 2), 1.0, 1e-6);
   float max_x = 0, max_y = 0;
@@ -121,21 +121,29 @@ TEST(Aperture, AnamorphicRatioSqueezesTheWidth) {
     EXPECT_TRUE(oval.contains(p * 0.9999f));
   });
   EXPECT_NEAR(max_y / max_x, 2.0, 0.03);
-  EXPECT_NEAR(ApertureShape({0, 0.0, 0.0, 2.0}).inner_scale(), 0.5, 1e-12);
-  EXPECT_NEAR(ApertureShape({0, 0.0, 0.0, 0.5}).inner_scale(), 0.5, 1e-12);  // wide ovals
-  EXPECT_NEAR(ApertureShape({6, 0.0, 0.0, 2.0}).inner_scale(), 0.5 * std::cos(kPi / 6), 1e-12);
-  const Aperture wide(ApertureShape{0, 0.0, 0.0, 0.5});
+  EXPECT_NEAR(ApertureShape({0, 0.0, 0.0, 2.0, {}}).inner_scale(), 0.5, 1e-12);
+  EXPECT_NEAR(ApertureShape({0, 0.0, 0.0, 0.5, {}}).inner_scale(), 0.5, 1e-12);  // wide ovals
+  EXPECT_NEAR(ApertureShape({6, 0.0, 0.0, 2.0, {}}).inner_scale(), 0.5 * std::cos(kPi / 6), 1e-12);
+  const Aperture wide(ApertureShape{0, 0.0, 0.0, 0.5, {}});
   EXPECT_NEAR(wide.rim(0.0), 1.0, 1e-6);
   EXPECT_NEAR(wide.rim(kPi / 2), 0.5, 1e-6);
 }
 
 TEST(Aperture, AbsurdShapesAreRefused) {
-  for (int blades : {1, 2, -3, 17}) EXPECT_THROW((ApertureShape{blades, 0, 0, 1}.validate()), Error);
-  for (double r : {-0.1, 1.1, double(NAN)}) EXPECT_THROW((ApertureShape{6, 0, r, 1}.validate()), Error);
+  for (int blades : {1, 2, -3, 17}) EXPECT_THROW((ApertureShape{blades, 0, 0, 1, {}}.validate()), Error);
+  for (double r : {-0.1, 1.1, double(NAN)}) EXPECT_THROW((ApertureShape{6, 0, r, 1, {}}.validate()), Error);
   for (double q : {0.0, -1.0, double(NAN), double(INFINITY), 1000.0})
-    EXPECT_THROW((ApertureShape{6, 0, 0, q}.validate()), Error);
-  EXPECT_THROW((ApertureShape{6, INFINITY, 0, 1}.validate()), Error);
-  EXPECT_NO_THROW((ApertureShape{16, -720.0, 1.0, 0.01}.validate()));
+    EXPECT_THROW((ApertureShape{6, 0, 0, q, {}}.validate()), Error);
+  EXPECT_THROW((ApertureShape{6, INFINITY, 0, 1, {}}.validate()), Error);
+  EXPECT_NO_THROW((ApertureShape{16, -720.0, 1.0, 0.01, {}}.validate()));
+  // A vignetting stop needs a positive, finite radius and distance (metres).
+  for (VignettingStop stop : {VignettingStop{0.0, 0.02}, VignettingStop{0.01, 0.0},
+                              VignettingStop{-0.01, 0.02}, VignettingStop{0.01, double(NAN)},
+                              VignettingStop{double(INFINITY), 0.02}})
+    EXPECT_THROW((ApertureShape{0, 0, 0, 1, stop}.validate()), Error);
+  EXPECT_NO_THROW((ApertureShape{0, 0, 0, 1, {0.01, 0.02}}.validate()));
+  EXPECT_TRUE((ApertureShape{0, 0, 0, 1, {0.01, 0.02}}.round()));
+  EXPECT_FALSE((ApertureShape{0, 0, 0, 1, {0.01, 0.02}}.plain()));
   // The lens checks its aperture too.
   ThinLens lens;
   lens.aperture.blades = 2;

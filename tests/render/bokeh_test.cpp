@@ -10,6 +10,7 @@
 #include <cmath>
 #include <complex>
 
+#include "dofcache/render/camera.h"
 #include "dofcache/render/renderer.h"
 #include "test_scenes.h"
 
@@ -27,6 +28,26 @@ struct Moments {
   double cx = 0, cy = 0;
 };
 
+// The DRT image of a small square lamp (side `side` metres, centred at `lamp`, facing the camera)
+// seen by a camera at the origin looking down -z.
+image::Image lamp_image(const lens::ThinLens& lens, float yfov, int size, glm::vec3 lamp,
+                        double side, int spp) {
+  scene::Scene s;
+  s.materials.push_back(testing::emissive_material({1.0f, 1.0f, 1.0f}));
+  const float h = static_cast<float>(side / 2);
+  testing::add_quad_z(s, lamp.x - h, lamp.x + h, lamp.y - h, lamp.y + h, lamp.z, 0, 0);
+  testing::build_emitters(s);
+  s.cameras.push_back(testing::origin_camera(yfov));
+  scene::Accel accel(s);
+  RenderSettings r;
+  r.width = r.height = size;
+  r.spp = spp;
+  r.lens = lens;
+  r.threads = 2;
+  r.progress = Progress::Display::Never;
+  return render(s, accel, s.cameras[0], r).color;
+}
+
 // Renders the lamp through `aperture` and takes the bokeh's moments about its centroid (image
 // y up, so angles count counter-clockwise as the aperture's do).
 Moments bokeh(const lens::ApertureShape& aperture, double* coc_pixels) {
@@ -37,34 +58,21 @@ Moments bokeh(const lens::ApertureShape& aperture, double* coc_pixels) {
   const lens::LensImaging imaging{lens, yfov, kSize};
   *coc_pixels = imaging.coc_radius_pixels(kDepth);
   const double side = kLampPixels * imaging.pixel_footprint(kDepth);
-
-  scene::Scene s;
-  s.materials.push_back(testing::emissive_material({1.0f, 1.0f, 1.0f}));
-  const float h = static_cast<float>(side / 2);
-  testing::add_quad_z(s, -h, h, -h, h, -static_cast<float>(kDepth), 0, 0);
-  testing::build_emitters(s);
-  s.cameras.push_back(testing::origin_camera(yfov));
-  scene::Accel accel(s);
-  RenderSettings r;
-  r.width = r.height = kSize;
-  r.spp = 4096;
-  r.lens = lens;
-  r.threads = 2;
-  r.progress = Progress::Display::Never;
-  const RenderOutput out = render(s, accel, s.cameras[0], r);
+  const image::Image color =
+      lamp_image(lens, yfov, kSize, {0.0f, 0.0f, -static_cast<float>(kDepth)}, side, 4096);
 
   Moments m;
   double total = 0;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
-      const double v = out.color.at(x, y, 1);
+      const double v = color.at(x, y, 1);
       total += v, m.cx += v * (x + 0.5), m.cy += v * (kSize - y - 0.5);
     }
   m.cx /= total, m.cy /= total;
   double weight = 0;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
-      const double v = out.color.at(x, y, 1);
+      const double v = color.at(x, y, 1);
       const double dx = x + 0.5 - m.cx, dy = kSize - y - 0.5 - m.cy;
       const double r2 = dx * dx + dy * dy;
       m.xx += v * dx * dx, m.yy += v * dy * dy;
@@ -90,7 +98,7 @@ TEST(Bokeh, RoundApertureGivesADiscOfTheCircleOfConfusion) {
 TEST(Bokeh, BladesGiveTheirPolygonItsCountOrientationAndCircumradius) {
   for (auto [blades, rotation] : {std::pair{6, 20.0}, std::pair{5, 90.0}}) {
     double coc = 0;
-    const Moments m = bokeh({blades, rotation, 0.0, 1.0}, &coc);
+    const Moments m = bokeh({blades, rotation, 0.0, 1.0, {}}, &coc);
     // Circumradius from the polar moment: R^2 (1 + 2 cos^2(pi / N)) / 6.
     const double c = std::cos(kPi / blades);
     const double radius = std::sqrt((m.polar - kExtraPolar) * 6.0 / (1.0 + 2.0 * c * c));
@@ -110,13 +118,78 @@ TEST(Bokeh, BladesGiveTheirPolygonItsCountOrientationAndCircumradius) {
 
 TEST(Bokeh, AnamorphicRatioTwoGivesAnOvalTwiceAsTallAsWide) {
   double coc = 0;
-  const Moments m = bokeh({0, 0.0, 0.0, 2.0}, &coc);
+  const Moments m = bokeh({0, 0.0, 0.0, 2.0, {}}, &coc);
   const double extra_axis = (kLampPixels * kLampPixels + 1.0) / 12.0;
   // An ellipse's second moment along an axis is a quarter of that semi-axis squared.
   const double tall = std::sqrt(4.0 * (m.yy - extra_axis));
   const double wide = std::sqrt(4.0 * (m.xx - extra_axis));
   EXPECT_NEAR(tall / wide, 2.0, 0.06);
   EXPECT_NEAR(tall, coc, 0.03 * coc);
+}
+
+// Optical vignetting. Seen from a point of the focal plane F, the lens rays through a lamp at L
+// (depth Z) start at p = (L P / Z - F) Z / (P - Z); they pass the aperture where |p| <= a and a
+// stop of radius R at depth D where |p (1 - D / P) + F D / P| <= R. Both are discs in F: centred
+// at L P / Z with radius a |P - Z| / Z, and at L (P - D) / (Z - D) with radius R |P - Z| / |Z - D|.
+// The bokeh is their intersection (cat's eye): its light, against the same lamp seen without the
+// stop, is the intersection's area over the first disc's, and its centroid the intersection's;
+// both are computed here on a fine grid, independently of the renderer.
+TEST(Bokeh, VignettingStopCutsTheBokehToTheIntersectionOfTwoDiscs) {
+  constexpr int kImage = 64;
+  const double P = 1.0, Z = 3.0, D = 0.5, a = 0.0125;  // f/2 at 50 mm
+  const double R = 1.1 * a * (Z - D) / Z;  // on axis the stop clips nothing (r2 = 1.1 r1)
+  const double lx = 0.05 / std::sqrt(2.0), ly = lx;  // the second disc 0.8 r1 from the first
+  // Ten pixels of circle-of-confusion radius: r1 = a (Z - P) / Z on the focal plane.
+  const double r1 = a * (Z - P) / Z, k = 10.0 / r1;  // pixels per metre on the focal plane
+  const float yfov = static_cast<float>(2.0 * std::atan(kImage / (2.0 * P * k)));
+  lens::ThinLens plain{0.05, 2.0, P};
+  lens::ThinLens stopped = plain;
+  stopped.aperture.stop = {R, D};
+  const glm::vec3 lamp(static_cast<float>(lx), static_cast<float>(ly), -static_cast<float>(Z));
+  const double side = 1.0 / k * Z / P;  // a pixel's footprint at the lamp's depth
+  const image::Image open = lamp_image(plain, yfov, kImage, lamp, side, 2048);
+  const image::Image cut = lamp_image(stopped, yfov, kImage, lamp, side, 2048);
+
+  // The two discs in pixels (x right, y up from the image centre).
+  const double c1x = lx * P / Z * k, c1y = ly * P / Z * k, rad1 = r1 * k;
+  const double c2x = lx * (P - D) / (Z - D) * k, c2y = ly * (P - D) / (Z - D) * k;
+  const double rad2 = R * (Z - P) / (Z - D) * k;
+  double area = 0, mx = 0, my = 0;
+  const int n = 1200;  // grid over the first disc's square
+  const double cell = 2.0 * rad1 / n;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double x = c1x - rad1 + (i + 0.5) * cell, y = c1y - rad1 + (j + 0.5) * cell;
+      if (std::hypot(x - c1x, y - c1y) <= rad1 && std::hypot(x - c2x, y - c2y) <= rad2)
+        area += cell * cell, mx += x * cell * cell, my += y * cell * cell;
+    }
+  mx /= area, my /= area;
+  const double predicted_share = area / (kPi * rad1 * rad1);
+  ASSERT_GT(predicted_share, 0.3);  // a cat's eye, not a disc or nothing
+  ASSERT_LT(predicted_share, 0.8);
+
+  double e_open = 0, e_cut = 0, cx = 0, cy = 0, outside2 = 0;
+  for (int y = 0; y < kImage; ++y)
+    for (int x = 0; x < kImage; ++x) {
+      const double px = x + 0.5 - kImage / 2.0, py = kImage / 2.0 - (y + 0.5);
+      const double v = cut.at(x, y, 1);
+      e_open += open.at(x, y, 1), e_cut += v, cx += v * px, cy += v * py;
+      if (std::hypot(px - c2x, py - c2y) > rad2 + 1.5) outside2 += v;
+    }
+  cx /= e_cut, cy /= e_cut;
+  EXPECT_NEAR(e_cut / e_open, predicted_share, 0.03 * predicted_share);
+  EXPECT_NEAR(cx, mx, 0.3);
+  EXPECT_NEAR(cy, my, 0.3);
+  // Nothing of the lamp's light lands outside the stop's disc (beyond the lamp's own size).
+  EXPECT_LT(outside2 / e_cut, 0.01);
+  // On axis the same stop clips nothing: the centre pixel's lens rays all pass.
+  ThinLensCamera camera(glm::mat4(1.0f), yfov, stopped, kImage, kImage);
+  for (float u : {0.05f, 0.5f, 0.95f})
+    for (float v : {0.05f, 0.5f, 0.95f}) {
+      bool blocked = true;
+      camera.generate_ray({kImage / 2.0f, kImage / 2.0f}, {u, v}, &blocked);
+      EXPECT_FALSE(blocked);
+    }
 }
 
 }  // namespace

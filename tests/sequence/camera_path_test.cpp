@@ -297,15 +297,18 @@ TEST(KeyframePath, ApertureShapeAnimates) {
     "dofcache_camera_path": 1, "fps": 10,
     "keys": [
       {"frame": 0,  "position": [0, 0, 5], "aperture_blades": 5, "aperture_rotation": 0,
-       "anamorphic_ratio": 1},
+       "anamorphic_ratio": 1, "vignetting_stop": [0.01, 0.02]},
       {"frame": 10, "position": [1, 0, 5], "aperture_blades": 8, "aperture_rotation": 90,
-       "anamorphic_ratio": 2}
+       "anamorphic_ratio": 2, "vignetting_stop": [0.02, 0.04]}
     ]})", "test.json", base_camera());
   const PathSample s = p.at(0.5);
   EXPECT_EQ(*s.aperture.blades, 5);
   EXPECT_DOUBLE_EQ(*s.aperture.rotation_deg, 45.0);
   EXPECT_DOUBLE_EQ(*s.aperture.anamorphic_ratio, 1.5);
   EXPECT_FALSE(s.aperture.roundness.has_value());
+  ASSERT_TRUE(s.aperture.vignetting_stop.has_value());
+  EXPECT_NEAR(s.aperture.vignetting_stop->radius, 0.015, 1e-12);
+  EXPECT_NEAR(s.aperture.vignetting_stop->distance, 0.03, 1e-12);
   EXPECT_EQ(*p.at(1.0).aperture.blades, 8);
   auto bad = [](const std::string& member) {
     return parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [{"time": 0, )" + member +
@@ -316,6 +319,8 @@ TEST(KeyframePath, ApertureShapeAnimates) {
   EXPECT_THROW(bad(R"("aperture_blades": 5.5)"), Error);
   EXPECT_THROW(bad(R"("aperture_roundness": -1)"), Error);
   EXPECT_THROW(bad(R"("anamorphic_ratio": 0)"), Error);
+  EXPECT_THROW(bad(R"("vignetting_stop": [0.01, -1])"), Error);
+  EXPECT_THROW(bad(R"("vignetting_stop": 0.01)"), Error);
 }
 
 TEST(KeyframePath, RotationStepAndSmooth) {

@@ -102,6 +102,13 @@ TEST_F(ViewApiTest, LensRouteSetsTheAperturesShape) {
   EXPECT_NE(error_of(bad).find("aperture blades"), std::string::npos) << bad.body;
   EXPECT_EQ(request("POST", "/api/lens", R"({"aperture_blades": 6.5})").status, 400);
   EXPECT_EQ(session.lens().aperture.blades, 6);
+  // A vignetting stop, then none again (null).
+  const ApiResponse stop = request("POST", "/api/lens", R"({"vignetting_stop": [0.01, 0.02]})");
+  ASSERT_EQ(stop.status, 200) << stop.body;
+  EXPECT_EQ(json::parse(stop.body).at("vignetting_stop"), json({0.01, 0.02}));
+  EXPECT_EQ(request("POST", "/api/lens", R"({"vignetting_stop": [0.01]})").status, 400);
+  EXPECT_EQ(request("POST", "/api/lens", R"({"vignetting_stop": null})").status, 200);
+  EXPECT_FALSE(session.lens().aperture.vignetting());
 }
 
 // Before the first inputs: images are 503, pixels 400, both with a message.

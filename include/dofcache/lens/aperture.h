@@ -14,6 +14,13 @@
 //   * anamorphic ratio q: the bokeh's height over its width, the larger axis kept at the
 //     f-number's diameter (x scaled by min(1, 1/q), y by min(1, q)).
 // The exposure stays the round lens's: every lens ray weighs the same whatever the shape's area.
+//
+// A vignetting stop (optical vignetting) is a second circular stop of radius R at distance D in
+// front of the aperture, centred on the optical axis. Off axis it clips the bundle of lens rays:
+// seen from an image point, the rays that pass are those through the aperture and the stop's
+// shadow on it, a disc of radius R P / (P - D) shifted against the image point's direction by
+// D / (P - D) of its focus point's offset (P the focus distance). Its bokeh is the intersection
+// of two discs, the cat's eye; the image darkens towards the corners as a real lens's does.
 #include <optional>
 #include <vector>
 
@@ -25,23 +32,37 @@ constexpr int kMinBlades = 3, kMaxBlades = 16;
 // Chords per half-blade of a rounded blade's rim (aperture.cpp).
 constexpr int kRimSegments = 32;
 
+// A vignetting stop (see above); radius 0: none.
+struct VignettingStop {
+  double radius = 0.0;    // metres
+  double distance = 0.0;  // metres in front of the aperture, along the optical axis
+  bool operator==(const VignettingStop& o) const {
+    return radius == o.radius && distance == o.distance;
+  }
+};
+
 struct ApertureShape {
   int blades = 0;                 // 0: round; else kMinBlades..kMaxBlades
   double rotation_deg = 0.0;      // a corner's angle from the image's +x, counter-clockwise
   double roundness = 0.0;         // 0: straight blades, 1: round
   double anamorphic_ratio = 1.0;  // the bokeh's height over its width
+  VignettingStop stop;            // none by default
 
   // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
   bool round() const { return blades == 0 && anamorphic_ratio == 1.0; }
+  bool vignetting() const { return stop.radius > 0.0; }
+  // The ideal lens of before shapes: round, nothing clipped.
+  bool plain() const { return round() && !vignetting(); }
   // The shape's nearest rim point: its inradius over the round aperture's radius. A footprint
   // this large lies within the bokeh in every direction (the radiance cache's reuse radius).
   double inner_scale() const;
   // Throws dofcache::Error naming the first absurd value (1-2 or more than kMaxBlades blades,
-  // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation).
+  // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation, a vignetting
+  // stop whose radius or distance is not positive and finite).
   void validate() const;
   bool operator==(const ApertureShape& o) const {
     return blades == o.blades && rotation_deg == o.rotation_deg && roundness == o.roundness &&
-           anamorphic_ratio == o.anamorphic_ratio;
+           anamorphic_ratio == o.anamorphic_ratio && stop == o.stop;
   }
 };
 
@@ -54,12 +75,15 @@ std::optional<int> blade_count(double value);
 struct ApertureChoices {
   std::optional<int> blades;
   std::optional<double> rotation_deg, roundness, anamorphic_ratio;
+  std::optional<VignettingStop> vignetting_stop;
 
   // Each value from here, else from `fallback`.
   ApertureChoices over(const ApertureChoices& fallback) const;
   // The shape with the unset values at their defaults (round).
   ApertureShape shape() const;
-  bool any() const { return blades || rotation_deg || roundness || anamorphic_ratio; }
+  bool any() const {
+    return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop;
+  }
 };
 
 class Aperture {

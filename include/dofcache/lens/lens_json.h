@@ -1,8 +1,12 @@
 #pragma once
 // The lens as JSON, {"focal_length", "fstop", "focus_distance"} (metres, f-number, metres), and
 // for a shaped aperture "aperture_blades", "aperture_rotation" (degrees), "aperture_roundness"
-// and "anamorphic_ratio": the one shape of statistics files, requests, the viewer's API and
-// keyframe files.
+// and "anamorphic_ratio", and with a vignetting stop "vignetting_stop" ([radius, distance],
+// metres): the one shape of statistics files, requests, the viewer's API and keyframe files.
+#include <optional>
+
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "dofcache/lens/thin_lens.h"
@@ -14,12 +18,24 @@ inline nlohmann::json lens_json(const ThinLens& lens) {
                       {"fstop", lens.fstop},
                       {"focus_distance", lens.focus_distance}};
   const ApertureShape& a = lens.aperture;
-  if (!a.round())  // keyframe keys and the request's names (aperture.h)
+  if (!a.plain())  // keyframe keys and the request's names (aperture.h)
     j.update({{"aperture_blades", a.blades},
               {"aperture_rotation", a.rotation_deg},
               {"aperture_roundness", a.roundness},
               {"anamorphic_ratio", a.anamorphic_ratio}});
+  if (a.vignetting()) j["vignetting_stop"] = {a.stop.radius, a.stop.distance};
   return j;
+}
+
+// "vignetting_stop" as every reader takes it: [radius, distance], two finite numbers (metres);
+// nullopt for anything else (the reader names the key in its own error). VignettingStop's
+// values are judged by ApertureShape::validate.
+inline std::optional<VignettingStop> vignetting_stop_from_json(const nlohmann::json& j) {
+  if (!j.is_array() || j.size() != 2 || !j[0].is_number() || !j[1].is_number())
+    return std::nullopt;
+  const double r = j[0].get<double>(), d = j[1].get<double>();
+  if (!std::isfinite(r) || !std::isfinite(d)) return std::nullopt;
+  return VignettingStop{r, d};
 }
 
 }  // namespace dofcache::lens

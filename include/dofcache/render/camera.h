@@ -22,8 +22,10 @@ class ThinLensCamera {
 
   // `film` in pixels (x right, y down, pixel (i,j) covers [i,i+1)x[j,j+1)); `lens_u` in [0,1)^2 is
   // mapped to the aperture (lens::Aperture: the concentric mapping for a round one). Direction is
-  // unit length.
-  scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u) const;
+  // unit length. With a vignetting stop (lens/aperture.h), `*blocked` says whether the stop
+  // stops the ray: a renderer counts it as a lens sample that brings no light (the renderer
+  // always asks; without `blocked` the stop is not applied).
+  scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked = nullptr) const;
   scene::Ray pinhole_ray(glm::vec2 film) const;
 
   // (x z, y z, z, 1) -> world, for film position (x, y) in pixels at camera-space depth z: the
@@ -48,6 +50,7 @@ class ThinLensCamera {
 
  private:
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
+  glm::vec2 film_slopes(glm::vec2 film) const;  // its right and up components
 
   lens::LensImaging imaging_;
   lens::Aperture aperture_;  // where lens rays start: imaging_.lens.aperture's shape

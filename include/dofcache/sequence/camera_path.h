@@ -61,6 +61,7 @@ struct CameraPath {
   Track<double> yfov, focal_length, fstop, focus_distance;  // empty: not animated
   // The aperture's shape (lens/aperture.h); blades hold from key to key (step).
   Track<double> aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio;
+  Track<double> vignetting_radius, vignetting_distance;  // keyed together: "vignetting_stop"
   std::optional<double> fps;  // the frame rate the file suggests (keyframe files)
   double start_time = 0.0, end_time = 0.0;  // seconds: first and last key of any track
 
