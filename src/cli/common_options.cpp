@@ -102,6 +102,12 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
              note)
       ->expected(2)
       ->delimiter(',');
+  cmd->add_option("--axial-ca", a.axial_ca,
+                  "Axial chromatic aberration: metres between the red and blue planes of focus "
+                  "(red farther), coloured fringes on defocused edges" + note);
+  cmd->add_option("--lateral-ca", a.lateral_ca,
+                  "Lateral chromatic aberration: red's magnification over blue's, minus 1 (0.01: "
+                  "red 1 % larger), fringes towards the frame's edges" + note);
 }
 
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help) {

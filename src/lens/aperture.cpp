@@ -33,6 +33,12 @@ void ApertureShape::validate() const {
     throw Error("lens: the vignetting stop needs a radius and a distance in front of the "
                 "aperture, both > 0 and finite (metres), got " + std::to_string(stop.radius) +
                 ", " + std::to_string(stop.distance));
+  if (!std::isfinite(axial_ca) || !(std::abs(axial_ca) < 1e3))
+    throw Error("lens: axial chromatic aberration must be a finite distance in metres, got " +
+                std::to_string(axial_ca));
+  if (!(std::abs(lateral_ca) <= 0.2))
+    throw Error("lens: lateral chromatic aberration must be within [-0.2, 0.2] (red's "
+                "magnification over blue's, minus 1), got " + std::to_string(lateral_ca));
 }
 
 double ApertureShape::inner_scale() const {
@@ -51,14 +57,17 @@ ApertureChoices ApertureChoices::over(const ApertureChoices& fallback) const {
           rotation_deg ? rotation_deg : fallback.rotation_deg,
           roundness ? roundness : fallback.roundness,
           anamorphic_ratio ? anamorphic_ratio : fallback.anamorphic_ratio,
-          vignetting_stop ? vignetting_stop : fallback.vignetting_stop};
+          vignetting_stop ? vignetting_stop : fallback.vignetting_stop,
+          axial_ca ? axial_ca : fallback.axial_ca,
+          lateral_ca ? lateral_ca : fallback.lateral_ca};
 }
 
 ApertureShape ApertureChoices::shape() const {
   const ApertureShape round;
   return {blades.value_or(round.blades), rotation_deg.value_or(round.rotation_deg),
           roundness.value_or(round.roundness), anamorphic_ratio.value_or(round.anamorphic_ratio),
-          vignetting_stop.value_or(round.stop)};
+          vignetting_stop.value_or(round.stop), axial_ca.value_or(0.0),
+          lateral_ca.value_or(0.0)};
 }
 
 Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {

@@ -55,6 +55,10 @@ void ThinLens::validate() const {
     throw Error("lens: focus distance (" + std::to_string(focus_distance) +
                 " m) must exceed the focal length (" + std::to_string(focal_length) + " m)");
   aperture.validate();
+  // Every colour band's plane of focus lies beyond the focal length too.
+  if (focus_distance - 0.5 * std::abs(aperture.axial_ca) <= focal_length)
+    throw Error("lens: axial chromatic aberration of " + std::to_string(aperture.axial_ca) +
+                " m puts the blue plane of focus at or before the focal length");
 }
 
 double film_height(double film_distance, double yfov) {

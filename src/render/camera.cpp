@@ -44,10 +44,17 @@ scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
   return ray;
 }
 
-scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked) const {
+scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked,
+                                        int band) const {
   // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
-  const glm::vec2 slopes = film_slopes(film);
-  const float p = static_cast<float>(imaging_.lens.focus_distance);
+  glm::vec2 slopes = film_slopes(film);
+  float p = static_cast<float>(imaging_.lens.focus_distance);
+  if (band >= 0) {  // chromatic aberration: the band's plane of focus and magnification
+    const lens::ApertureShape& a = imaging_.lens.aperture;
+    const double t = lens::ApertureShape::band_position(band);
+    p = static_cast<float>(imaging_.lens.focus_distance + a.axial_ca * t);
+    slopes /= static_cast<float>(1.0 + a.lateral_ca * t);
+  }
   glm::vec3 focus_point = position_ + (forward_ + slopes.x * right_ + slopes.y * up_) * p;
   glm::vec2 disk = aperture_.sample(lens_u) * static_cast<float>(imaging_.lens.aperture_radius());
   if (blocked) {

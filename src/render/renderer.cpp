@@ -268,6 +268,34 @@ void render_aovs(const Context& c, const Tile& t, RenderOutput& out, RayCounters
     }
 }
 
+// Chromatic aberration (lens/aperture.h): the pixel's band key, and a sample's radiance in its
+// band's channel alone, three times over (a third of the samples carry each band).
+std::uint64_t band_key(const RenderSettings& st, int x, int y) {
+  return pixel_key(st.pattern_seed.value_or(st.seed), x, y, Dimension::Band);
+}
+
+glm::vec3 in_band(glm::vec3 l, int band) {
+  glm::vec3 only(0.0f);
+  only[band] = 3.0f * l[band];
+  return only;
+}
+
+// A pixel's colour from the sum of its n samples: their mean, or with chromatic aberration each
+// channel the mean of its band's samples (sample_band balances them; a band without a sample
+// leaves the plain mean, which is unbiased too).
+glm::vec3 finish_pixel(const RenderSettings& st, int x, int y, glm::dvec3 sum, std::uint32_t n) {
+  if (n == 0) return glm::vec3(0.0f);
+  glm::dvec3 mean = sum / static_cast<double>(n);
+  if (st.lens.aperture.chromatic()) {
+    const std::uint64_t bands = band_key(st, x, y);
+    const std::uint32_t counts[3] = {band_samples(bands, n, 0), band_samples(bands, n, 1),
+                                     band_samples(bands, n, 2)};
+    if (counts[0] && counts[1] && counts[2])
+      for (int k = 0; k < 3; ++k) mean[k] = sum[k] / (3.0 * counts[k]);
+  }
+  return glm::vec3(mean);
+}
+
 // The radiance of samples [s0, end) of pixel (x, y), summed.
 glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint32_t end,
                      TileWork& work, float* density, PixelMoments* moments,
@@ -275,17 +303,22 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
   const RenderSettings& st = c.settings;
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
   const PixelSamples samples(st, x, y);
+  const bool chromatic = st.lens.aperture.chromatic();
+  const std::uint64_t bands = band_key(st, x, y);
   glm::dvec3 acc(0.0);
   for (std::uint32_t s = s0; s < end; ++s) {
     bool blocked = false;  // by a vignetting stop: a lens sample that brings no light
-    scene::Ray ray = clipped(c.camera, st,
-                             c.camera.generate_ray(samples.film(s), samples.lens(s), &blocked));
+    // Chromatic aberration: the sample's band, whose channel alone it estimates (finish_pixel).
+    const int band = chromatic ? sample_band(bands, s) : -1;
+    scene::Ray ray = clipped(
+        c.camera, st, c.camera.generate_ray(samples.film(s), samples.lens(s), &blocked, band));
     std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
     Rng rng(key, s);
     SampleFeatures f;
     glm::vec3 l(0.0f);
     if (!blocked) l = trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
+    if (band >= 0) l = in_band(l, band);
     if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
     acc += glm::dvec3(l);
     if (moments) {
@@ -294,7 +327,7 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
     }
     if (feature_sums) {
       double* fs = feature_sums;
-      const double v = scene::luminance(l - f.emission);
+      const double v = scene::luminance(l - (band >= 0 ? in_band(f.emission, band) : f.emission));
       for (int k = 0; k < 3; ++k)
         fs[k] += f.albedo[k], fs[3 + k] += f.normal[k], fs[10 + k] += f.emission[k];
       if (f.hit) fs[6] += f.depth, fs[7] += 1.0;
@@ -680,9 +713,10 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   if (shaded) {
     std::vector<float>& color = out.color.data();
     for (size_t i = 0; i < rendered.size(); ++i) {
-      const double n = pixel_samples.empty() ? spp : pixel_samples[i];
-      for (int k = 0; k < 3; ++k)
-        color[i * 3 + k] = n > 0 ? static_cast<float>(sum[i * 3 + k] / n) : 0.0f;
+      const std::uint32_t n = pixel_samples.empty() ? spp : pixel_samples[i];
+      const glm::vec3 v = finish_pixel(settings, static_cast<int>(i % w), static_cast<int>(i / w),
+                                       {sum[i * 3], sum[i * 3 + 1], sum[i * 3 + 2]}, n);
+      for (int k = 0; k < 3; ++k) color[i * 3 + k] = v[k];
     }
     if (features) {
       auto samples_of = [&](std::size_t i) {
@@ -787,8 +821,7 @@ std::vector<PixelRender> render_pixels(const scene::Scene& scene, const scene::A
         // As render() divides its sums: one pass, so the sum is this pixel's.
         const glm::dvec3 sum = pixel_sum(c, x, y, 0, spp, work, nullptr, nullptr);
         PixelRender& px = out[i];
-        px.color = glm::vec3(static_cast<float>(sum.x / spp), static_cast<float>(sum.y / spp),
-                             static_cast<float>(sum.z / spp));
+        px.color = finish_pixel(settings, x, y, sum, spp);
         px.depth = h.hit ? h.depth : std::numeric_limits<float>::infinity();
         px.id = h.id;
       }

@@ -151,10 +151,14 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   if (a.vignetting())
     text += fmt::format(", vignetting stop {:g} mm across at {:g} mm", 2000.0 * a.stop.radius,
                         1000.0 * a.stop.distance);
+  if (a.chromatic())
+    text += fmt::format(", chromatic aberration {:g} mm axial, {:g} % lateral",
+                        1000.0 * a.axial_ca, 100.0 * a.lateral_ca);
   text += "\n";
   if (r.preview)
-    text += "notice  the preview modes blur with round bokeh; the aperture's shape and the "
-            "vignetting stop show in drt and accumulation renders\n";
+    text += "notice  the preview modes blur with round, colourless bokeh; the aperture's shape, "
+            "the vignetting stop and chromatic aberration show in drt and accumulation "
+            "renders\n";
   return text;
 }
 

@@ -272,7 +272,9 @@ json to_json(const RenderRequest& r) {
         {"vignetting_stop", r.lens.aperture.vignetting_stop
                                 ? json{r.lens.aperture.vignetting_stop->radius,
                                        r.lens.aperture.vignetting_stop->distance}
-                                : json(nullptr)}}},
+                                : json(nullptr)},
+        {"axial_ca", optional_number(r.lens.aperture.axial_ca)},
+        {"lateral_ca", optional_number(r.lens.aperture.lateral_ca)}}},
       {"shading", r.shading ? shading_json(*r.shading) : json(nullptr)},
       {"environment", environment_settings_json(r.environment)},
       {"cache", cache_json(r.cache, c)},
@@ -354,6 +356,8 @@ RenderRequest request_from_json(const json& j) {
       if (!r.lens.aperture.vignetting_stop)
         l.fail("must be [radius, distance] in metres (or null)", "vignetting_stop");
     }
+    l.get("axial_ca", r.lens.aperture.axial_ca, -1e3, 1e3);
+    l.get("lateral_ca", r.lens.aperture.lateral_ca, -0.2, 0.2);
   });
   if (top.has("shading")) {
     render::ShadingSettings sh;

@@ -132,7 +132,8 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
     if (const lens::ApertureShape& a = s.lens.aperture; !a.plain())
       q.lens.aperture = {a.blades, a.rotation_deg, a.roundness, a.anamorphic_ratio,
                          a.vignetting() ? std::optional<lens::VignettingStop>(a.stop)
-                                        : std::nullopt};
+                                        : std::nullopt,
+                         a.axial_ca, a.lateral_ca};
   }
 
   if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {

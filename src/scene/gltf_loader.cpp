@@ -707,6 +707,8 @@ class Loader : gltf::Document {
     if (auto v = number("aperture_rotation")) a.rotation_deg = v;
     if (auto v = number("aperture_roundness")) a.roundness = v;
     if (auto v = number("anamorphic_ratio")) a.anamorphic_ratio = v;
+    if (auto v = number("axial_ca")) a.axial_ca = v;
+    if (auto v = number("lateral_ca")) a.lateral_ca = v;
     if (obj.Has("vignetting_stop")) {
       const tinygltf::Value& v = obj.Get("vignetting_stop");
       const auto item = [&](int i) {

@@ -64,6 +64,8 @@ PathSample CameraPath::at(double time) const {
   if (!vignetting_radius.empty())
     s.aperture.vignetting_stop =
         lens::VignettingStop{vignetting_radius.at(time), vignetting_distance.at(time)};
+  if (!axial_ca.empty()) s.aperture.axial_ca = axial_ca.at(time);
+  if (!lateral_ca.empty()) s.aperture.lateral_ca = lateral_ca.at(time);
   return s;
 }
 

@@ -92,7 +92,8 @@ class KeyframeParser {
     Track<glm::dvec3> position, target;
     Track<glm::dquat> rotation;
     Track<double> yfov, focal_length, fstop, focus;
-    Track<double> blades, rotation_deg, roundness, ratio, stop_radius, stop_distance;
+    Track<double> blades, rotation_deg, roundness, ratio, stop_radius, stop_distance, axial,
+        lateral;
     const double fps_for_frames = path.fps.value_or(24.0);
     double last_time = -INFINITY;
     const json& keys = doc["keys"];
@@ -107,13 +108,13 @@ class KeyframeParser {
                                       "focal_length",   "fstop",         "focus_distance",
                                       "aperture_blades", "aperture_rotation",
                                       "aperture_roundness", "anamorphic_ratio",
-                                      "vignetting_stop"};
+                                      "vignetting_stop", "axial_ca", "lateral_ca"};
         if (std::find_if(std::begin(known), std::end(known),
                          [&](const char* m) { return member == m; }) == std::end(known))
           fail("unknown member '" + member +
                "' (valid: frame or time, position, target or rotation, yfov, focal_length, fstop, "
                "focus_distance, aperture_blades, aperture_rotation, aperture_roundness, "
-               "anamorphic_ratio, vignetting_stop)");
+               "anamorphic_ratio, vignetting_stop, axial_ca, lateral_ca)");
       }
       if (key.contains("frame") == key.contains("time"))
         fail("give exactly one of \"frame\" (a frame number) or \"time\" (seconds)");
@@ -150,6 +151,9 @@ class KeyframeParser {
         add(stop_radius, t, a.vignetting_stop->radius);
         add(stop_distance, t, a.vignetting_stop->distance);
       }
+      if (key.contains("axial_ca")) add(axial, t, *(a.axial_ca = number(key["axial_ca"], "axial_ca")));
+      if (key.contains("lateral_ca"))
+        add(lateral, t, *(a.lateral_ca = number(key["lateral_ca"], "lateral_ca")));
       try {
         a.shape().validate();
       } catch (const Error& e) {
@@ -174,6 +178,8 @@ class KeyframeParser {
     finish(ratio, mode, "anamorphic_ratio", any);
     finish(stop_radius, mode, "vignetting_stop", any);
     finish(stop_distance, mode, "vignetting_stop", any);
+    finish(axial, mode, "axial_ca", any);
+    finish(lateral, mode, "lateral_ca", any);
     if (!any) fail("no key animates anything (give position, target, rotation or lens values)");
     node.translation_track = std::move(position);
     node.rotation_track = std::move(rotation);
@@ -189,6 +195,8 @@ class KeyframeParser {
     path.anamorphic_ratio = std::move(ratio);
     path.vignetting_radius = std::move(stop_radius);
     path.vignetting_distance = std::move(stop_distance);
+    path.axial_ca = std::move(axial);
+    path.lateral_ca = std::move(lateral);
     path.start_time = keys_start_;
     path.end_time = keys_end_;
     return path;

@@ -176,6 +176,7 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
     if (!a.round())  // a round aperture keeps the keys of runs made before shapes existed
       h.add(a.blades), h.add(a.rotation_deg), h.add(a.roundness), h.add(a.anamorphic_ratio);
     if (a.vignetting()) h.add(a.stop.radius), h.add(a.stop.distance);
+    if (a.chromatic()) h.add(a.axial_ca), h.add(a.lateral_ca);
   }
   return h.value();
 }

@@ -264,12 +264,13 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
   if (get && path == "/api/lens") return json_response(lens_and_method_json(session_.status()));
   // Any of focal_length, fstop, focus_distance (metres, f-number), the aperture's shape
   // (aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio, vignetting_stop:
-  // lens/aperture.h; a null vignetting_stop removes it), method and composite.
+  // axial_ca, lateral_ca: lens/aperture.h; a null vignetting_stop removes it), method and
+  // composite.
   if (post && path == "/api/lens") {
     const json body = body_object(req);
     check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",
                       "aperture_rotation", "aperture_roundness", "anamorphic_ratio",
-                      "vignetting_stop", "method", "composite"});
+                      "vignetting_stop", "axial_ca", "lateral_ca", "method", "composite"});
     lens::ThinLens lens = session_.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
@@ -289,6 +290,8 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
       if (!stop) throw Error("'vignetting_stop' must be [radius, distance] in metres, or null");
       a.stop = *stop;
     }
+    if (auto v = optional_number(body, "axial_ca")) a.axial_ca = *v;
+    if (auto v = optional_number(body, "lateral_ca")) a.lateral_ca = *v;
     std::optional<preview::PreviewMethod> method;
     if (auto it = body.find("method"); it != body.end()) {
       if (!it->is_string()) throw Error("'method' must be a string");

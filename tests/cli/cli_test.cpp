@@ -228,7 +228,8 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
   EXPECT_EQ(drt.out.find("round bokeh"), std::string::npos) << drt.out;
   testing::CliResult pre = run("render --mode preview --aperture-blades 6 --out " + out + small);
   ASSERT_EQ(pre.exit_code, 0) << pre.err;
-  EXPECT_NE(pre.out.find("the preview modes blur with round bokeh"), std::string::npos) << pre.out;
+  EXPECT_NE(pre.out.find("the preview modes blur with round, colourless bokeh"), std::string::npos)
+      << pre.out;
   testing::CliResult req = run("render --aperture-blades 7 --aperture-rotation 15 --print-request");
   ASSERT_EQ(req.exit_code, 0) << req.err;
   EXPECT_NE(req.out.find("\"aperture_blades\": 7"), std::string::npos) << req.out;
@@ -241,6 +242,10 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
   const nlohmann::json printed =
       nlohmann::json::parse(stop_req.out.substr(stop_req.out.find('{')));
   EXPECT_EQ(printed["lens"]["vignetting_stop"], nlohmann::json({0.01, 0.02})) << stop_req.out;
+  testing::CliResult ca = run("render --axial-ca 0.02 --lateral-ca 0.01 --out " + out + small);
+  ASSERT_EQ(ca.exit_code, 0) << ca.err;
+  EXPECT_NE(ca.out.find("chromatic aberration 20 mm axial, 1 % lateral"), std::string::npos)
+      << ca.out;
   EXPECT_NE(req.out.find("\"aperture_rotation\": 15"), std::string::npos) << req.out;
 }
 
@@ -354,6 +359,8 @@ TEST_F(Cli, AbsurdParameters) {
                        "anamorphic ratio");
   expect_clean_failure("render --vignetting-stop 0.01,-0.02 --out " + (dir_ / "o.png").string() +
                            kTiny, "vignetting stop");
+  expect_clean_failure("render --lateral-ca 0.5 --out " + (dir_ / "o.png").string() + kTiny,
+                       "lateral chromatic aberration");
   expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
 }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "dofcache/core/error.h"
 #include "dofcache/lens/thin_lens.h"
@@ -144,6 +145,18 @@ TEST(Aperture, AbsurdShapesAreRefused) {
   EXPECT_NO_THROW((ApertureShape{0, 0, 0, 1, {0.01, 0.02}}.validate()));
   EXPECT_TRUE((ApertureShape{0, 0, 0, 1, {0.01, 0.02}}.round()));
   EXPECT_FALSE((ApertureShape{0, 0, 0, 1, {0.01, 0.02}}.plain()));
+  // Chromatic aberration: finite, a lateral one within 20 %, and every band's focus beyond the
+  // focal length.
+  for (auto [axial, lateral] : {std::pair{double(NAN), 0.0}, std::pair{0.0, 0.3},
+                                std::pair{0.0, -0.25}, std::pair{0.0, double(INFINITY)}})
+    EXPECT_THROW((ApertureShape{0, 0, 0, 1, {}, axial, lateral}.validate()), Error);
+  EXPECT_NO_THROW((ApertureShape{0, 0, 0, 1, {}, -0.1, 0.02}.validate()));
+  EXPECT_FALSE((ApertureShape{0, 0, 0, 1, {}, 0.0, 0.01}.plain()));
+  ThinLens near{0.05, 2.0, 0.5};
+  near.aperture.axial_ca = 0.9;  // blue in focus at 0.05 m: at the focal length
+  EXPECT_THROW(near.validate(), Error);
+  near.aperture.axial_ca = 0.8;
+  EXPECT_NO_THROW(near.validate());
   // The lens checks its aperture too.
   ThinLens lens;
   lens.aperture.blades = 2;

@@ -192,5 +192,77 @@ TEST(Bokeh, VignettingStopCutsTheBokehToTheIntersectionOfTwoDiscs) {
     }
 }
 
+// The polar moment about its centroid of one channel of an image, and the centroid (pixels, x
+// right and y up from the image centre), per unit of the channel's light.
+struct ChannelMoments {
+  double polar = 0, cx = 0, cy = 0, total = 0;
+};
+ChannelMoments channel_moments(const image::Image& im, int k) {
+  ChannelMoments m;
+  const int n = im.width();
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const double v = im.at(x, y, k);
+      m.total += v, m.cx += v * (x + 0.5 - n / 2.0), m.cy += v * (n / 2.0 - y - 0.5);
+    }
+  m.cx /= m.total, m.cy /= m.total;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const double dx = x + 0.5 - n / 2.0 - m.cx, dy = n / 2.0 - y - 0.5 - m.cy;
+      m.polar += im.at(x, y, k) * (dx * dx + dy * dy);
+    }
+  m.polar /= m.total;
+  return m;
+}
+
+// Axial chromatic aberration M: the red band focuses at P + M / 2, the blue at P - M / 2, on the
+// same film. A white lamp at depth Z then images to a red disc of radius a |P_r - Z| / Z on the
+// red plane of focus, which the film sees at H / (2 P_r tan(yfov / 2)) pixels per metre, and
+// likewise in blue; green keeps the lens's own circle of confusion. The lamp's light is the
+// same in every band (a neutral lamp stays neutral).
+TEST(Bokeh, AxialChromaticAberrationGivesRedAndBlueDiscsOfTheirOwnRadii) {
+  const double P = 1.0, M = 0.2, a = 0.0125;
+  lens::ThinLens lens{0.05, 2.0, P};
+  lens.aperture.axial_ca = M;
+  const float yfov = 0.0286f;
+  const lens::LensImaging imaging{lens, yfov, kSize};
+  const double side = kLampPixels * imaging.pixel_footprint(kDepth);
+  const image::Image im =
+      lamp_image(lens, yfov, kSize, {0.0f, 0.0f, -static_cast<float>(kDepth)}, side, 3072);
+  const double tan_half = std::tan(0.5 * yfov);
+  double totals[3];
+  for (int k = 0; k < 3; ++k) {
+    const double pc = P + M * lens::ApertureShape::band_position(k);
+    const double predicted = a * std::abs(pc - kDepth) / kDepth * kSize / (2.0 * pc * tan_half);
+    const ChannelMoments m = channel_moments(im, k);
+    // A disc's polar moment is r^2 / 2; the lamp and the pixel add kExtraPolar.
+    EXPECT_NEAR(std::sqrt(2.0 * (m.polar - kExtraPolar)), predicted, 0.03 * predicted) << k;
+    totals[k] = m.total;
+  }
+  EXPECT_NEAR(totals[0] / totals[1], 1.0, 0.02);
+  EXPECT_NEAR(totals[2] / totals[1], 1.0, 0.02);
+}
+
+// Lateral chromatic aberration S: the red band images the scene 1 + S / 2 times as large as
+// green, the blue 1 - S / 2 times, about the image centre. A lamp in focus off the axis shows it.
+TEST(Bokeh, LateralChromaticAberrationMagnifiesRedOverBlue) {
+  const double P = 1.0, S = 0.1;
+  lens::ThinLens lens{0.05, 2.0, P};
+  lens.aperture.lateral_ca = S;
+  const float yfov = 0.0286f;
+  const lens::LensImaging imaging{lens, yfov, kSize};
+  // 12 pixels right and 8 up of the centre, in focus.
+  const double k = kSize / (2.0 * P * std::tan(0.5 * yfov));
+  const glm::vec3 lamp(static_cast<float>(12.0 / k), static_cast<float>(8.0 / k),
+                       -static_cast<float>(P));
+  const image::Image im = lamp_image(lens, yfov, kSize, lamp, imaging.pixel_footprint(P), 96);
+  for (int c = 0; c < 3; ++c) {
+    const double scale = 1.0 + S * lens::ApertureShape::band_position(c);
+    const ChannelMoments m = channel_moments(im, c);
+    EXPECT_NEAR(m.cx, 12.0 * scale, 0.15) << c;
+    EXPECT_NEAR(m.cy, 8.0 * scale, 0.15) << c;
+  }
+}
+
 }  // namespace
 }  // namespace dofcache::render

@@ -51,5 +51,27 @@ TEST(Sampler, EveryPowerOfTwoPrefixIsStratified) {
     for (int c : row) EXPECT_EQ(c, 1);
 }
 
+
+// Chromatic aberration's bands: every three consecutive samples carry one of each, and
+// band_samples counts what sample_band hands out, for every count.
+TEST(Sampler, BandsStayBalancedAndAreCountedExactly) {
+  for (std::uint64_t key : {1ull, 0x9e3779b97f4a7c15ull, 12345ull}) {
+    int counts[3] = {0, 0, 0};
+    bool orders_differ = false;
+    for (std::uint32_t s = 0; s < 300; ++s) {
+      const int b = sample_band(key, s);
+      ASSERT_TRUE(b >= 0 && b <= 2);
+      ++counts[b];
+      if (s % 3 == 2) {
+        EXPECT_EQ(counts[0], counts[1]);
+        EXPECT_EQ(counts[1], counts[2]);
+      }
+      if (s >= 3 && sample_band(key, s) != sample_band(key, s - 3)) orders_differ = true;
+      for (int band = 0; band < 3; ++band)
+        EXPECT_EQ(band_samples(key, s + 1, band), static_cast<std::uint32_t>(counts[band]));
+    }
+    EXPECT_TRUE(orders_differ);  // the order is drawn per triple, not fixed
+  }
+}
 }  // namespace
 }  // namespace dofcache::render

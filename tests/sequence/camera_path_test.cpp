@@ -297,9 +297,9 @@ TEST(KeyframePath, ApertureShapeAnimates) {
     "dofcache_camera_path": 1, "fps": 10,
     "keys": [
       {"frame": 0,  "position": [0, 0, 5], "aperture_blades": 5, "aperture_rotation": 0,
-       "anamorphic_ratio": 1, "vignetting_stop": [0.01, 0.02]},
+       "anamorphic_ratio": 1, "vignetting_stop": [0.01, 0.02], "axial_ca": 0.0},
       {"frame": 10, "position": [1, 0, 5], "aperture_blades": 8, "aperture_rotation": 90,
-       "anamorphic_ratio": 2, "vignetting_stop": [0.02, 0.04]}
+       "anamorphic_ratio": 2, "vignetting_stop": [0.02, 0.04], "axial_ca": 0.1}
     ]})", "test.json", base_camera());
   const PathSample s = p.at(0.5);
   EXPECT_EQ(*s.aperture.blades, 5);
@@ -309,6 +309,8 @@ TEST(KeyframePath, ApertureShapeAnimates) {
   ASSERT_TRUE(s.aperture.vignetting_stop.has_value());
   EXPECT_NEAR(s.aperture.vignetting_stop->radius, 0.015, 1e-12);
   EXPECT_NEAR(s.aperture.vignetting_stop->distance, 0.03, 1e-12);
+  EXPECT_NEAR(*s.aperture.axial_ca, 0.05, 1e-12);
+  EXPECT_FALSE(s.aperture.lateral_ca.has_value());
   EXPECT_EQ(*p.at(1.0).aperture.blades, 8);
   auto bad = [](const std::string& member) {
     return parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [{"time": 0, )" + member +
@@ -321,6 +323,7 @@ TEST(KeyframePath, ApertureShapeAnimates) {
   EXPECT_THROW(bad(R"("anamorphic_ratio": 0)"), Error);
   EXPECT_THROW(bad(R"("vignetting_stop": [0.01, -1])"), Error);
   EXPECT_THROW(bad(R"("vignetting_stop": 0.01)"), Error);
+  EXPECT_THROW(bad(R"("lateral_ca": 1)"), Error);
 }
 
 TEST(KeyframePath, RotationStepAndSmooth) {

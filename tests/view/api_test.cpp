@@ -109,6 +109,10 @@ TEST_F(ViewApiTest, LensRouteSetsTheAperturesShape) {
   EXPECT_EQ(request("POST", "/api/lens", R"({"vignetting_stop": [0.01]})").status, 400);
   EXPECT_EQ(request("POST", "/api/lens", R"({"vignetting_stop": null})").status, 200);
   EXPECT_FALSE(session.lens().aperture.vignetting());
+  const ApiResponse ca = request("POST", "/api/lens", R"({"axial_ca": 0.02})");
+  ASSERT_EQ(ca.status, 200) << ca.body;
+  EXPECT_DOUBLE_EQ(json::parse(ca.body).at("axial_ca").get<double>(), 0.02);
+  EXPECT_EQ(request("POST", "/api/lens", R"({"lateral_ca": 0.9})").status, 400);
 }
 
 // Before the first inputs: images are 503, pixels 400, both with a message.

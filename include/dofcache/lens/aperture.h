@@ -21,6 +21,12 @@
 // shadow on it, a disc of radius R P / (P - D) shifted against the image point's direction by
 // D / (P - D) of its focus point's offset (P the focus distance). Its bokeh is the intersection
 // of two discs, the cat's eye; the image darkens towards the corners as a real lens's does.
+//
+// Chromatic aberration colours the bokeh's rims: each lens ray carries one of three wavelength
+// bands (red, green, blue: renderer.cpp picks them), and the band's rays focus `axial_ca` metres
+// apart between the red and blue ends (red farther; green at the focus distance) and image the
+// scene `lateral_ca` larger in red than in blue (relative magnification; green unchanged), so
+// fringes appear where the bands' rays part: defocused edges and the frame's corners.
 #include <optional>
 #include <vector>
 
@@ -42,27 +48,41 @@ struct VignettingStop {
 };
 
 struct ApertureShape {
+  ApertureShape() = default;
+  ApertureShape(int blades, double rotation_deg, double roundness, double anamorphic_ratio,
+                VignettingStop stop = {}, double axial_ca = 0.0, double lateral_ca = 0.0)
+      : blades(blades), rotation_deg(rotation_deg), roundness(roundness),
+        anamorphic_ratio(anamorphic_ratio), stop(stop), axial_ca(axial_ca),
+        lateral_ca(lateral_ca) {}
+
   int blades = 0;                 // 0: round; else kMinBlades..kMaxBlades
   double rotation_deg = 0.0;      // a corner's angle from the image's +x, counter-clockwise
   double roundness = 0.0;         // 0: straight blades, 1: round
   double anamorphic_ratio = 1.0;  // the bokeh's height over its width
   VignettingStop stop;            // none by default
+  double axial_ca = 0.0;          // metres between the red and blue planes of focus
+  double lateral_ca = 0.0;        // red's magnification over blue's, minus 1
 
   // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
   bool round() const { return blades == 0 && anamorphic_ratio == 1.0; }
   bool vignetting() const { return stop.radius > 0.0; }
-  // The ideal lens of before shapes: round, nothing clipped.
-  bool plain() const { return round() && !vignetting(); }
+  bool chromatic() const { return axial_ca != 0.0 || lateral_ca != 0.0; }
+  // The ideal lens of before shapes: round, nothing clipped, every colour alike.
+  bool plain() const { return round() && !vignetting() && !chromatic(); }
+  // Band b's (0 red, 1 green, 2 blue) place between the red (+1/2) and blue (-1/2) ends.
+  static double band_position(int band) { return 0.5 * (1 - band); }
   // The shape's nearest rim point: its inradius over the round aperture's radius. A footprint
   // this large lies within the bokeh in every direction (the radiance cache's reuse radius).
   double inner_scale() const;
   // Throws dofcache::Error naming the first absurd value (1-2 or more than kMaxBlades blades,
   // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation, a vignetting
-  // stop whose radius or distance is not positive and finite).
+  // stop whose radius or distance is not positive and finite, a lateral chromatic aberration
+  // beyond 20 % or either aberration not finite).
   void validate() const;
   bool operator==(const ApertureShape& o) const {
     return blades == o.blades && rotation_deg == o.rotation_deg && roundness == o.roundness &&
-           anamorphic_ratio == o.anamorphic_ratio && stop == o.stop;
+           anamorphic_ratio == o.anamorphic_ratio && stop == o.stop &&
+           axial_ca == o.axial_ca && lateral_ca == o.lateral_ca;
   }
 };
 
@@ -76,13 +96,15 @@ struct ApertureChoices {
   std::optional<int> blades;
   std::optional<double> rotation_deg, roundness, anamorphic_ratio;
   std::optional<VignettingStop> vignetting_stop;
+  std::optional<double> axial_ca, lateral_ca;
 
   // Each value from here, else from `fallback`.
   ApertureChoices over(const ApertureChoices& fallback) const;
   // The shape with the unset values at their defaults (round).
   ApertureShape shape() const;
   bool any() const {
-    return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop;
+    return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop ||
+           axial_ca || lateral_ca;
   }
 };
 

@@ -1,8 +1,8 @@
 #pragma once
 // The lens as JSON, {"focal_length", "fstop", "focus_distance"} (metres, f-number, metres), and
 // for a shaped aperture "aperture_blades", "aperture_rotation" (degrees), "aperture_roundness"
-// and "anamorphic_ratio", and with a vignetting stop "vignetting_stop" ([radius, distance],
-// metres): the one shape of statistics files, requests, the viewer's API and keyframe files.
+// and "anamorphic_ratio", with a vignetting stop "vignetting_stop" ([radius, distance], metres),
+// with chromatic aberration "axial_ca" and "lateral_ca": the one shape of statistics files, requests, the viewer's API and keyframe files.
 #include <optional>
 
 #include <cmath>
@@ -24,6 +24,7 @@ inline nlohmann::json lens_json(const ThinLens& lens) {
               {"aperture_roundness", a.roundness},
               {"anamorphic_ratio", a.anamorphic_ratio}});
   if (a.vignetting()) j["vignetting_stop"] = {a.stop.radius, a.stop.distance};
+  if (a.chromatic()) j.update({{"axial_ca", a.axial_ca}, {"lateral_ca", a.lateral_ca}});
   return j;
 }
 

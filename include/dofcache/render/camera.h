@@ -24,8 +24,10 @@ class ThinLensCamera {
   // mapped to the aperture (lens::Aperture: the concentric mapping for a round one). Direction is
   // unit length. With a vignetting stop (lens/aperture.h), `*blocked` says whether the stop
   // stops the ray: a renderer counts it as a lens sample that brings no light (the renderer
-  // always asks; without `blocked` the stop is not applied).
-  scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked = nullptr) const;
+  // always asks; without `blocked` the stop is not applied). `band` (0 red, 1 green, 2 blue; -1
+  // none) picks the wavelength band whose focus and magnification chromatic aberration shifts.
+  scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked = nullptr,
+                          int band = -1) const;
   scene::Ray pinhole_ray(glm::vec2 film) const;
 
   // (x z, y z, z, 1) -> world, for film position (x, y) in pixels at camera-space depth z: the

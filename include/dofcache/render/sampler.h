@@ -91,11 +91,30 @@ class Sobol2D {
 inline glm::vec2 sobol_2d(std::uint32_t index, std::uint64_t key) { return Sobol2D(key)(index); }
 
 // What a 2-D pattern is used for; part of its key so that the patterns are independent.
-enum class Dimension : std::uint64_t { Film = 1, Lens = 2, Gather = 3, Light = 4 };
+enum class Dimension : std::uint64_t { Film = 1, Lens = 2, Gather = 3, Light = 4, Band = 5 };
 
 inline std::uint64_t pixel_key(std::uint64_t seed, int x, int y, Dimension d) {
   return hash_combine(hash_combine(seed, (static_cast<std::uint64_t>(y) << 32) | std::uint32_t(x)),
                       static_cast<std::uint64_t>(d));
+}
+
+// Chromatic aberration's wavelength bands (lens/aperture.h: 0 red, 1 green, 2 blue). Sample s of
+// a pixel carries band kBandOrders[o][s % 3], o drawn per triple of samples from the pixel's band
+// key: every three consecutive samples hold one of each band, so a pixel's bands stay balanced at
+// any sample count, while the order within a triple does not follow the lens pattern's.
+inline constexpr int kBandOrders[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2},
+                                          {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+
+inline int sample_band(std::uint64_t band_key, std::uint32_t s) {
+  return kBandOrders[hash_combine(band_key, s / 3) % 6][s % 3];
+}
+
+// How many of the first n samples carry `band`.
+inline std::uint32_t band_samples(std::uint64_t band_key, std::uint32_t n, int band) {
+  std::uint32_t count = n / 3;
+  const int* order = kBandOrders[hash_combine(band_key, n / 3) % 6];
+  for (std::uint32_t r = 0; r < n % 3; ++r) count += order[r] == band;
+  return count;
 }
 
 }  // namespace dofcache::render

@@ -62,6 +62,7 @@ struct CameraPath {
   // The aperture's shape (lens/aperture.h); blades hold from key to key (step).
   Track<double> aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio;
   Track<double> vignetting_radius, vignetting_distance;  // keyed together: "vignetting_stop"
+  Track<double> axial_ca, lateral_ca;
   std::optional<double> fps;  // the frame rate the file suggests (keyframe files)
   double start_time = 0.0, end_time = 0.0;  // seconds: first and last key of any track
 
