@@ -668,10 +668,41 @@ class Loader : gltf::Document {
       fail(label, std::string("the node transform ") + problem);
     cam.camera_to_world = glm::mat4(frame);
 
-    // Lens settings: the node's extras.lens wins key by key over the camera object's.
+    // Lens settings: the node's extras.lens wins key by key over the camera object's, which wins
+    // over the draft EXT_camera_physical extension's values.
+    if (auto it = gc.extensions.find("EXT_camera_physical"); it != gc.extensions.end())
+      read_physical_camera(it->second, label + " EXT_camera_physical", cam.lens);
     read_lens(gc.extras, label + " extras.lens", cam.lens);
     read_lens(node.extras, node_label(n) + " extras.lens", cam.lens);
     scene_.cameras.push_back(cam);
+  }
+
+  // The draft EXT_camera_physical extension (Khronos glTF pull request 2608, a proposal, not
+  // ratified): focalLength and fStop as given, focusDistance unless 0 (unset), sensorSize checked
+  // but not used (the core perspective camera stays the projection's source, as the draft says).
+  void read_physical_camera(const tinygltf::Value& ext, const std::string& label,
+                            LensExtras& lens) const {
+    if (!ext.IsObject()) fail(label, "must be an object");
+    auto number = [&](const char* key, bool zero_ok) -> std::optional<double> {
+      if (!ext.Has(key)) return std::nullopt;
+      const tinygltf::Value& v = ext.Get(key);
+      const double d = v.IsNumber() ? v.GetNumberAsDouble() : std::nan("");
+      if (!std::isfinite(d) || d < 0.0 || (d == 0.0 && !zero_ok))
+        fail(label, std::string(key) + (zero_ok ? " must be a number >= 0" : " must be > 0"));
+      return d;
+    };
+    if (auto v = number("focalLength", false)) lens.focal_length = v;
+    if (auto v = number("fStop", false)) lens.fstop = v;
+    if (auto v = number("focusDistance", true); v && *v > 0.0) lens.focus_distance = v;
+    if (ext.Has("sensorSize")) {
+      const tinygltf::Value& v = ext.Get("sensorSize");
+      const auto side = [&](int i) {
+        return v.Get(i).IsNumber() ? v.Get(i).GetNumberAsDouble() : std::nan("");
+      };
+      if (!v.IsArray() || v.ArrayLen() != 2 || !(side(0) > 0.0) || !(side(1) > 0.0) ||
+          !std::isfinite(side(0)) || !std::isfinite(side(1)))
+        fail(label, "sensorSize must be [width, height] in metres, both > 0");
+    }
   }
 
   void read_lens(const tinygltf::Value& extras, const std::string& label, LensExtras& lens) const {

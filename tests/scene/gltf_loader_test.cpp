@@ -441,6 +441,44 @@ TEST_F(GltfLoaderTest, CameraApertureShapeExtras) {
   }
 }
 
+// The draft EXT_camera_physical extension (Khronos glTF pull request 2608): focalLength, fStop and
+// focusDistance become the lens where extras.lens says nothing; its values are checked.
+TEST_F(GltfLoaderTest, DraftPhysicalCameraExtensionGivesTheLens) {
+  auto scene_with = [](const std::string& physical, const std::string& node_lens) {
+    Gltf g;
+    int pos = g.add_floats(kTriangle, "VEC3");
+    return g.json("\"extensionsUsed\":[\"EXT_camera_physical\"],"
+                  "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.66059,"
+                  "\"znear\":0.01},\"extensions\":{\"EXT_camera_physical\":" + physical + "}}],"
+                  "\"nodes\":[{\"mesh\":0},{\"name\":\"cam\",\"camera\":0,"
+                  "\"extras\":{\"lens\":" + node_lens + "}}],\"meshes\":[" +
+                  triangle_mesh(pos) + "]");
+  };
+  const std::string draft =
+      R"({"focalLength": 0.035, "sensorSize": [0.036, 0.024], "fStop": 2.8, "focusDistance": 5.0})";
+  Scene s = load("physical.gltf", scene_with(draft, "{}"));
+  const LensExtras& l = s.cameras[0].lens;
+  ASSERT_TRUE(l.focal_length && l.fstop && l.focus_distance);
+  EXPECT_DOUBLE_EQ(*l.focal_length, 0.035);
+  EXPECT_DOUBLE_EQ(*l.fstop, 2.8);
+  EXPECT_DOUBLE_EQ(*l.focus_distance, 5.0);
+  EXPECT_FLOAT_EQ(s.cameras[0].yfov, 0.66059f);  // the core camera stays the projection
+  // extras.lens wins key by key; a focus distance of 0 leaves the focus unset.
+  Scene t = load("physical2.gltf",
+                 scene_with(R"({"focalLength": 0.035, "sensorSize": [0.036, 0.024],
+                               "focusDistance": 0})", R"({"fstop": 1.4, "focal_length": 0.05})"));
+  EXPECT_DOUBLE_EQ(*t.cameras[0].lens.focal_length, 0.05);
+  EXPECT_DOUBLE_EQ(*t.cameras[0].lens.fstop, 1.4);
+  EXPECT_FALSE(t.cameras[0].lens.focus_distance.has_value());
+  for (const char* bad : {R"({"focalLength": 0, "sensorSize": [0.036, 0.024]})",
+                          R"({"focalLength": 0.05, "sensorSize": [0.036]})",
+                          R"({"focalLength": 0.05, "sensorSize": [0.036, 0.024], "fStop": -2})",
+                          R"({"focalLength": "long", "sensorSize": [0.036, 0.024]})"}) {
+    const std::string path = write("bad_physical.gltf", scene_with(bad, "{}"));
+    expect_error([&] { load_gltf(path); }, {path, "EXT_camera_physical"});
+  }
+}
+
 TEST_F(GltfLoaderTest, CameraSelectionByNameAndErrorListingNames) {
   Gltf g;
   Scene s = load("select.gltf", g.json(two_cameras(g)));
