@@ -108,6 +108,15 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
   cmd->add_option("--lateral-ca", a.lateral_ca,
                   "Lateral chromatic aberration: red's magnification over blue's, minus 1 (0.01: "
                   "red 1 % larger), fringes towards the frame's edges" + note);
+  cmd->add_option_function<std::string>(
+         "--aperture-profile",
+         [&a](const std::string& name) { a.profile = lens::parse_aperture_profile(name); },
+         "Transmission across the aperture: uniform, centre (soft bokeh) or rim (bright-rimmed "
+         "\"soap bubble\" bokeh); it multiplies the shape" + note)
+      ->check(CLI::IsMember({"uniform", "centre", "center", "rim"}));
+  cmd->add_option("--aperture-profile-strength", a.profile_strength,
+                  "How strongly the profile weighs: 0 none, 1 full (transmission 0 at the rim or "
+                  "the centre); default 1" + note);
 }
 
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help) {

@@ -39,6 +39,31 @@ void ApertureShape::validate() const {
   if (!(std::abs(lateral_ca) <= 0.2))
     throw Error("lens: lateral chromatic aberration must be within [-0.2, 0.2] (red's "
                 "magnification over blue's, minus 1), got " + std::to_string(lateral_ca));
+  if (!(profile_strength >= 0.0 && profile_strength <= 1.0))
+    throw Error("lens: aperture profile strength must be in [0, 1], got " +
+                std::to_string(profile_strength));
+}
+
+double ApertureShape::transmission(double rho) const {
+  if (!weighted()) return 1.0;
+  const double s = profile_strength, r2 = rho * rho;
+  const double t = profile == ApertureProfile::Centre ? 1.0 - s * r2 : 1.0 - s + s * r2;
+  return t / (1.0 - 0.5 * s);
+}
+
+ApertureProfile parse_aperture_profile(const std::string& name) {
+  if (name == "uniform") return ApertureProfile::Uniform;
+  if (name == "centre" || name == "center") return ApertureProfile::Centre;
+  if (name == "rim") return ApertureProfile::Rim;
+  throw Error("lens: unknown aperture profile '" + name + "' (uniform, centre or rim)");
+}
+
+const char* aperture_profile_name(ApertureProfile profile) {
+  switch (profile) {
+    case ApertureProfile::Centre: return "centre";
+    case ApertureProfile::Rim: return "rim";
+    default: return "uniform";
+  }
 }
 
 double ApertureShape::inner_scale() const {
@@ -59,7 +84,9 @@ ApertureChoices ApertureChoices::over(const ApertureChoices& fallback) const {
           anamorphic_ratio ? anamorphic_ratio : fallback.anamorphic_ratio,
           vignetting_stop ? vignetting_stop : fallback.vignetting_stop,
           axial_ca ? axial_ca : fallback.axial_ca,
-          lateral_ca ? lateral_ca : fallback.lateral_ca};
+          lateral_ca ? lateral_ca : fallback.lateral_ca,
+          profile ? profile : fallback.profile,
+          profile_strength ? profile_strength : fallback.profile_strength};
 }
 
 ApertureShape ApertureChoices::shape() const {
@@ -67,7 +94,8 @@ ApertureShape ApertureChoices::shape() const {
   return {blades.value_or(round.blades), rotation_deg.value_or(round.rotation_deg),
           roundness.value_or(round.roundness), anamorphic_ratio.value_or(round.anamorphic_ratio),
           vignetting_stop.value_or(round.stop), axial_ca.value_or(0.0),
-          lateral_ca.value_or(0.0)};
+          lateral_ca.value_or(0.0), profile.value_or(round.profile),
+          profile_strength.value_or(round.profile_strength)};
 }
 
 Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {
@@ -123,8 +151,12 @@ bool Aperture::contains(glm::vec2 p) const {
   return std::hypot(x, y) <= polygon_rim(std::atan2(y, x));
 }
 
-glm::vec2 Aperture::sample(glm::vec2 u) const {
-  if (shape_.blades == 0) return concentric_disk(u) * squeeze_;
+glm::vec2 Aperture::sample(glm::vec2 u, float* rho) const {
+  if (shape_.blades == 0) {
+    const glm::vec2 d = concentric_disk(u);
+    if (rho) *rho = std::sqrt(d.x * d.x + d.y * d.y);
+    return d * squeeze_;
+  }
   // The triangle holding u.x's share of the area: the fan's areas differ little, so it lies near
   // u.x's own index.
   const int m = static_cast<int>(area_cdf_.size()) - 1;
@@ -134,7 +166,9 @@ glm::vec2 Aperture::sample(glm::vec2 u) const {
   const float share = area_cdf_[i + 1] - area_cdf_[i];
   const float along = share > 0.0f ? std::clamp((u.x - area_cdf_[i]) / share, 0.0f, 1.0f) : 0.0f;
   // Uniform in the triangle (centre, rim point i, rim point i + 1).
-  return std::sqrt(u.y) * ((1.0f - along) * rim_points_[i] + along * rim_points_[i + 1]);
+  const float r = std::sqrt(u.y);
+  if (rho) *rho = r;
+  return r * ((1.0f - along) * rim_points_[i] + along * rim_points_[i + 1]);
 }
 
 }  // namespace dofcache::lens

@@ -44,8 +44,7 @@ scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
   return ray;
 }
 
-scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked,
-                                        int band) const {
+LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) const {
   // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
   glm::vec2 slopes = film_slopes(film);
   float p = static_cast<float>(imaging_.lens.focus_distance);
@@ -56,20 +55,23 @@ scene::Ray ThinLensCamera::generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* 
     slopes /= static_cast<float>(1.0 + a.lateral_ca * t);
   }
   glm::vec3 focus_point = position_ + (forward_ + slopes.x * right_ + slopes.y * up_) * p;
-  glm::vec2 disk = aperture_.sample(lens_u) * static_cast<float>(imaging_.lens.aperture_radius());
-  if (blocked) {
+  const lens::ApertureShape& shape = imaging_.lens.aperture;
+  float rho = 0.0f;
+  glm::vec2 disk = aperture_.sample(lens_u, &rho) * static_cast<float>(imaging_.lens.aperture_radius());
+  LensSample out;
+  if (shape.weighted()) out.weight = static_cast<float>(shape.transmission(rho));
+  if (shape.vignetting()) {
     // The ray from the lens point `disk` to the focus point (offset slopes * P, depth P) crosses
     // the stop's plane, depth D, at disk (1 - D / P) + slopes D.
-    const lens::VignettingStop& stop = imaging_.lens.aperture.stop;
-    const float d = static_cast<float>(stop.distance), r = static_cast<float>(stop.radius);
+    const float d = static_cast<float>(shape.stop.distance), r = static_cast<float>(shape.stop.radius);
     const glm::vec2 at_stop = disk * (1.0f - d / p) + slopes * d;
-    *blocked = r > 0.0f && glm::dot(at_stop, at_stop) > r * r;
+    if (glm::dot(at_stop, at_stop) > r * r) out.weight = 0.0f;
   }
-  scene::Ray ray;
+  scene::Ray& ray = out.ray;
   ray.origin = position_ + disk.x * right_ + disk.y * up_;
   ray.direction = glm::normalize(focus_point - ray.origin);
   ray.cull_back_faces = true;  // glTF: single-sided surfaces are invisible from behind
-  return ray;
+  return out;
 }
 
 float ThinLensCamera::t_at_depth(const scene::Ray& ray, float z) const {

@@ -307,17 +307,18 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
   const std::uint64_t bands = band_key(st, x, y);
   glm::dvec3 acc(0.0);
   for (std::uint32_t s = s0; s < end; ++s) {
-    bool blocked = false;  // by a vignetting stop: a lens sample that brings no light
     // Chromatic aberration: the sample's band, whose channel alone it estimates (finish_pixel).
     const int band = chromatic ? sample_band(bands, s) : -1;
-    scene::Ray ray = clipped(
-        c.camera, st, c.camera.generate_ray(samples.film(s), samples.lens(s), &blocked, band));
+    // Weight 0: stopped by the vignetting stop, a lens sample that brings no light.
+    const LensSample lens = c.camera.lens_ray(samples.film(s), samples.lens(s), band);
+    scene::Ray ray = clipped(c.camera, st, lens.ray);
     std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
     Rng rng(key, s);
     SampleFeatures f;
     glm::vec3 l(0.0f);
-    if (!blocked) l = trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
+    if (lens.weight > 0.0f)
+      l = lens.weight * trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
     if (band >= 0) l = in_band(l, band);
     if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
     acc += glm::dvec3(l);
@@ -327,7 +328,8 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
     }
     if (feature_sums) {
       double* fs = feature_sums;
-      const double v = scene::luminance(l - (band >= 0 ? in_band(f.emission, band) : f.emission));
+      const glm::vec3 weighted = lens.weight * f.emission;
+      const double v = scene::luminance(l - (band >= 0 ? in_band(weighted, band) : weighted));
       for (int k = 0; k < 3; ++k)
         fs[k] += f.albedo[k], fs[3 + k] += f.normal[k], fs[10 + k] += f.emission[k];
       if (f.hit) fs[6] += f.depth, fs[7] += 1.0;
@@ -357,9 +359,9 @@ void add_feature_samples(const Context& c, int x, int y, std::uint32_t s0, std::
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
   const PixelSamples samples(st, x, y);
   for (std::uint32_t s = s0; s < end; ++s) {
-    bool blocked = false;
-    scene::Ray ray = clipped(c.camera, st,
-                             c.camera.generate_ray(samples.film(s), samples.lens(s), &blocked));
+    const LensSample lens = c.camera.lens_ray(samples.film(s), samples.lens(s));
+    const bool blocked = lens.weight == 0.0f;  // the vignetting stop's
+    scene::Ray ray = clipped(c.camera, st, lens.ray);
     const std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));
     glm::vec3 e(0.0f), a(0.0f);

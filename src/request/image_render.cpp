@@ -154,11 +154,14 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   if (a.chromatic())
     text += fmt::format(", chromatic aberration {:g} mm axial, {:g} % lateral",
                         1000.0 * a.axial_ca, 100.0 * a.lateral_ca);
+  if (a.weighted())
+    text += fmt::format(", {}-weighted transmission (strength {:g})",
+                        lens::aperture_profile_name(a.profile), a.profile_strength);
   text += "\n";
   if (r.preview)
-    text += "notice  the preview modes blur with round, colourless bokeh; the aperture's shape, "
-            "the vignetting stop and chromatic aberration show in drt and accumulation "
-            "renders\n";
+    text += "notice  the preview modes blur with round, colourless, evenly lit bokeh; the "
+            "aperture's shape, profile, vignetting stop and chromatic aberration show in drt and "
+            "accumulation renders\n";
   return text;
 }
 

@@ -274,7 +274,11 @@ json to_json(const RenderRequest& r) {
                                        r.lens.aperture.vignetting_stop->distance}
                                 : json(nullptr)},
         {"axial_ca", optional_number(r.lens.aperture.axial_ca)},
-        {"lateral_ca", optional_number(r.lens.aperture.lateral_ca)}}},
+        {"lateral_ca", optional_number(r.lens.aperture.lateral_ca)},
+        {"aperture_profile", r.lens.aperture.profile
+                                 ? json(lens::aperture_profile_name(*r.lens.aperture.profile))
+                                 : json(nullptr)},
+        {"aperture_profile_strength", optional_number(r.lens.aperture.profile_strength)}}},
       {"shading", r.shading ? shading_json(*r.shading) : json(nullptr)},
       {"environment", environment_settings_json(r.environment)},
       {"cache", cache_json(r.cache, c)},
@@ -358,6 +362,12 @@ RenderRequest request_from_json(const json& j) {
     }
     l.get("axial_ca", r.lens.aperture.axial_ca, -1e3, 1e3);
     l.get("lateral_ca", r.lens.aperture.lateral_ca, -0.2, 0.2);
+    if (l.has("aperture_profile")) {
+      lens::ApertureProfile profile{};
+      named(l, "aperture_profile", profile, lens::parse_aperture_profile);
+      r.lens.aperture.profile = profile;
+    }
+    l.get("aperture_profile_strength", r.lens.aperture.profile_strength, 0, 1);
   });
   if (top.has("shading")) {
     render::ShadingSettings sh;

@@ -133,7 +133,7 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
       q.lens.aperture = {a.blades, a.rotation_deg, a.roundness, a.anamorphic_ratio,
                          a.vignetting() ? std::optional<lens::VignettingStop>(a.stop)
                                         : std::nullopt,
-                         a.axial_ca, a.lateral_ca};
+                         a.axial_ca, a.lateral_ca, a.profile, a.profile_strength};
   }
 
   if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {

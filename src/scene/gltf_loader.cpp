@@ -738,6 +738,16 @@ class Loader : gltf::Document {
     if (auto v = number("aperture_rotation")) a.rotation_deg = v;
     if (auto v = number("aperture_roundness")) a.roundness = v;
     if (auto v = number("anamorphic_ratio")) a.anamorphic_ratio = v;
+    if (obj.Has("aperture_profile")) {
+      const tinygltf::Value& v = obj.Get("aperture_profile");
+      if (!v.IsString()) fail(label, "aperture_profile must be uniform, centre or rim");
+      try {
+        a.profile = lens::parse_aperture_profile(v.Get<std::string>());
+      } catch (const Error& e) {
+        fail(label, e.what());
+      }
+    }
+    if (auto v = number("aperture_profile_strength")) a.profile_strength = v;
     if (auto v = number("axial_ca")) a.axial_ca = v;
     if (auto v = number("lateral_ca")) a.lateral_ca = v;
     if (obj.Has("vignetting_stop")) {

@@ -66,6 +66,11 @@ PathSample CameraPath::at(double time) const {
         lens::VignettingStop{vignetting_radius.at(time), vignetting_distance.at(time)};
   if (!axial_ca.empty()) s.aperture.axial_ca = axial_ca.at(time);
   if (!lateral_ca.empty()) s.aperture.lateral_ca = lateral_ca.at(time);
+  if (!aperture_profile.empty())
+    s.aperture.profile =
+        static_cast<lens::ApertureProfile>(std::lround(aperture_profile.at(time)));
+  if (!aperture_profile_strength.empty())
+    s.aperture.profile_strength = aperture_profile_strength.at(time);
   return s;
 }
 

@@ -93,7 +93,7 @@ class KeyframeParser {
     Track<glm::dquat> rotation;
     Track<double> yfov, focal_length, fstop, focus;
     Track<double> blades, rotation_deg, roundness, ratio, stop_radius, stop_distance, axial,
-        lateral;
+        lateral, profile, strength;
     const double fps_for_frames = path.fps.value_or(24.0);
     double last_time = -INFINITY;
     const json& keys = doc["keys"];
@@ -108,13 +108,15 @@ class KeyframeParser {
                                       "focal_length",   "fstop",         "focus_distance",
                                       "aperture_blades", "aperture_rotation",
                                       "aperture_roundness", "anamorphic_ratio",
-                                      "vignetting_stop", "axial_ca", "lateral_ca"};
+                                      "vignetting_stop", "axial_ca", "lateral_ca",
+                                      "aperture_profile", "aperture_profile_strength"};
         if (std::find_if(std::begin(known), std::end(known),
                          [&](const char* m) { return member == m; }) == std::end(known))
           fail("unknown member '" + member +
                "' (valid: frame or time, position, target or rotation, yfov, focal_length, fstop, "
                "focus_distance, aperture_blades, aperture_rotation, aperture_roundness, "
-               "anamorphic_ratio, vignetting_stop, axial_ca, lateral_ca)");
+               "anamorphic_ratio, vignetting_stop, axial_ca, lateral_ca, aperture_profile, "
+               "aperture_profile_strength)");
       }
       if (key.contains("frame") == key.contains("time"))
         fail("give exactly one of \"frame\" (a frame number) or \"time\" (seconds)");
@@ -154,6 +156,19 @@ class KeyframeParser {
       if (key.contains("axial_ca")) add(axial, t, *(a.axial_ca = number(key["axial_ca"], "axial_ca")));
       if (key.contains("lateral_ca"))
         add(lateral, t, *(a.lateral_ca = number(key["lateral_ca"], "lateral_ca")));
+      if (key.contains("aperture_profile")) {
+        if (!key["aperture_profile"].is_string()) fail("aperture_profile must be a name");
+        try {
+          a.profile = lens::parse_aperture_profile(key["aperture_profile"].get<std::string>());
+        } catch (const Error& e) {
+          fail(e.what());
+        }
+        add(profile, t, static_cast<double>(*a.profile));
+      }
+      if (key.contains("aperture_profile_strength"))
+        add(strength, t,
+            *(a.profile_strength =
+                  number(key["aperture_profile_strength"], "aperture_profile_strength")));
       try {
         a.shape().validate();
       } catch (const Error& e) {
@@ -180,6 +195,8 @@ class KeyframeParser {
     finish(stop_distance, mode, "vignetting_stop", any);
     finish(axial, mode, "axial_ca", any);
     finish(lateral, mode, "lateral_ca", any);
+    finish(profile, KeyInterpolation::Step, "aperture_profile", any);
+    finish(strength, mode, "aperture_profile_strength", any);
     if (!any) fail("no key animates anything (give position, target, rotation or lens values)");
     node.translation_track = std::move(position);
     node.rotation_track = std::move(rotation);
@@ -197,6 +214,8 @@ class KeyframeParser {
     path.vignetting_distance = std::move(stop_distance);
     path.axial_ca = std::move(axial);
     path.lateral_ca = std::move(lateral);
+    path.aperture_profile = std::move(profile);
+    path.aperture_profile_strength = std::move(strength);
     path.start_time = keys_start_;
     path.end_time = keys_end_;
     return path;

@@ -177,6 +177,7 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
       h.add(a.blades), h.add(a.rotation_deg), h.add(a.roundness), h.add(a.anamorphic_ratio);
     if (a.vignetting()) h.add(a.stop.radius), h.add(a.stop.distance);
     if (a.chromatic()) h.add(a.axial_ca), h.add(a.lateral_ca);
+    if (a.weighted()) h.add(static_cast<int>(a.profile)), h.add(a.profile_strength);
   }
   return h.value();
 }

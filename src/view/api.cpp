@@ -270,7 +270,8 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     const json body = body_object(req);
     check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",
                       "aperture_rotation", "aperture_roundness", "anamorphic_ratio",
-                      "vignetting_stop", "axial_ca", "lateral_ca", "method", "composite"});
+                      "vignetting_stop", "axial_ca", "lateral_ca", "aperture_profile",
+                      "aperture_profile_strength", "method", "composite"});
     lens::ThinLens lens = session_.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
@@ -292,6 +293,11 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     }
     if (auto v = optional_number(body, "axial_ca")) a.axial_ca = *v;
     if (auto v = optional_number(body, "lateral_ca")) a.lateral_ca = *v;
+    if (auto it = body.find("aperture_profile"); it != body.end()) {
+      if (!it->is_string()) throw Error("'aperture_profile' must be uniform, centre or rim");
+      a.profile = lens::parse_aperture_profile(it->get<std::string>());
+    }
+    if (auto v = optional_number(body, "aperture_profile_strength")) a.profile_strength = *v;
     std::optional<preview::PreviewMethod> method;
     if (auto it = body.find("method"); it != body.end()) {
       if (!it->is_string()) throw Error("'method' must be a string");

@@ -228,7 +228,7 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
   EXPECT_EQ(drt.out.find("round bokeh"), std::string::npos) << drt.out;
   testing::CliResult pre = run("render --mode preview --aperture-blades 6 --out " + out + small);
   ASSERT_EQ(pre.exit_code, 0) << pre.err;
-  EXPECT_NE(pre.out.find("the preview modes blur with round, colourless bokeh"), std::string::npos)
+  EXPECT_NE(pre.out.find("the preview modes blur with round, colourless, evenly lit bokeh"), std::string::npos)
       << pre.out;
   testing::CliResult req = run("render --aperture-blades 7 --aperture-rotation 15 --print-request");
   ASSERT_EQ(req.exit_code, 0) << req.err;
@@ -246,6 +246,12 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
   ASSERT_EQ(ca.exit_code, 0) << ca.err;
   EXPECT_NE(ca.out.find("chromatic aberration 20 mm axial, 1 % lateral"), std::string::npos)
       << ca.out;
+  testing::CliResult rim = run("render --aperture-profile rim --aperture-profile-strength 0.5 "
+                               "--print-request");
+  ASSERT_EQ(rim.exit_code, 0) << rim.err;
+  const nlohmann::json rim_req = nlohmann::json::parse(rim.out.substr(rim.out.find('{')));
+  EXPECT_EQ(rim_req["lens"]["aperture_profile"], "rim") << rim.out;
+  EXPECT_EQ(rim_req["lens"]["aperture_profile_strength"], 0.5) << rim.out;
   EXPECT_NE(req.out.find("\"aperture_rotation\": 15"), std::string::npos) << req.out;
 }
 
@@ -361,6 +367,8 @@ TEST_F(Cli, AbsurdParameters) {
                            kTiny, "vignetting stop");
   expect_clean_failure("render --lateral-ca 0.5 --out " + (dir_ / "o.png").string() + kTiny,
                        "lateral chromatic aberration");
+  expect_clean_failure("render --aperture-profile rim --aperture-profile-strength 2 --out " +
+                           (dir_ / "o.png").string() + kTiny, "profile strength");
   expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
 }
 

@@ -157,6 +157,22 @@ TEST(Aperture, AbsurdShapesAreRefused) {
   EXPECT_THROW(near.validate(), Error);
   near.aperture.axial_ca = 0.8;
   EXPECT_NO_THROW(near.validate());
+  // A profile's strength lies in [0, 1]; its weights average 1 over the shape (rho has the
+  // density 2 rho): the centre-weighted T = 1 - s rho^2 over 1 - s / 2.
+  for (double s : {-0.1, 1.5, double(NAN)})
+    EXPECT_THROW((ApertureShape{0, 0, 0, 1, {}, 0, 0, ApertureProfile::Rim, s}.validate()), Error);
+  const ApertureShape centre{0, 0, 0, 1, {}, 0, 0, ApertureProfile::Centre, 0.8};
+  EXPECT_NEAR(centre.transmission(0.0), 1.0 / 0.6, 1e-12);
+  EXPECT_NEAR(centre.transmission(1.0), 0.2 / 0.6, 1e-12);
+  double mean = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const double rho = (i + 0.5) / 100000;
+    mean += centre.transmission(rho) * 2 * rho / 100000;
+  }
+  EXPECT_NEAR(mean, 1.0, 1e-6);
+  EXPECT_EQ(parse_aperture_profile("rim"), ApertureProfile::Rim);
+  EXPECT_THROW(parse_aperture_profile("bubble"), Error);
+  EXPECT_FALSE(centre.plain());
   // The lens checks its aperture too.
   ThinLens lens;
   lens.aperture.blades = 2;

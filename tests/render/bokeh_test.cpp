@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <complex>
+#include <utility>
 
 #include "dofcache/render/camera.h"
 #include "dofcache/render/renderer.h"
@@ -186,9 +187,7 @@ TEST(Bokeh, VignettingStopCutsTheBokehToTheIntersectionOfTwoDiscs) {
   ThinLensCamera camera(glm::mat4(1.0f), yfov, stopped, kImage, kImage);
   for (float u : {0.05f, 0.5f, 0.95f})
     for (float v : {0.05f, 0.5f, 0.95f}) {
-      bool blocked = true;
-      camera.generate_ray({kImage / 2.0f, kImage / 2.0f}, {u, v}, &blocked);
-      EXPECT_FALSE(blocked);
+      EXPECT_EQ(camera.lens_ray({kImage / 2.0f, kImage / 2.0f}, {u, v}).weight, 1.0f);
     }
 }
 
@@ -261,6 +260,66 @@ TEST(Bokeh, LateralChromaticAberrationMagnifiesRedOverBlue) {
     const ChannelMoments m = channel_moments(im, c);
     EXPECT_NEAR(m.cx, 12.0 * scale, 0.15) << c;
     EXPECT_NEAR(m.cy, 8.0 * scale, 0.15) << c;
+  }
+}
+
+// A transmission profile: the bokeh of a lamp far behind the focus is the aperture scaled, so its
+// brightness at a fraction rho of the circle of confusion's radius follows T(rho): 1 - s rho^2
+// centre-weighted, 1 - s + s rho^2 rim-weighted (lens/aperture.h). Measured as the mean in
+// rings well inside the rim; the lamp's light stays the uniform aperture's (the exposure does not
+// change).
+TEST(Bokeh, ApertureProfileShapesTheBrightnessAcrossTheDisc) {
+  lens::ThinLens lens{0.05, 2.0, 1.0};
+  const float yfov = 0.0286f;
+  const lens::LensImaging imaging{lens, yfov, kSize};
+  const double coc = imaging.coc_radius_pixels(kDepth);
+  const double side = kLampPixels * imaging.pixel_footprint(kDepth);
+  const glm::vec3 lamp(0.0f, 0.0f, -static_cast<float>(kDepth));
+  const image::Image uniform = lamp_image(lens, yfov, kSize, lamp, side, 4096);
+  double uniform_total = 0;
+  for (float v : uniform.data()) uniform_total += v;
+  for (auto [profile, s] : {std::pair{lens::ApertureProfile::Rim, 1.0},
+                            std::pair{lens::ApertureProfile::Centre, 0.8}}) {
+    lens.aperture.profile = profile;
+    lens.aperture.profile_strength = s;
+    const image::Image im = lamp_image(lens, yfov, kSize, lamp, side, 4096);
+    // A pixel at rho gathers lens points around rho, spread by the lamp's square and the pixel's
+    // box: E|delta|^2 = 2 (side^2 + 1) / 12 px^2, which T's rho^2 meets in the mean.
+    const double spread2 = 2.0 * (kLampPixels * kLampPixels + 1.0) / 12.0 / (coc * coc);
+    auto transmission = [&](double rho) {
+      const double r2 = rho * rho + spread2;
+      return profile == lens::ApertureProfile::Centre ? 1.0 - s * r2 : 1.0 - s + s * r2;
+    };
+    // Brightness in rings [r0, r1) of rho over the uniform aperture's there: the same lens
+    // samples meet the lamp in both renders, so their sampling noise cancels.
+    auto ring = [&](double r0, double r1) {
+      double sum = 0, base = 0;
+      for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x) {
+          const double rho = std::hypot(x + 0.5 - kSize / 2.0, y + 0.5 - kSize / 2.0) / coc;
+          if (rho >= r0 && rho < r1) sum += im.at(x, y, 1), base += uniform.at(x, y, 1);
+        }
+      return sum / base;
+    };
+    // The predicted ring means: T averaged over the ring's area (weight rho).
+    auto predicted = [&](double r0, double r1) {
+      double num = 0, den = 0;
+      for (int i = 0; i < 1000; ++i) {
+        const double rho = r0 + (r1 - r0) * (i + 0.5) / 1000;
+        num += transmission(rho) * rho, den += rho;
+      }
+      return num / den;
+    };
+    const double inner = ring(0.0, 0.35), middle = ring(0.35, 0.6), outer = ring(0.6, 0.8);
+    EXPECT_NEAR(outer / inner, predicted(0.6, 0.8) / predicted(0.0, 0.35),
+                0.05 * predicted(0.6, 0.8) / predicted(0.0, 0.35))
+        << lens::aperture_profile_name(profile);
+    EXPECT_NEAR(middle / inner, predicted(0.35, 0.6) / predicted(0.0, 0.35),
+                0.05 * predicted(0.35, 0.6) / predicted(0.0, 0.35))
+        << lens::aperture_profile_name(profile);
+    double total = 0;
+    for (float v : im.data()) total += v;
+    EXPECT_NEAR(total / uniform_total, 1.0, 0.02) << lens::aperture_profile_name(profile);
   }
 }
 

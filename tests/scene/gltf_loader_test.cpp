@@ -419,7 +419,7 @@ TEST_F(GltfLoaderTest, CameraApertureShapeExtras) {
                  scene_with(R"({"aperture_blades": 6, "anamorphic_ratio": 1.5})",
                             R"({"aperture_blades": 5, "aperture_rotation": 10,
                                 "vignetting_stop": [0.012, 0.03], "axial_ca": 0.05,
-                                "lateral_ca": 0.01})"));
+                                "lateral_ca": 0.01, "aperture_profile": "centre"})"));
   const lens::ApertureChoices& a = s.cameras[0].lens.aperture;
   ASSERT_TRUE(a.blades && a.rotation_deg && a.anamorphic_ratio);
   EXPECT_EQ(*a.blades, 5);
@@ -431,11 +431,13 @@ TEST_F(GltfLoaderTest, CameraApertureShapeExtras) {
   EXPECT_DOUBLE_EQ(a.vignetting_stop->distance, 0.03);
   EXPECT_DOUBLE_EQ(*a.axial_ca, 0.05);
   EXPECT_DOUBLE_EQ(*a.lateral_ca, 0.01);
+  EXPECT_EQ(*a.profile, lens::ApertureProfile::Centre);
   for (const char* bad : {R"({"aperture_blades": 2})", R"({"aperture_blades": 6.5})",
                           R"({"aperture_roundness": 2})", R"({"anamorphic_ratio": 0})",
                           R"({"aperture_rotation": "up"})", R"({"vignetting_stop": [0.01]})",
                           R"({"vignetting_stop": [0, 0.02]})",
-                          R"({"vignetting_stop": "wide"})", R"({"lateral_ca": 0.5})"}) {
+                          R"({"vignetting_stop": "wide"})", R"({"lateral_ca": 0.5})",
+                          R"({"aperture_profile": "bubble"})", R"({"aperture_profile": 3})"}) {
     const std::string path = write("bad_aperture.gltf", scene_with("{}", bad));
     expect_error([&] { load_gltf(path); }, {path, "cam"});
   }

@@ -297,9 +297,11 @@ TEST(KeyframePath, ApertureShapeAnimates) {
     "dofcache_camera_path": 1, "fps": 10,
     "keys": [
       {"frame": 0,  "position": [0, 0, 5], "aperture_blades": 5, "aperture_rotation": 0,
-       "anamorphic_ratio": 1, "vignetting_stop": [0.01, 0.02], "axial_ca": 0.0},
+       "anamorphic_ratio": 1, "vignetting_stop": [0.01, 0.02], "axial_ca": 0.0,
+       "aperture_profile": "rim", "aperture_profile_strength": 0.2},
       {"frame": 10, "position": [1, 0, 5], "aperture_blades": 8, "aperture_rotation": 90,
-       "anamorphic_ratio": 2, "vignetting_stop": [0.02, 0.04], "axial_ca": 0.1}
+       "anamorphic_ratio": 2, "vignetting_stop": [0.02, 0.04], "axial_ca": 0.1,
+       "aperture_profile": "centre", "aperture_profile_strength": 0.6}
     ]})", "test.json", base_camera());
   const PathSample s = p.at(0.5);
   EXPECT_EQ(*s.aperture.blades, 5);
@@ -311,6 +313,9 @@ TEST(KeyframePath, ApertureShapeAnimates) {
   EXPECT_NEAR(s.aperture.vignetting_stop->distance, 0.03, 1e-12);
   EXPECT_NEAR(*s.aperture.axial_ca, 0.05, 1e-12);
   EXPECT_FALSE(s.aperture.lateral_ca.has_value());
+  EXPECT_EQ(*s.aperture.profile, lens::ApertureProfile::Rim);  // held to the next key
+  EXPECT_NEAR(*s.aperture.profile_strength, 0.4, 1e-12);
+  EXPECT_EQ(*p.at(1.0).aperture.profile, lens::ApertureProfile::Centre);
   EXPECT_EQ(*p.at(1.0).aperture.blades, 8);
   auto bad = [](const std::string& member) {
     return parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [{"time": 0, )" + member +
@@ -324,6 +329,7 @@ TEST(KeyframePath, ApertureShapeAnimates) {
   EXPECT_THROW(bad(R"("vignetting_stop": [0.01, -1])"), Error);
   EXPECT_THROW(bad(R"("vignetting_stop": 0.01)"), Error);
   EXPECT_THROW(bad(R"("lateral_ca": 1)"), Error);
+  EXPECT_THROW(bad(R"("aperture_profile": "bubble")"), Error);
 }
 
 TEST(KeyframePath, RotationStepAndSmooth) {

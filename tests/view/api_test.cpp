@@ -113,6 +113,10 @@ TEST_F(ViewApiTest, LensRouteSetsTheAperturesShape) {
   ASSERT_EQ(ca.status, 200) << ca.body;
   EXPECT_DOUBLE_EQ(json::parse(ca.body).at("axial_ca").get<double>(), 0.02);
   EXPECT_EQ(request("POST", "/api/lens", R"({"lateral_ca": 0.9})").status, 400);
+  const ApiResponse rim = request("POST", "/api/lens", R"({"aperture_profile": "rim"})");
+  ASSERT_EQ(rim.status, 200) << rim.body;
+  EXPECT_EQ(json::parse(rim.body).at("aperture_profile"), "rim");
+  EXPECT_EQ(request("POST", "/api/lens", R"({"aperture_profile": "bubble"})").status, 400);
 }
 
 // Before the first inputs: images are 503, pixels 400, both with a message.

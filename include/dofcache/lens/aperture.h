@@ -27,7 +27,16 @@
 // apart between the red and blue ends (red farther; green at the focus distance) and image the
 // scene `lateral_ca` larger in red than in blue (relative magnification; green unchanged), so
 // fringes appear where the bands' rays part: defocused edges and the frame's corners.
+//
+// A transmission profile multiplies whichever shape is set: a lens ray at normalised radius rho
+// (its distance from the centre over the rim's in its direction, 0 to 1) is weighted by T(rho)
+// over T's mean over the shape, so the exposure stays the uniform aperture's. Centre-weighted:
+// T = 1 - s rho^2 (soft, "smooth trans focus" bokeh); rim-weighted: T = 1 - s + s rho^2 (the
+// bright-rimmed "soap bubble" bokeh of some old lenses); s the strength in [0, 1]. Sampled
+// uniformly over the shape, rho has the density 2 rho whatever the shape (it is star-shaped
+// about its centre), so T's mean is 1 - s / 2 for both.
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -37,6 +46,10 @@ namespace dofcache::lens {
 constexpr int kMinBlades = 3, kMaxBlades = 16;
 // Chords per half-blade of a rounded blade's rim (aperture.cpp).
 constexpr int kRimSegments = 32;
+
+enum class ApertureProfile { Uniform, Centre, Rim };
+ApertureProfile parse_aperture_profile(const std::string& name);  // throws dofcache::Error
+const char* aperture_profile_name(ApertureProfile profile);
 
 // A vignetting stop (see above); radius 0: none.
 struct VignettingStop {
@@ -50,10 +63,11 @@ struct VignettingStop {
 struct ApertureShape {
   ApertureShape() = default;
   ApertureShape(int blades, double rotation_deg, double roundness, double anamorphic_ratio,
-                VignettingStop stop = {}, double axial_ca = 0.0, double lateral_ca = 0.0)
+                VignettingStop stop = {}, double axial_ca = 0.0, double lateral_ca = 0.0,
+                ApertureProfile profile = ApertureProfile::Uniform, double profile_strength = 1.0)
       : blades(blades), rotation_deg(rotation_deg), roundness(roundness),
         anamorphic_ratio(anamorphic_ratio), stop(stop), axial_ca(axial_ca),
-        lateral_ca(lateral_ca) {}
+        lateral_ca(lateral_ca), profile(profile), profile_strength(profile_strength) {}
 
   int blades = 0;                 // 0: round; else kMinBlades..kMaxBlades
   double rotation_deg = 0.0;      // a corner's angle from the image's +x, counter-clockwise
@@ -62,13 +76,19 @@ struct ApertureShape {
   VignettingStop stop;            // none by default
   double axial_ca = 0.0;          // metres between the red and blue planes of focus
   double lateral_ca = 0.0;        // red's magnification over blue's, minus 1
+  ApertureProfile profile = ApertureProfile::Uniform;
+  double profile_strength = 1.0;  // s in [0, 1]
 
   // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
   bool round() const { return blades == 0 && anamorphic_ratio == 1.0; }
   bool vignetting() const { return stop.radius > 0.0; }
   bool chromatic() const { return axial_ca != 0.0 || lateral_ca != 0.0; }
-  // The ideal lens of before shapes: round, nothing clipped, every colour alike.
-  bool plain() const { return round() && !vignetting() && !chromatic(); }
+  bool weighted() const { return profile != ApertureProfile::Uniform && profile_strength > 0.0; }
+  // The ideal lens of before shapes: round, nothing clipped, every colour alike, every lens ray
+  // of the same weight.
+  bool plain() const { return round() && !vignetting() && !chromatic() && !weighted(); }
+  // A lens ray's weight at normalised radius rho: T(rho) over T's mean (1 without a profile).
+  double transmission(double rho) const;
   // Band b's (0 red, 1 green, 2 blue) place between the red (+1/2) and blue (-1/2) ends.
   static double band_position(int band) { return 0.5 * (1 - band); }
   // The shape's nearest rim point: its inradius over the round aperture's radius. A footprint
@@ -77,12 +97,13 @@ struct ApertureShape {
   // Throws dofcache::Error naming the first absurd value (1-2 or more than kMaxBlades blades,
   // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation, a vignetting
   // stop whose radius or distance is not positive and finite, a lateral chromatic aberration
-  // beyond 20 % or either aberration not finite).
+  // beyond 20 % or either aberration not finite, a profile strength outside [0, 1]).
   void validate() const;
   bool operator==(const ApertureShape& o) const {
     return blades == o.blades && rotation_deg == o.rotation_deg && roundness == o.roundness &&
            anamorphic_ratio == o.anamorphic_ratio && stop == o.stop &&
-           axial_ca == o.axial_ca && lateral_ca == o.lateral_ca;
+           axial_ca == o.axial_ca && lateral_ca == o.lateral_ca && profile == o.profile &&
+           profile_strength == o.profile_strength;
   }
 };
 
@@ -97,6 +118,8 @@ struct ApertureChoices {
   std::optional<double> rotation_deg, roundness, anamorphic_ratio;
   std::optional<VignettingStop> vignetting_stop;
   std::optional<double> axial_ca, lateral_ca;
+  std::optional<ApertureProfile> profile;
+  std::optional<double> profile_strength;
 
   // Each value from here, else from `fallback`.
   ApertureChoices over(const ApertureChoices& fallback) const;
@@ -104,7 +127,7 @@ struct ApertureChoices {
   ApertureShape shape() const;
   bool any() const {
     return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop ||
-           axial_ca || lateral_ca;
+           axial_ca || lateral_ca || profile || profile_strength;
   }
 };
 
@@ -118,7 +141,9 @@ class Aperture {
   // outer edge, sqrt(u.y) the distance from the centre (no trigonometry). Straight blades are
   // their N triangles exactly; a rounded blade's rim is 2 x kRimSegments chords, which lie within
   // 2e-4 of its radius (a hundredth of a pixel for a bokeh 50 pixels across).
-  glm::vec2 sample(glm::vec2 u) const;
+  // With `rho`, also the point's normalised radius (its distance over the rim's in its
+  // direction): the fan's sqrt(u.y), the disc's distance from the centre.
+  glm::vec2 sample(glm::vec2 u, float* rho = nullptr) const;
   // The rim's distance from the centre in the direction `angle` (radians, from +x
   // counter-clockwise).
   double rim(double angle) const;

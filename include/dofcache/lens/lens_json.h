@@ -2,7 +2,8 @@
 // The lens as JSON, {"focal_length", "fstop", "focus_distance"} (metres, f-number, metres), and
 // for a shaped aperture "aperture_blades", "aperture_rotation" (degrees), "aperture_roundness"
 // and "anamorphic_ratio", with a vignetting stop "vignetting_stop" ([radius, distance], metres),
-// with chromatic aberration "axial_ca" and "lateral_ca": the one shape of statistics files, requests, the viewer's API and keyframe files.
+// with chromatic aberration "axial_ca" and "lateral_ca", with a transmission profile
+// "aperture_profile" and "aperture_profile_strength": the one shape of statistics files, requests, the viewer's API and keyframe files.
 #include <optional>
 
 #include <cmath>
@@ -25,6 +26,9 @@ inline nlohmann::json lens_json(const ThinLens& lens) {
               {"anamorphic_ratio", a.anamorphic_ratio}});
   if (a.vignetting()) j["vignetting_stop"] = {a.stop.radius, a.stop.distance};
   if (a.chromatic()) j.update({{"axial_ca", a.axial_ca}, {"lateral_ca", a.lateral_ca}});
+  if (a.weighted())
+    j.update({{"aperture_profile", aperture_profile_name(a.profile)},
+              {"aperture_profile_strength", a.profile_strength}});
   return j;
 }
 

@@ -14,6 +14,13 @@
 
 namespace dofcache::render {
 
+// A lens ray and its weight: the aperture's transmission profile (lens/aperture.h), 0 where the
+// vignetting stop stops the ray (a lens sample that brings no light).
+struct LensSample {
+  scene::Ray ray;
+  float weight = 1.0f;
+};
+
 class ThinLensCamera {
  public:
   // `pose` supplies position, orientation and vertical field of view; `lens` the optics.
@@ -22,12 +29,14 @@ class ThinLensCamera {
 
   // `film` in pixels (x right, y down, pixel (i,j) covers [i,i+1)x[j,j+1)); `lens_u` in [0,1)^2 is
   // mapped to the aperture (lens::Aperture: the concentric mapping for a round one). Direction is
-  // unit length. With a vignetting stop (lens/aperture.h), `*blocked` says whether the stop
-  // stops the ray: a renderer counts it as a lens sample that brings no light (the renderer
-  // always asks; without `blocked` the stop is not applied). `band` (0 red, 1 green, 2 blue; -1
-  // none) picks the wavelength band whose focus and magnification chromatic aberration shifts.
-  scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u, bool* blocked = nullptr,
-                          int band = -1) const;
+  // unit length, and its weight (the profile, the vignetting stop). `band` (0 red, 1 green, 2
+  // blue; -1 none) picks the wavelength band whose focus and magnification chromatic aberration
+  // shifts.
+  LensSample lens_ray(glm::vec2 film, glm::vec2 lens_u, int band = -1) const;
+  // The ray alone (its weight ignored).
+  scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u) const {
+    return lens_ray(film, lens_u).ray;
+  }
   scene::Ray pinhole_ray(glm::vec2 film) const;
 
   // (x z, y z, z, 1) -> world, for film position (x, y) in pixels at camera-space depth z: the

@@ -63,6 +63,8 @@ struct CameraPath {
   Track<double> aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio;
   Track<double> vignetting_radius, vignetting_distance;  // keyed together: "vignetting_stop"
   Track<double> axial_ca, lateral_ca;
+  // The profile's index (lens::ApertureProfile), held from key to key, and its strength.
+  Track<double> aperture_profile, aperture_profile_strength;
   std::optional<double> fps;  // the frame rate the file suggests (keyframe files)
   double start_time = 0.0, end_time = 0.0;  // seconds: first and last key of any track
 
