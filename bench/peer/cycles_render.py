@@ -80,6 +80,13 @@ def parse_args():
     p.add_argument("--light-threshold", type=float, default=0.0,
                    help="Cycles' light sampling threshold (Blender's default: 0.01; default 0, "
                         "every light sampled)")
+    p.add_argument("--aperture-blades", type=int, default=0,
+                   help="Cycles' aperture blades (0: round; 3 or more: a polygon)")
+    p.add_argument("--aperture-rotation", type=float, default=0.0,
+                   help="Cycles' blade rotation, degrees as Cycles counts them (the peer "
+                        "benchmark maps dofcache's --aperture-rotation onto it)")
+    p.add_argument("--aperture-ratio", type=float, default=1.0,
+                   help="Cycles' aperture ratio (anamorphic: > 1 taller bokeh)")
     p.add_argument("--frames-json", default=None,
                    help="render a camera path as an animation in this one process: the per-frame "
                         "cameras and lenses of a `dofcache sequence --stats-json` file (--out "
@@ -478,9 +485,9 @@ def main():
     cam.dof.focus_object = None
     cam.dof.focus_distance = focus
     cam.dof.aperture_fstop = fstop  # Cycles: radius = lens_mm * 1e-3 / (2 fstop)
-    cam.dof.aperture_blades = 0
-    cam.dof.aperture_rotation = 0.0
-    cam.dof.aperture_ratio = 1.0
+    cam.dof.aperture_blades = a.aperture_blades
+    cam.dof.aperture_rotation = math.radians(a.aperture_rotation)
+    cam.dof.aperture_ratio = a.aperture_ratio
     if frames:
         key_camera_path(scene, cam_obj, frames)
 

@@ -337,7 +337,8 @@ class Dofcache:
 
 
 class Cycles:
-    def __init__(self, blender, threads, width, height, bounces, lambert):
+    def __init__(self, blender, threads, width, height, bounces, lambert, aperture=None):
+        self.aperture = aperture  # cycles_aperture(...) or None: round
         self.blender, self.threads = blender, threads
         self.width, self.height, self.bounces, self.lambert = width, height, bounces, lambert
         _, out = run([blender, "--version"], "blender --version")
@@ -355,7 +356,7 @@ class Cycles:
                "--focus-distance", repr(lens["focus_distance"])]
         if self.lambert:
             cmd.append("--lambert")
-        cmd += cycles_config_args(config or {})
+        cmd += cycles_config_args(dict({"aperture": self.aperture}, **(config or {})))
         wall, _ = run(cmd, "Cycles render %s (%d spp)" % (os.path.basename(scene), spp))
         if not os.path.isfile(j):
             raise BenchError("Cycles render of %s wrote no JSON" % scene)
@@ -374,8 +375,25 @@ CYCLES_CONFIGS = [
 ]
 
 
+def cycles_aperture(shape):
+    """Cycles' blades, rotation and ratio for dofcache's shape {blades, rotation, ratio}.
+
+    dofcache's rotation is a corner's angle from the image's +x, counter-clockwise; Cycles' puts
+    a corner half a sector further (measured by bench/peer/bokeh_mapping.py: 6 blades at Cycles'
+    0, 20 and 40 deg put corners at 30.3, 51.1 and 70.2 deg; 5 blades at 0 deg, 35.2), so Cycles
+    is given dofcache's angle less 180 / N. The ratio is the same (height over width)."""
+    blades = shape.get("blades", 0)
+    rotation = shape.get("rotation", 0.0)
+    return {"blades": blades, "rotation_deg": rotation - 180.0 / blades if blades else rotation,
+            "ratio": shape.get("ratio", 1.0)}
+
+
 def cycles_config_args(config):
     args = []
+    ap = config.get("aperture")
+    if ap:
+        args += ["--aperture-blades", str(ap["blades"]), "--aperture-rotation",
+                 repr(ap["rotation_deg"]), "--aperture-ratio", repr(ap["ratio"])]
     if config.get("adaptive_threshold") is not None:
         args += ["--adaptive-threshold", repr(config["adaptive_threshold"])]
     if config.get("light_threshold"):
@@ -564,6 +582,7 @@ class SceneBench:
         key = {"renderer": "cycles", "blender": self.cyc.version, "script": self.cyc.script_sha,
                "scene": self.scene_sha, "size": [self.cyc.width, self.cyc.height],
                "lens": self.lens_key(), "bounces": self.cyc.bounces, "lambert": self.cyc.lambert,
+               **({"aperture": self.cyc.aperture} if self.cyc.aperture else {}),
                "spp": spp, "seed": self.seed + 7919}
         path = os.path.join(self.cache_dir, "%s_cycles_%s.exr" % (self.name, key_of(key)))
         meta = path + ".meta.json"
@@ -1062,6 +1081,13 @@ def main(argv=None):
     p.add_argument("--lambert", action="store_true",
                    help="the same physics in both: Cycles with Diffuse BSDFs, dofcache "
                         "--material-override lambert")
+    p.add_argument("--aperture-blades", type=int, default=0,
+                   help="both renderers through a polygonal aperture (Cycles' blades, its "
+                        "rotation mapped: cycles_aperture)")
+    p.add_argument("--aperture-rotation", type=float, default=0.0,
+                   help="dofcache's rotation (a corner's angle), degrees")
+    p.add_argument("--anamorphic-ratio", type=float, default=1.0,
+                   help="both renderers' bokeh height over width")
     p.add_argument("--quick", action="store_true", help="tiny ladders at 80x60 (smoke test)")
     p.add_argument("--medium", action="store_true",
                    help="160x120, Cycles up to 128 spp (about 10 minutes a scene)")
@@ -1102,6 +1128,8 @@ def main(argv=None):
             p.error("%s must be at least 1" % name)
     if a.repeat < 0:
         p.error("--repeat must be >= 0")
+    if a.aperture_blades and not 3 <= a.aperture_blades <= 16 or not a.anamorphic_ratio > 0:
+        p.error("--aperture-blades must be 0 or 3-16, --anamorphic-ratio > 0")
     if a.bounces < 0 or (a.fstop is not None and a.fstop <= 0) or a.fstop_scale <= 0:
         p.error("--bounces must be >= 0, --fstop and --fstop-scale > 0")
     results_name = a.results or ("peer_cycles_quick" if a.quick else
@@ -1154,8 +1182,15 @@ def main(argv=None):
     os.replace(dof_copy + ".tmp", dof_copy)
     # The same physics in both: pure Lambertian reflectors (docs/peer.md, "Same physics").
     extra = ["--material-override", "lambert"] if a.lambert else []
+    shape = None
+    if a.aperture_blades or a.anamorphic_ratio != 1.0:
+        shape = {"blades": a.aperture_blades, "rotation": a.aperture_rotation,
+                 "ratio": a.anamorphic_ratio}
+        extra += ["--aperture-blades", str(a.aperture_blades), "--aperture-rotation",
+                  repr(a.aperture_rotation), "--anamorphic-ratio", repr(a.anamorphic_ratio)]
     dof = Dofcache(dof_copy, a.threads, width, height, a.bounces, extra)
-    cyc = Cycles(blender, a.threads, width, height, a.bounces, a.lambert)
+    cyc = Cycles(blender, a.threads, width, height, a.bounces, a.lambert,
+                 cycles_aperture(shape) if shape else None)
     log("peer benchmark: %d scene(s) at %dx%d, %d threads, %d bounce(s)%s; Blender %s; "
         "dofcache %s (sha256 %s)" % (len(scenes), width, height, a.threads, a.bounces,
                                      ", Lambert" if a.lambert else "", cyc.version,
@@ -1188,6 +1223,7 @@ def main(argv=None):
             "blender": cyc.version, "cycles_script_sha256": cyc.script_sha,
             "dofcache_sha256": dof.binary_sha, "dofcache_version": dof.version_text,
             "dofcache_extra_args": extra,
+            "aperture": shape, "cycles_aperture": cycles_aperture(shape) if shape else None,
             "timing": "seconds: in-render (Cycles: around bpy.ops.render.render, i.e. sync, BVH "
                       "and sampling; dofcache: its --stats-json 'seconds'); process_seconds: "
                       "the whole process (Blender start-up and glTF import, dofcache scene load "

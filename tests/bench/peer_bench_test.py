@@ -113,6 +113,23 @@ class InterleavedTiming(unittest.TestCase):
         self.assertNotIn("discovery_seconds", cyc[0])
 
 
+class ApertureMapping(unittest.TestCase):
+    def test_cycles_is_given_the_corner_angle_less_half_a_sector(self):
+        # Measured with bench/peer/bokeh_mapping.py: Cycles puts a corner of its 6-blade bokeh at
+        # its rotation + 30 deg, of its 5-blade at + 36 deg; dofcache's rotation is the corner's.
+        self.assertEqual(peer_bench.cycles_aperture({"blades": 6, "rotation": 20.0, "ratio": 2.0}),
+                         {"blades": 6, "rotation_deg": -10.0, "ratio": 2.0})
+        self.assertEqual(peer_bench.cycles_aperture({"blades": 5, "rotation": 90.0})["rotation_deg"],
+                         54.0)
+        self.assertEqual(peer_bench.cycles_aperture({"ratio": 1.5}),
+                         {"blades": 0, "rotation_deg": 0.0, "ratio": 1.5})
+        self.assertEqual(peer_bench.cycles_config_args({"aperture": {"blades": 6,
+                                                                     "rotation_deg": -10.0,
+                                                                     "ratio": 2.0}}),
+                         ["--aperture-blades", "6", "--aperture-rotation", "-10.0",
+                          "--aperture-ratio", "2.0"])
+
+
 class CyclesAtItsBest(unittest.TestCase):
     def test_the_defaults_configuration_passes_blenders_defaults(self):
         configs = dict(peer_bench.CYCLES_CONFIGS)
