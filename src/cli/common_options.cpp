@@ -114,6 +114,21 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
          "Transmission across the aperture: uniform, centre (soft bokeh) or rim (bright-rimmed "
          "\"soap bubble\" bokeh); it multiplies the shape" + note)
       ->check(CLI::IsMember({"uniform", "centre", "center", "rim"}));
+  cmd->add_option_function<std::vector<double>>(
+         "--lens-tilt",
+         [&a](const std::vector<double>& v) { a.lens_tilt = std::pair{v[0], v[1]}; },
+         "X,Y degrees: tilt the lens about the horizontal axis (positive: the plane of focus "
+         "reaches down, as onto a floor) and the vertical one (positive: towards the left); the "
+         "plane of focus follows the Scheimpflug rule" + note)
+      ->expected(2)
+      ->delimiter(',');
+  cmd->add_option_function<std::vector<double>>(
+         "--lens-shift",
+         [&a](const std::vector<double>& v) { a.lens_shift = std::pair{v[0], v[1]}; },
+         "X,Y: shift the film right and up by this many image heights (verticals stay parallel)" +
+             note)
+      ->expected(2)
+      ->delimiter(',');
   cmd->add_option("--aperture-profile-strength", a.profile_strength,
                   "How strongly the profile weighs: 0 none, 1 full (transmission 0 at the rim or "
                   "the centre); default 1" + note);

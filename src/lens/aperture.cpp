@@ -42,6 +42,12 @@ void ApertureShape::validate() const {
   if (!(profile_strength >= 0.0 && profile_strength <= 1.0))
     throw Error("lens: aperture profile strength must be in [0, 1], got " +
                 std::to_string(profile_strength));
+  if (!(std::abs(tilt_x_deg) < 90.0 && std::abs(tilt_y_deg) < 90.0))
+    throw Error("lens: tilt must be under 90 degrees each way, got " + std::to_string(tilt_x_deg) +
+                ", " + std::to_string(tilt_y_deg));
+  if (!(std::abs(shift_x) <= 1.0 && std::abs(shift_y) <= 1.0))
+    throw Error("lens: shift must be within one image height each way, got " +
+                std::to_string(shift_x) + ", " + std::to_string(shift_y));
 }
 
 double ApertureShape::transmission(double rho) const {
@@ -86,7 +92,9 @@ ApertureChoices ApertureChoices::over(const ApertureChoices& fallback) const {
           axial_ca ? axial_ca : fallback.axial_ca,
           lateral_ca ? lateral_ca : fallback.lateral_ca,
           profile ? profile : fallback.profile,
-          profile_strength ? profile_strength : fallback.profile_strength};
+          profile_strength ? profile_strength : fallback.profile_strength,
+          lens_tilt ? lens_tilt : fallback.lens_tilt,
+          lens_shift ? lens_shift : fallback.lens_shift};
 }
 
 ApertureShape ApertureChoices::shape() const {
@@ -95,7 +103,9 @@ ApertureShape ApertureChoices::shape() const {
           roundness.value_or(round.roundness), anamorphic_ratio.value_or(round.anamorphic_ratio),
           vignetting_stop.value_or(round.stop), axial_ca.value_or(0.0),
           lateral_ca.value_or(0.0), profile.value_or(round.profile),
-          profile_strength.value_or(round.profile_strength)};
+          profile_strength.value_or(round.profile_strength),
+          lens_tilt ? lens_tilt->first : 0.0, lens_tilt ? lens_tilt->second : 0.0,
+          lens_shift ? lens_shift->first : 0.0, lens_shift ? lens_shift->second : 0.0};
 }
 
 Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {

@@ -1,5 +1,6 @@
 #include "dofcache/render/camera.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <glm/geometric.hpp>
@@ -15,11 +16,17 @@ ThinLensCamera::ThinLensCamera(const glm::mat4& camera_to_world, float yfov,
   forward_ = -glm::normalize(glm::vec3(camera_to_world[2]));  // glTF cameras look down -Z
   tan_half_y_ = std::tan(0.5f * yfov);
   tan_half_x_ = tan_half_y_ * static_cast<float>(width) / static_cast<float>(height);
+  const lens::ApertureShape& a = lens.aperture;
+  shift_ = glm::vec2(static_cast<float>(2.0 * a.shift_x), static_cast<float>(2.0 * a.shift_y)) *
+           tan_half_y_;
+  tilted_ = a.tilted();
+  tilt_sin_ = glm::dvec2(std::sin(a.tilt_x_deg * M_PI / 180.0), std::sin(a.tilt_y_deg * M_PI / 180.0));
 }
 
 glm::vec2 ThinLensCamera::film_slopes(glm::vec2 film) const {
-  return {(2.0f * film.x / static_cast<float>(width_) - 1.0f) * tan_half_x_,
-          (1.0f - 2.0f * film.y / static_cast<float>(height_)) * tan_half_y_};
+  // Shift moves the film window by shift image heights (2 tan(yfov / 2) in slope).
+  return {(2.0f * film.x / static_cast<float>(width_) - 1.0f) * tan_half_x_ + shift_.x,
+          (1.0f - 2.0f * film.y / static_cast<float>(height_)) * tan_half_y_ + shift_.y};
 }
 
 glm::vec3 ThinLensCamera::direction_to_film(glm::vec2 film) const {
@@ -32,7 +39,8 @@ glm::mat4 ThinLensCamera::film_to_world() const {
   const float ax = 2.0f * tan_half_x_ / static_cast<float>(width_);
   const float ay = 2.0f * tan_half_y_ / static_cast<float>(height_);
   return glm::mat4(glm::vec4(ax * right_, 0.0f), glm::vec4(-ay * up_, 0.0f),
-                   glm::vec4(forward_ - tan_half_x_ * right_ + tan_half_y_ * up_, 0.0f),
+                   glm::vec4(forward_ + (shift_.x - tan_half_x_) * right_ +
+                                 (shift_.y + tan_half_y_) * up_, 0.0f),
                    glm::vec4(position_, 1.0f));
 }
 
@@ -54,6 +62,7 @@ LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) 
     p = static_cast<float>(imaging_.lens.focus_distance + a.axial_ca * t);
     slopes /= static_cast<float>(1.0 + a.lateral_ca * t);
   }
+  if (tilted_) p = static_cast<float>(focus_depth(slopes, p));
   glm::vec3 focus_point = position_ + (forward_ + slopes.x * right_ + slopes.y * up_) * p;
   const lens::ApertureShape& shape = imaging_.lens.aperture;
   float rho = 0.0f;
@@ -72,6 +81,28 @@ LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) 
   ray.direction = glm::normalize(focus_point - ray.origin);
   ray.cull_back_faces = true;  // glTF: single-sided surfaces are invisible from behind
   return out;
+}
+
+double ThinLensCamera::focus_depth(glm::vec2 slopes, double p) const {
+  // The tilted plane z / P - y sin(tilt_x) / F - x sin(tilt_y) / F = 1 (lens/aperture.h) met
+  // by the pinhole direction (slopes, 1). Where it is met far away or behind, the lens rays are
+  // as good as parallel: 10^4 P.
+  const double inv = 1.0 / p - (slopes.y * tilt_sin_.x + slopes.x * tilt_sin_.y) /
+                                   imaging_.lens.focal_length;
+  return inv > 1e-4 / p ? 1.0 / inv : 1e4 * p;
+}
+
+lens::LensImaging ThinLensCamera::imaging_at(glm::vec3 world) const {
+  if (!tilted_) return imaging_;
+  const glm::vec3 v = world - position_;
+  const float z = glm::dot(v, forward_);
+  if (!(z > 0.0f)) return imaging_;
+  const glm::vec2 slopes(glm::dot(v, right_) / z, glm::dot(v, up_) / z);
+  lens::LensImaging at = imaging_;
+  // Beyond the focal length, so that the thin-lens formulas hold.
+  at.lens.focus_distance = std::max(focus_depth(slopes, imaging_.lens.focus_distance),
+                                    1.001 * imaging_.lens.focal_length);
+  return at;
 }
 
 float ThinLensCamera::t_at_depth(const scene::Ray& ray, float z) const {

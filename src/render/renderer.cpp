@@ -141,7 +141,7 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
       smooth = std::min(static_cast<double>(harmonic),
                         static_cast<double>(c.shader.light_sampler().nearest_light_distance(x)));
     sample.radius =
-        cache::new_sample_radius(cs.radius, c.camera.imaging(), c.camera.depth(x), smooth).radius;
+        cache::new_sample_radius(cs.radius, c.camera.imaging_at(x), c.camera.depth(x), smooth).radius;
     sample.frame = cs.frame;
     work.buffer.add(sample);
     if (density) *density += 1.0f;

@@ -148,6 +148,10 @@ std::string text(double v) {
 }
 
 // Walks one JSON object of a request: every key must be known, every value of its type.
+json pair_json(const std::optional<std::pair<double, double>>& p) {
+  return p ? json{p->first, p->second} : json(nullptr);
+}
+
 class Reader {
  public:
   Reader(const json& j, std::string where) : j_(j), where_(std::move(where)) {
@@ -278,7 +282,9 @@ json to_json(const RenderRequest& r) {
         {"aperture_profile", r.lens.aperture.profile
                                  ? json(lens::aperture_profile_name(*r.lens.aperture.profile))
                                  : json(nullptr)},
-        {"aperture_profile_strength", optional_number(r.lens.aperture.profile_strength)}}},
+        {"aperture_profile_strength", optional_number(r.lens.aperture.profile_strength)},
+        {"lens_tilt", pair_json(r.lens.aperture.lens_tilt)},
+        {"lens_shift", pair_json(r.lens.aperture.lens_shift)}}},
       {"shading", r.shading ? shading_json(*r.shading) : json(nullptr)},
       {"environment", environment_settings_json(r.environment)},
       {"cache", cache_json(r.cache, c)},
@@ -368,6 +374,12 @@ RenderRequest request_from_json(const json& j) {
       r.lens.aperture.profile = profile;
     }
     l.get("aperture_profile_strength", r.lens.aperture.profile_strength, 0, 1);
+    for (auto [key, field] : {std::pair{"lens_tilt", &r.lens.aperture.lens_tilt},
+                              std::pair{"lens_shift", &r.lens.aperture.lens_shift}})
+      if (l.has(key)) {
+        *field = lens::number_pair_from_json(l.at(key));
+        if (!*field) l.fail("must be [x, y] (or null)", key);
+      }
   });
   if (top.has("shading")) {
     render::ShadingSettings sh;

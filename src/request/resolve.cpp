@@ -133,7 +133,11 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
       q.lens.aperture = {a.blades, a.rotation_deg, a.roundness, a.anamorphic_ratio,
                          a.vignetting() ? std::optional<lens::VignettingStop>(a.stop)
                                         : std::nullopt,
-                         a.axial_ca, a.lateral_ca, a.profile, a.profile_strength};
+                         a.axial_ca, a.lateral_ca, a.profile, a.profile_strength,
+                         a.tilted() ? std::optional(std::pair{a.tilt_x_deg, a.tilt_y_deg})
+                                    : std::nullopt,
+                         a.shifted() ? std::optional(std::pair{a.shift_x, a.shift_y})
+                                     : std::nullopt};
   }
 
   if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {

@@ -750,6 +750,17 @@ class Loader : gltf::Document {
     if (auto v = number("aperture_profile_strength")) a.profile_strength = v;
     if (auto v = number("axial_ca")) a.axial_ca = v;
     if (auto v = number("lateral_ca")) a.lateral_ca = v;
+    for (auto [key, field] : {std::pair{"lens_tilt", &a.lens_tilt},
+                              std::pair{"lens_shift", &a.lens_shift}}) {
+      if (!obj.Has(key)) continue;
+      const tinygltf::Value& v = obj.Get(key);
+      const auto item = [&](int i) {
+        return v.Get(i).IsNumber() ? v.Get(i).GetNumberAsDouble() : std::nan("");
+      };
+      if (!v.IsArray() || v.ArrayLen() != 2 || !std::isfinite(item(0)) || !std::isfinite(item(1)))
+        fail(label, std::string(key) + " must be [x, y]");
+      *field = std::pair{item(0), item(1)};
+    }
     if (obj.Has("vignetting_stop")) {
       const tinygltf::Value& v = obj.Get("vignetting_stop");
       const auto item = [&](int i) {

@@ -71,6 +71,9 @@ PathSample CameraPath::at(double time) const {
         static_cast<lens::ApertureProfile>(std::lround(aperture_profile.at(time)));
   if (!aperture_profile_strength.empty())
     s.aperture.profile_strength = aperture_profile_strength.at(time);
+  if (!lens_tilt_x.empty()) s.aperture.lens_tilt = std::pair{lens_tilt_x.at(time), lens_tilt_y.at(time)};
+  if (!lens_shift_x.empty())
+    s.aperture.lens_shift = std::pair{lens_shift_x.at(time), lens_shift_y.at(time)};
   return s;
 }
 

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <tuple>
 #include <type_traits>
 
 #include <glm/geometric.hpp>
@@ -93,7 +94,7 @@ class KeyframeParser {
     Track<glm::dquat> rotation;
     Track<double> yfov, focal_length, fstop, focus;
     Track<double> blades, rotation_deg, roundness, ratio, stop_radius, stop_distance, axial,
-        lateral, profile, strength;
+        lateral, profile, strength, tilt_x, tilt_y, shift_x, shift_y;
     const double fps_for_frames = path.fps.value_or(24.0);
     double last_time = -INFINITY;
     const json& keys = doc["keys"];
@@ -109,14 +110,15 @@ class KeyframeParser {
                                       "aperture_blades", "aperture_rotation",
                                       "aperture_roundness", "anamorphic_ratio",
                                       "vignetting_stop", "axial_ca", "lateral_ca",
-                                      "aperture_profile", "aperture_profile_strength"};
+                                      "aperture_profile", "aperture_profile_strength",
+                                      "lens_tilt", "lens_shift"};
         if (std::find_if(std::begin(known), std::end(known),
                          [&](const char* m) { return member == m; }) == std::end(known))
           fail("unknown member '" + member +
                "' (valid: frame or time, position, target or rotation, yfov, focal_length, fstop, "
                "focus_distance, aperture_blades, aperture_rotation, aperture_roundness, "
                "anamorphic_ratio, vignetting_stop, axial_ca, lateral_ca, aperture_profile, "
-               "aperture_profile_strength)");
+               "aperture_profile_strength, lens_tilt, lens_shift)");
       }
       if (key.contains("frame") == key.contains("time"))
         fail("give exactly one of \"frame\" (a frame number) or \"time\" (seconds)");
@@ -165,6 +167,15 @@ class KeyframeParser {
         }
         add(profile, t, static_cast<double>(*a.profile));
       }
+      for (auto [name, field, tx, ty] :
+           {std::tuple{"lens_tilt", &a.lens_tilt, &tilt_x, &tilt_y},
+            std::tuple{"lens_shift", &a.lens_shift, &shift_x, &shift_y}}) {
+        if (!key.contains(name)) continue;
+        *field = lens::number_pair_from_json(key[name]);
+        if (!*field) fail(std::string(name) + " must be [x, y]");
+        add(*tx, t, (*field)->first);
+        add(*ty, t, (*field)->second);
+      }
       if (key.contains("aperture_profile_strength"))
         add(strength, t,
             *(a.profile_strength =
@@ -197,6 +208,10 @@ class KeyframeParser {
     finish(lateral, mode, "lateral_ca", any);
     finish(profile, KeyInterpolation::Step, "aperture_profile", any);
     finish(strength, mode, "aperture_profile_strength", any);
+    finish(tilt_x, mode, "lens_tilt", any);
+    finish(tilt_y, mode, "lens_tilt", any);
+    finish(shift_x, mode, "lens_shift", any);
+    finish(shift_y, mode, "lens_shift", any);
     if (!any) fail("no key animates anything (give position, target, rotation or lens values)");
     node.translation_track = std::move(position);
     node.rotation_track = std::move(rotation);
@@ -216,6 +231,10 @@ class KeyframeParser {
     path.lateral_ca = std::move(lateral);
     path.aperture_profile = std::move(profile);
     path.aperture_profile_strength = std::move(strength);
+    path.lens_tilt_x = std::move(tilt_x);
+    path.lens_tilt_y = std::move(tilt_y);
+    path.lens_shift_x = std::move(shift_x);
+    path.lens_shift_y = std::move(shift_y);
     path.start_time = keys_start_;
     path.end_time = keys_end_;
     return path;

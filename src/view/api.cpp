@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <tuple>
 #include <exception>
 #include <initializer_list>
 
@@ -271,7 +272,8 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",
                       "aperture_rotation", "aperture_roundness", "anamorphic_ratio",
                       "vignetting_stop", "axial_ca", "lateral_ca", "aperture_profile",
-                      "aperture_profile_strength", "method", "composite"});
+                      "aperture_profile_strength", "lens_tilt", "lens_shift", "method",
+                      "composite"});
     lens::ThinLens lens = session_.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
@@ -298,6 +300,13 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
       a.profile = lens::parse_aperture_profile(it->get<std::string>());
     }
     if (auto v = optional_number(body, "aperture_profile_strength")) a.profile_strength = *v;
+    for (auto [key, x, y] : {std::tuple{"lens_tilt", &a.tilt_x_deg, &a.tilt_y_deg},
+                             std::tuple{"lens_shift", &a.shift_x, &a.shift_y}})
+      if (auto it = body.find(key); it != body.end()) {
+        const auto pair = lens::number_pair_from_json(*it);
+        if (!pair) throw Error(std::string("'") + key + "' must be [x, y]");
+        *x = pair->first, *y = pair->second;
+      }
     std::optional<preview::PreviewMethod> method;
     if (auto it = body.find("method"); it != body.end()) {
       if (!it->is_string()) throw Error("'method' must be a string");

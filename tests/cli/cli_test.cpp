@@ -252,6 +252,9 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
   const nlohmann::json rim_req = nlohmann::json::parse(rim.out.substr(rim.out.find('{')));
   EXPECT_EQ(rim_req["lens"]["aperture_profile"], "rim") << rim.out;
   EXPECT_EQ(rim_req["lens"]["aperture_profile_strength"], 0.5) << rim.out;
+  testing::CliResult tilt = run("render --lens-tilt 2,-1 --lens-shift 0.1,0 --out " + out + small);
+  ASSERT_EQ(tilt.exit_code, 0) << tilt.err;
+  EXPECT_NE(tilt.out.find("tilt 2, -1 deg, shift 0.1, 0"), std::string::npos) << tilt.out;
   EXPECT_NE(req.out.find("\"aperture_rotation\": 15"), std::string::npos) << req.out;
 }
 
@@ -369,6 +372,12 @@ TEST_F(Cli, AbsurdParameters) {
                        "lateral chromatic aberration");
   expect_clean_failure("render --aperture-profile rim --aperture-profile-strength 2 --out " +
                            (dir_ / "o.png").string() + kTiny, "profile strength");
+  expect_clean_failure("render --lens-tilt 90,0 --out " + (dir_ / "o.png").string() + kTiny,
+                       "tilt must be under 90 degrees");
+  expect_clean_failure("sequence " + std::string(DOFCACHE_SOURCE_DIR) +
+                           "/scenes/cornell_box_dolly.gltf --frames 0 --persistent --lens-tilt 1,0 "
+                           "-o " + (dir_ / "f####.png").string() + kTiny,
+                       "--persistent does not follow a tilted lens");
   expect_clean_failure("render --out " + (dir_ / "nodir" / "o.png").string() + kTiny, "o.png");
 }
 

@@ -323,5 +323,38 @@ TEST(Bokeh, ApertureProfileShapesTheBrightnessAcrossTheDisc) {
   }
 }
 
+// Tilt (Scheimpflug): the plane of focus is z / P - y sin(tilt_x) / F - x sin(tilt_y) / F = 1 in
+// camera space. A lamp placed on it off the axis images to a point; through the untilted lens
+// the same lamp spreads over its circle of confusion a |P - Z| / (P Z) (k pixels per unit slope).
+TEST(Bokeh, TiltPutsThePlaneOfFocusWhereScheimpflugPredicts) {
+  constexpr int kImage = 64;
+  const double F = 0.05, P = 1.0, a = 0.05;  // f/0.5
+  const double tilt = std::asin(5.0 * F) * 180.0 / kPi;  // sin(tilt) / F = 5 per metre
+  const double tan_half = 0.05, k = kImage / (2.0 * tan_half);
+  const float yfov = static_cast<float>(2.0 * std::atan(tan_half));
+  // Slope -0.03 below the axis (tilt_x) or left of it (tilt_y): the plane lies at
+  // z = 1 / (1 / P + 0.03 * 5) there.
+  const double z = 1.0 / (1.0 / P + 0.03 * 5.0);
+  const double untilted_radius = a * std::abs(P - z) / (P * z) * k;
+  for (int axis : {0, 1}) {
+    lens::ThinLens lens{F, F / (2.0 * a), P};
+    (axis == 0 ? lens.aperture.tilt_x_deg : lens.aperture.tilt_y_deg) = tilt;
+    const glm::vec3 lamp(axis == 1 ? static_cast<float>(-0.03 * z) : 0.0f,
+                         axis == 0 ? static_cast<float>(-0.03 * z) : 0.0f, -static_cast<float>(z));
+    const double side = kLampPixels * z / k;
+    const image::Image tilted = lamp_image(lens, yfov, kImage, lamp, side, 1024);
+    lens::ThinLens flat{F, F / (2.0 * a), P};
+    const image::Image untilted = lamp_image(flat, yfov, kImage, lamp, side, 1024);
+    const ChannelMoments sharp = channel_moments(tilted, 1), blurred = channel_moments(untilted, 1);
+    // In focus: only the lamp's square and the pixel's box (kExtraPolar) remain.
+    EXPECT_LT(sharp.polar, kExtraPolar + 0.3) << "axis " << axis;
+    EXPECT_NEAR(std::sqrt(2.0 * (blurred.polar - kExtraPolar)), untilted_radius,
+                0.05 * untilted_radius) << "axis " << axis;
+    EXPECT_GT(untilted_radius, 4.0);
+    // The lamp lands where its pinhole ray does (tilt does not move the image).
+    EXPECT_NEAR(axis == 0 ? sharp.cy : sharp.cx, -0.03 * k, 0.3) << "axis " << axis;
+  }
+}
+
 }  // namespace
 }  // namespace dofcache::render

@@ -79,5 +79,28 @@ TEST(ThinLensCamera, FilmToWorldMapsEachFilmPointAndDepthOntoItsPinholeRay) {
     }
 }
 
+// A shifted film moves the view by shift image heights without turning the camera: the centre
+// pixel looks along forward + 2 tan(yfov / 2) (shift_x right + shift_y up), and film_to_world
+// follows the shifted film.
+TEST(ThinLensCamera, ShiftMovesTheViewWithoutTurningIt) {
+  lens::ThinLens lens;
+  lens.aperture.shift_x = 0.25;
+  lens.aperture.shift_y = -0.1;
+  const float yfov = 0.7f;
+  const ThinLensCamera cam(glm::mat4(1.0f), yfov, lens, 64, 40);
+  const glm::vec3 d = cam.pinhole_ray({32.0f, 20.0f}).direction;
+  const float t = std::tan(0.5f * yfov);
+  const glm::vec3 expected = glm::normalize(glm::vec3(2.0f * t * 0.25f, 2.0f * t * -0.1f, -1.0f));
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(d[c], expected[c], 1e-6f);
+  EXPECT_NEAR(glm::dot(cam.forward(), glm::vec3(0, 0, -1)), 1.0f, 1e-6f);  // not turned
+  const glm::mat4 m = cam.film_to_world();
+  for (glm::vec2 film : {glm::vec2(0.0f, 0.0f), glm::vec2(50.0f, 7.5f)}) {
+    const scene::Ray ray = cam.pinhole_ray(film);
+    const glm::vec4 got = m * glm::vec4(film.x * 2.0f, film.y * 2.0f, 2.0f, 1.0f);
+    const glm::vec3 want = ray.origin + ray.direction * (2.0f / glm::dot(ray.direction, cam.forward()));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 1e-5f);
+  }
+}
+
 }  // namespace
 }  // namespace dofcache::render

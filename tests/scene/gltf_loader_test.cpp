@@ -419,7 +419,8 @@ TEST_F(GltfLoaderTest, CameraApertureShapeExtras) {
                  scene_with(R"({"aperture_blades": 6, "anamorphic_ratio": 1.5})",
                             R"({"aperture_blades": 5, "aperture_rotation": 10,
                                 "vignetting_stop": [0.012, 0.03], "axial_ca": 0.05,
-                                "lateral_ca": 0.01, "aperture_profile": "centre"})"));
+                                "lateral_ca": 0.01, "aperture_profile": "centre",
+                                "lens_tilt": [2, 0], "lens_shift": [0, 0.1]})"));
   const lens::ApertureChoices& a = s.cameras[0].lens.aperture;
   ASSERT_TRUE(a.blades && a.rotation_deg && a.anamorphic_ratio);
   EXPECT_EQ(*a.blades, 5);
@@ -432,12 +433,16 @@ TEST_F(GltfLoaderTest, CameraApertureShapeExtras) {
   EXPECT_DOUBLE_EQ(*a.axial_ca, 0.05);
   EXPECT_DOUBLE_EQ(*a.lateral_ca, 0.01);
   EXPECT_EQ(*a.profile, lens::ApertureProfile::Centre);
+  ASSERT_TRUE(a.lens_tilt && a.lens_shift);
+  EXPECT_DOUBLE_EQ(a.lens_tilt->first, 2.0);
+  EXPECT_DOUBLE_EQ(a.lens_shift->second, 0.1);
   for (const char* bad : {R"({"aperture_blades": 2})", R"({"aperture_blades": 6.5})",
                           R"({"aperture_roundness": 2})", R"({"anamorphic_ratio": 0})",
                           R"({"aperture_rotation": "up"})", R"({"vignetting_stop": [0.01]})",
                           R"({"vignetting_stop": [0, 0.02]})",
                           R"({"vignetting_stop": "wide"})", R"({"lateral_ca": 0.5})",
-                          R"({"aperture_profile": "bubble"})", R"({"aperture_profile": 3})"}) {
+                          R"({"aperture_profile": "bubble"})", R"({"aperture_profile": 3})",
+                          R"({"lens_tilt": [90, 0]})", R"({"lens_shift": [0.1]})"}) {
     const std::string path = write("bad_aperture.gltf", scene_with("{}", bad));
     expect_error([&] { load_gltf(path); }, {path, "cam"});
   }

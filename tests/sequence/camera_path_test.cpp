@@ -298,10 +298,12 @@ TEST(KeyframePath, ApertureShapeAnimates) {
     "keys": [
       {"frame": 0,  "position": [0, 0, 5], "aperture_blades": 5, "aperture_rotation": 0,
        "anamorphic_ratio": 1, "vignetting_stop": [0.01, 0.02], "axial_ca": 0.0,
-       "aperture_profile": "rim", "aperture_profile_strength": 0.2},
+       "aperture_profile": "rim", "aperture_profile_strength": 0.2, "lens_tilt": [0, 0],
+       "lens_shift": [0.1, 0]},
       {"frame": 10, "position": [1, 0, 5], "aperture_blades": 8, "aperture_rotation": 90,
        "anamorphic_ratio": 2, "vignetting_stop": [0.02, 0.04], "axial_ca": 0.1,
-       "aperture_profile": "centre", "aperture_profile_strength": 0.6}
+       "aperture_profile": "centre", "aperture_profile_strength": 0.6, "lens_tilt": [4, -2],
+       "lens_shift": [0.1, 0.2]}
     ]})", "test.json", base_camera());
   const PathSample s = p.at(0.5);
   EXPECT_EQ(*s.aperture.blades, 5);
@@ -316,6 +318,10 @@ TEST(KeyframePath, ApertureShapeAnimates) {
   EXPECT_EQ(*s.aperture.profile, lens::ApertureProfile::Rim);  // held to the next key
   EXPECT_NEAR(*s.aperture.profile_strength, 0.4, 1e-12);
   EXPECT_EQ(*p.at(1.0).aperture.profile, lens::ApertureProfile::Centre);
+  ASSERT_TRUE(s.aperture.lens_tilt && s.aperture.lens_shift);
+  EXPECT_NEAR(s.aperture.lens_tilt->first, 2.0, 1e-12);
+  EXPECT_NEAR(s.aperture.lens_tilt->second, -1.0, 1e-12);
+  EXPECT_NEAR(s.aperture.lens_shift->second, 0.1, 1e-12);
   EXPECT_EQ(*p.at(1.0).aperture.blades, 8);
   auto bad = [](const std::string& member) {
     return parse_keyframe_path(R"({"dofcache_camera_path": 1, "keys": [{"time": 0, )" + member +
@@ -330,6 +336,8 @@ TEST(KeyframePath, ApertureShapeAnimates) {
   EXPECT_THROW(bad(R"("vignetting_stop": 0.01)"), Error);
   EXPECT_THROW(bad(R"("lateral_ca": 1)"), Error);
   EXPECT_THROW(bad(R"("aperture_profile": "bubble")"), Error);
+  EXPECT_THROW(bad(R"("lens_tilt": [95, 0])"), Error);
+  EXPECT_THROW(bad(R"("lens_shift": 0.1)"), Error);
 }
 
 TEST(KeyframePath, RotationStepAndSmooth) {

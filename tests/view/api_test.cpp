@@ -117,6 +117,10 @@ TEST_F(ViewApiTest, LensRouteSetsTheAperturesShape) {
   ASSERT_EQ(rim.status, 200) << rim.body;
   EXPECT_EQ(json::parse(rim.body).at("aperture_profile"), "rim");
   EXPECT_EQ(request("POST", "/api/lens", R"({"aperture_profile": "bubble"})").status, 400);
+  const ApiResponse tilt = request("POST", "/api/lens", R"({"lens_tilt": [3, 0]})");
+  ASSERT_EQ(tilt.status, 200) << tilt.body;
+  EXPECT_EQ(json::parse(tilt.body).at("lens_tilt"), json({3.0, 0.0}));
+  EXPECT_EQ(request("POST", "/api/lens", R"({"lens_tilt": [90, 0]})").status, 400);
 }
 
 // Before the first inputs: images are 503, pixels 400, both with a message.

@@ -35,8 +35,19 @@
 // bright-rimmed "soap bubble" bokeh of some old lenses); s the strength in [0, 1]. Sampled
 // uniformly over the shape, rho has the density 2 rho whatever the shape (it is star-shaped
 // about its centre), so T's mean is 1 - s / 2 for both.
+//
+// Tilt and shift (a tilt-shift lens; ApertureShape carries them with the rest of the lens's
+// character). Shift moves the film parallel to itself: the view moves by shift_x, shift_y image
+// heights (right, up) without turning the camera, so verticals stay parallel. Tilt turns the lens
+// by tilt_x degrees about the horizontal axis (positive: the plane of focus reaches down, towards
+// a floor) and tilt_y about the vertical one (positive: towards the left). By the Scheimpflug
+// and hinge rules the plane of focus then passes through the point in focus on the axis, at P,
+// and through the hinge line at J = F / sin(tilt) from the lens: in camera space (x right, y up,
+// z forward) it is z / P - y sin(tilt_x) / F - x sin(tilt_y) / F = 1. The aperture stays
+// perpendicular to the axis (a thin-lens approximation).
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -64,10 +75,13 @@ struct ApertureShape {
   ApertureShape() = default;
   ApertureShape(int blades, double rotation_deg, double roundness, double anamorphic_ratio,
                 VignettingStop stop = {}, double axial_ca = 0.0, double lateral_ca = 0.0,
-                ApertureProfile profile = ApertureProfile::Uniform, double profile_strength = 1.0)
+                ApertureProfile profile = ApertureProfile::Uniform, double profile_strength = 1.0,
+                double tilt_x_deg = 0.0, double tilt_y_deg = 0.0, double shift_x = 0.0,
+                double shift_y = 0.0)
       : blades(blades), rotation_deg(rotation_deg), roundness(roundness),
         anamorphic_ratio(anamorphic_ratio), stop(stop), axial_ca(axial_ca),
-        lateral_ca(lateral_ca), profile(profile), profile_strength(profile_strength) {}
+        lateral_ca(lateral_ca), profile(profile), profile_strength(profile_strength),
+        tilt_x_deg(tilt_x_deg), tilt_y_deg(tilt_y_deg), shift_x(shift_x), shift_y(shift_y) {}
 
   int blades = 0;                 // 0: round; else kMinBlades..kMaxBlades
   double rotation_deg = 0.0;      // a corner's angle from the image's +x, counter-clockwise
@@ -78,15 +92,21 @@ struct ApertureShape {
   double lateral_ca = 0.0;        // red's magnification over blue's, minus 1
   ApertureProfile profile = ApertureProfile::Uniform;
   double profile_strength = 1.0;  // s in [0, 1]
+  double tilt_x_deg = 0.0, tilt_y_deg = 0.0;  // lens tilt about the horizontal, vertical axes
+  double shift_x = 0.0, shift_y = 0.0;        // film shift, in image heights
 
   // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
   bool round() const { return blades == 0 && anamorphic_ratio == 1.0; }
   bool vignetting() const { return stop.radius > 0.0; }
   bool chromatic() const { return axial_ca != 0.0 || lateral_ca != 0.0; }
   bool weighted() const { return profile != ApertureProfile::Uniform && profile_strength > 0.0; }
+  bool tilted() const { return tilt_x_deg != 0.0 || tilt_y_deg != 0.0; }
+  bool shifted() const { return shift_x != 0.0 || shift_y != 0.0; }
   // The ideal lens of before shapes: round, nothing clipped, every colour alike, every lens ray
   // of the same weight.
-  bool plain() const { return round() && !vignetting() && !chromatic() && !weighted(); }
+  bool plain() const {
+    return round() && !vignetting() && !chromatic() && !weighted() && !tilted() && !shifted();
+  }
   // A lens ray's weight at normalised radius rho: T(rho) over T's mean (1 without a profile).
   double transmission(double rho) const;
   // Band b's (0 red, 1 green, 2 blue) place between the red (+1/2) and blue (-1/2) ends.
@@ -97,13 +117,15 @@ struct ApertureShape {
   // Throws dofcache::Error naming the first absurd value (1-2 or more than kMaxBlades blades,
   // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation, a vignetting
   // stop whose radius or distance is not positive and finite, a lateral chromatic aberration
-  // beyond 20 % or either aberration not finite, a profile strength outside [0, 1]).
+  // beyond 20 % or either aberration not finite, a profile strength outside [0, 1], a tilt of 90
+  // degrees or more, a shift beyond one image height).
   void validate() const;
   bool operator==(const ApertureShape& o) const {
     return blades == o.blades && rotation_deg == o.rotation_deg && roundness == o.roundness &&
            anamorphic_ratio == o.anamorphic_ratio && stop == o.stop &&
            axial_ca == o.axial_ca && lateral_ca == o.lateral_ca && profile == o.profile &&
-           profile_strength == o.profile_strength;
+           profile_strength == o.profile_strength && tilt_x_deg == o.tilt_x_deg &&
+           tilt_y_deg == o.tilt_y_deg && shift_x == o.shift_x && shift_y == o.shift_y;
   }
 };
 
@@ -120,6 +142,7 @@ struct ApertureChoices {
   std::optional<double> axial_ca, lateral_ca;
   std::optional<ApertureProfile> profile;
   std::optional<double> profile_strength;
+  std::optional<std::pair<double, double>> lens_tilt, lens_shift;  // (x, y)
 
   // Each value from here, else from `fallback`.
   ApertureChoices over(const ApertureChoices& fallback) const;
@@ -127,7 +150,7 @@ struct ApertureChoices {
   ApertureShape shape() const;
   bool any() const {
     return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop ||
-           axial_ca || lateral_ca || profile || profile_strength;
+           axial_ca || lateral_ca || profile || profile_strength || lens_tilt || lens_shift;
   }
 };
 

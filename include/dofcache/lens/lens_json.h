@@ -3,8 +3,10 @@
 // for a shaped aperture "aperture_blades", "aperture_rotation" (degrees), "aperture_roundness"
 // and "anamorphic_ratio", with a vignetting stop "vignetting_stop" ([radius, distance], metres),
 // with chromatic aberration "axial_ca" and "lateral_ca", with a transmission profile
-// "aperture_profile" and "aperture_profile_strength": the one shape of statistics files, requests, the viewer's API and keyframe files.
+// "aperture_profile" and "aperture_profile_strength", and "lens_tilt" and "lens_shift" ([x, y]):
+// the one shape of statistics files, requests, the viewer's API and keyframe files.
 #include <optional>
+#include <utility>
 
 #include <cmath>
 
@@ -29,18 +31,27 @@ inline nlohmann::json lens_json(const ThinLens& lens) {
   if (a.weighted())
     j.update({{"aperture_profile", aperture_profile_name(a.profile)},
               {"aperture_profile_strength", a.profile_strength}});
+  if (a.tilted()) j["lens_tilt"] = {a.tilt_x_deg, a.tilt_y_deg};
+  if (a.shifted()) j["lens_shift"] = {a.shift_x, a.shift_y};
   return j;
 }
 
-// "vignetting_stop" as every reader takes it: [radius, distance], two finite numbers (metres);
+// "vignetting_stop" ([radius, distance] in metres), "lens_tilt" and "lens_shift" ([x, y]) as
+// every reader takes them: two finite numbers;
 // nullopt for anything else (the reader names the key in its own error). VignettingStop's
 // values are judged by ApertureShape::validate.
-inline std::optional<VignettingStop> vignetting_stop_from_json(const nlohmann::json& j) {
+inline std::optional<std::pair<double, double>> number_pair_from_json(const nlohmann::json& j) {
   if (!j.is_array() || j.size() != 2 || !j[0].is_number() || !j[1].is_number())
     return std::nullopt;
-  const double r = j[0].get<double>(), d = j[1].get<double>();
-  if (!std::isfinite(r) || !std::isfinite(d)) return std::nullopt;
-  return VignettingStop{r, d};
+  const double a = j[0].get<double>(), b = j[1].get<double>();
+  if (!std::isfinite(a) || !std::isfinite(b)) return std::nullopt;
+  return std::pair{a, b};
+}
+
+inline std::optional<VignettingStop> vignetting_stop_from_json(const nlohmann::json& j) {
+  const auto pair = number_pair_from_json(j);
+  if (!pair) return std::nullopt;
+  return VignettingStop{pair->first, pair->second};
 }
 
 }  // namespace dofcache::lens

@@ -51,6 +51,10 @@ class ThinLensCamera {
   float t_at_depth(const scene::Ray& ray, float z) const;
 
   const lens::LensImaging& imaging() const { return imaging_; }
+  // The imaging of a point: with a tilted lens, focused at the depth where the plane of focus
+  // crosses the point's pinhole ray (its circle of confusion then follows the tilted plane);
+  // else imaging().
+  lens::LensImaging imaging_at(glm::vec3 world) const;
   const lens::ThinLens& lens() const { return imaging_.lens; }
   glm::vec3 position() const { return position_; }
   glm::vec3 forward() const { return forward_; }
@@ -62,12 +66,18 @@ class ThinLensCamera {
  private:
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
   glm::vec2 film_slopes(glm::vec2 film) const;  // its right and up components
+  // The depth at which the lens rays of the pinhole direction (slopes, 1) converge: p (the
+  // focus distance, or a colour band's) untilted, else where it meets the tilted plane of focus.
+  double focus_depth(glm::vec2 slopes, double p) const;
 
   lens::LensImaging imaging_;
   lens::Aperture aperture_;  // where lens rays start: imaging_.lens.aperture's shape
   glm::vec3 position_, right_, up_, forward_;
   int width_, height_;
   float tan_half_y_, tan_half_x_;
+  glm::vec2 shift_{0.0f};             // the film's shift, in slope units (lens/aperture.h)
+  bool tilted_ = false;
+  glm::dvec2 tilt_sin_{0.0};          // sin(tilt_x), sin(tilt_y)
 };
 
 }  // namespace dofcache::render

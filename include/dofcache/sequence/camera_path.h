@@ -65,6 +65,7 @@ struct CameraPath {
   Track<double> axial_ca, lateral_ca;
   // The profile's index (lens::ApertureProfile), held from key to key, and its strength.
   Track<double> aperture_profile, aperture_profile_strength;
+  Track<double> lens_tilt_x, lens_tilt_y, lens_shift_x, lens_shift_y;  // keyed as pairs
   std::optional<double> fps;  // the frame rate the file suggests (keyframe files)
   double start_time = 0.0, end_time = 0.0;  // seconds: first and last key of any track
 
