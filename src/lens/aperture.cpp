@@ -5,6 +5,7 @@
 #include <string>
 
 #include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
 #include "dofcache/lens/thin_lens.h"
 
 namespace dofcache::lens {
@@ -73,6 +74,9 @@ const char* aperture_profile_name(ApertureProfile profile) {
 }
 
 double ApertureShape::inner_scale() const {
+  // An aperture image's inradius is not known without reading it: half the round aperture's, a
+  // footprint within most bokeh images (docs/lens.md).
+  if (!image.empty()) return 0.5 * std::min(anamorphic_ratio, 1.0 / anamorphic_ratio);
   const double polygon =
       blades == 0 ? 1.0 : (1.0 - roundness) * std::cos(kPi / blades) + roundness;
   return polygon * std::min(anamorphic_ratio, 1.0 / anamorphic_ratio);
@@ -105,13 +109,47 @@ ApertureShape ApertureChoices::shape() const {
           lateral_ca.value_or(0.0), profile.value_or(round.profile),
           profile_strength.value_or(round.profile_strength),
           lens_tilt ? lens_tilt->first : 0.0, lens_tilt ? lens_tilt->second : 0.0,
-          lens_shift ? lens_shift->first : 0.0, lens_shift ? lens_shift->second : 0.0};
+          lens_shift ? lens_shift->first : 0.0, lens_shift ? lens_shift->second : 0.0,
+          image.value_or("")};
 }
 
 Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {
   shape_.validate();
   squeeze_ = glm::vec2(static_cast<float>(std::min(1.0, 1.0 / shape_.anamorphic_ratio)),
                        static_cast<float>(std::min(1.0, shape_.anamorphic_ratio)));
+  if (!shape_.image.empty()) {
+    const image::Image im = image::read_image(
+        shape_.image, std::uint64_t{kMaxApertureImageSide} * kMaxApertureImageSide * 3);
+    image_w_ = im.width(), image_h_ = im.height();
+    if (image_w_ > kMaxApertureImageSide || image_h_ > kMaxApertureImageSide)
+      throw Error("lens: the aperture image " + shape_.image + " is larger than " +
+                  std::to_string(kMaxApertureImageSide) + " pixels a side");
+    // Cumulative sums in double (a 4096^2 image's total), stored normalised.
+    std::vector<double> rows(image_h_ + 1, 0.0);
+    std::vector<double> cols(static_cast<std::size_t>(image_h_) * (image_w_ + 1), 0.0);
+    for (int y = 0; y < image_h_; ++y) {
+      double* c = &cols[static_cast<std::size_t>(y) * (image_w_ + 1)];
+      for (int x = 0; x < image_w_; ++x) {
+        double t = 0.0;
+        for (int k = 0; k < im.channels(); ++k) t += im.at(x, y, k);
+        t = std::isfinite(t) ? std::max(0.0, t / im.channels()) : 0.0;
+        c[x + 1] = c[x] + t;
+      }
+      rows[y + 1] = rows[y] + c[image_w_];
+    }
+    if (!(rows.back() > 0.0))
+      throw Error("lens: the aperture image " + shape_.image + " transmits no light (all black)");
+    for (double v : rows) row_cdf_.push_back(static_cast<float>(v / rows.back()));
+    column_cdf_.resize(cols.size());
+    for (int y = 0; y < image_h_; ++y) {
+      const std::size_t o = static_cast<std::size_t>(y) * (image_w_ + 1);
+      const double total = cols[o + image_w_];
+      for (int x = 0; x <= image_w_; ++x)
+        column_cdf_[o + x] = total > 0.0 ? static_cast<float>(cols[o + x] / total)
+                                         : static_cast<float>(x) / image_w_;
+    }
+    return;
+  }
   if (shape_.blades == 0) return;
   // The rim's points: the corners, and for rounded blades kRimSegments chords on each side of
   // every edge's normal (the rim there is curved; chords of a convex rim stay inside it).
@@ -147,6 +185,38 @@ double Aperture::polygon_rim(double angle) const {
   return (1.0 - shape_.roundness) * std::cos(kPi / n) / std::cos(t) + shape_.roundness;
 }
 
+namespace {
+
+// The bin of a cumulative table (first 0, last 1) holding u, and u's place within it.
+std::pair<int, float> invert_cdf(const float* cdf, int bins, float u) {
+  const int i = std::clamp(
+      static_cast<int>(std::upper_bound(cdf, cdf + bins + 1, u) - cdf) - 1, 0, bins - 1);
+  const float width = cdf[i + 1] - cdf[i];
+  return {i, width > 0.0f ? std::clamp((u - cdf[i]) / width, 0.0f, 1.0f) : 0.5f};
+}
+
+}  // namespace
+
+glm::vec2 Aperture::sample_image(glm::vec2 u) const {
+  const auto [row, fy] = invert_cdf(row_cdf_.data(), image_h_, u.y);
+  const auto [col, fx] =
+      invert_cdf(&column_cdf_[static_cast<std::size_t>(row) * (image_w_ + 1)], image_w_, u.x);
+  // Pixel (col, row) covers [col, col + 1) x [row, row + 1) of the square [-1, 1]^2, top row up.
+  return {2.0f * (static_cast<float>(col) + fx) / image_w_ - 1.0f,
+          1.0f - 2.0f * (static_cast<float>(row) + fy) / image_h_};
+}
+
+float Aperture::transmission_at(glm::vec2 p) const {
+  const int x = static_cast<int>(std::floor((p.x + 1.0f) * 0.5f * image_w_));
+  const int y = static_cast<int>(std::floor((1.0f - p.y) * 0.5f * image_h_));
+  if (x < 0 || y < 0 || x >= image_w_ || y >= image_h_) return 0.0f;
+  const std::size_t o = static_cast<std::size_t>(y) * (image_w_ + 1);
+  return column_cdf_[o + x + 1] - column_cdf_[o + x] > 0.0f &&
+                 row_cdf_[y + 1] - row_cdf_[y] > 0.0f
+             ? 1.0f
+             : 0.0f;
+}
+
 double Aperture::rim(double angle) const {
   // The unsqueezed direction that the squeeze turns into `angle`, and the squeezed rim point's
   // distance.
@@ -158,10 +228,17 @@ double Aperture::rim(double angle) const {
 
 bool Aperture::contains(glm::vec2 p) const {
   const double x = p.x / squeeze_.x, y = p.y / squeeze_.y;
+  if (image_w_ > 0)
+    return transmission_at(glm::vec2(static_cast<float>(x), static_cast<float>(y))) > 0.0f;
   return std::hypot(x, y) <= polygon_rim(std::atan2(y, x));
 }
 
 glm::vec2 Aperture::sample(glm::vec2 u, float* rho) const {
+  if (image_w_ > 0) {
+    const glm::vec2 p = sample_image(u);
+    if (rho) *rho = std::min(1.0f, std::sqrt(p.x * p.x + p.y * p.y));
+    return p * squeeze_;
+  }
   if (shape_.blades == 0) {
     const glm::vec2 d = concentric_disk(u);
     if (rho) *rho = std::sqrt(d.x * d.x + d.y * d.y);

@@ -157,6 +157,7 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   if (a.weighted())
     text += fmt::format(", {}-weighted transmission (strength {:g})",
                         lens::aperture_profile_name(a.profile), a.profile_strength);
+  if (!a.image.empty()) text += ", image " + a.image;
   if (a.tilted()) text += fmt::format(", tilt {:g}, {:g} deg", a.tilt_x_deg, a.tilt_y_deg);
   if (a.shifted()) text += fmt::format(", shift {:g}, {:g}", a.shift_x, a.shift_y);
   text += "\n";

@@ -284,7 +284,8 @@ json to_json(const RenderRequest& r) {
                                  : json(nullptr)},
         {"aperture_profile_strength", optional_number(r.lens.aperture.profile_strength)},
         {"lens_tilt", pair_json(r.lens.aperture.lens_tilt)},
-        {"lens_shift", pair_json(r.lens.aperture.lens_shift)}}},
+        {"lens_shift", pair_json(r.lens.aperture.lens_shift)},
+        {"aperture_image", r.lens.aperture.image ? json(*r.lens.aperture.image) : json(nullptr)}}},
       {"shading", r.shading ? shading_json(*r.shading) : json(nullptr)},
       {"environment", environment_settings_json(r.environment)},
       {"cache", cache_json(r.cache, c)},
@@ -374,6 +375,11 @@ RenderRequest request_from_json(const json& j) {
       r.lens.aperture.profile = profile;
     }
     l.get("aperture_profile_strength", r.lens.aperture.profile_strength, 0, 1);
+    if (l.has("aperture_image")) {
+      std::string path;
+      l.get("aperture_image", path);
+      r.lens.aperture.image = path;
+    }
     for (auto [key, field] : {std::pair{"lens_tilt", &r.lens.aperture.lens_tilt},
                               std::pair{"lens_shift", &r.lens.aperture.lens_shift}})
       if (l.has(key)) {

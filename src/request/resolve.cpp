@@ -123,6 +123,8 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
 
   const render::ResolvedLens lens = render::resolve_lens(scene, accel, camera, q.lens);
   s.lens = lens.lens;
+  // An aperture image is read here once, so an unreadable one is refused before the render.
+  if (!s.lens.aperture.image.empty()) lens::Aperture{s.lens.aperture};
   r.focus_from_scene = lens.focus_from_scene;
   // A sequence's lens may change per frame (its path's keys): only images fix it here.
   if (q.kind != Kind::Sequence) {
@@ -137,7 +139,8 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
                          a.tilted() ? std::optional(std::pair{a.tilt_x_deg, a.tilt_y_deg})
                                     : std::nullopt,
                          a.shifted() ? std::optional(std::pair{a.shift_x, a.shift_y})
-                                     : std::nullopt};
+                                     : std::nullopt,
+                         a.image.empty() ? std::nullopt : std::optional(a.image)};
   }
 
   if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {

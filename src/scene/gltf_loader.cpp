@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <cstring>
 #include <map>
 #include <optional>
@@ -750,6 +751,14 @@ class Loader : gltf::Document {
     if (auto v = number("aperture_profile_strength")) a.profile_strength = v;
     if (auto v = number("axial_ca")) a.axial_ca = v;
     if (auto v = number("lateral_ca")) a.lateral_ca = v;
+    if (obj.Has("aperture_image")) {  // a file name, relative to the glTF file's directory
+      const tinygltf::Value& v = obj.Get("aperture_image");
+      if (!v.IsString() || v.Get<std::string>().empty())
+        fail(label, "aperture_image must be a file name");
+      std::filesystem::path file(v.Get<std::string>());
+      if (file.is_relative()) file = std::filesystem::path(gltf::base_dir_of(name_)) / file;
+      a.image = file.string();
+    }
     for (auto [key, field] : {std::pair{"lens_tilt", &a.lens_tilt},
                               std::pair{"lens_shift", &a.lens_shift}}) {
       if (!obj.Has(key)) continue;

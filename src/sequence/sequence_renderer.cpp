@@ -180,6 +180,7 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
     if (a.weighted()) h.add(static_cast<int>(a.profile)), h.add(a.profile_strength);
     if (a.tilted()) h.add(a.tilt_x_deg), h.add(a.tilt_y_deg);
     if (a.shifted()) h.add(a.shift_x), h.add(a.shift_y);
+    if (!a.image.empty()) h.add(a.image);
   }
   return h.value();
 }

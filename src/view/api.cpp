@@ -272,8 +272,8 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",
                       "aperture_rotation", "aperture_roundness", "anamorphic_ratio",
                       "vignetting_stop", "axial_ca", "lateral_ca", "aperture_profile",
-                      "aperture_profile_strength", "lens_tilt", "lens_shift", "method",
-                      "composite"});
+                      "aperture_profile_strength", "lens_tilt", "lens_shift", "aperture_image",
+                      "method", "composite"});
     lens::ThinLens lens = session_.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
@@ -300,6 +300,12 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
       a.profile = lens::parse_aperture_profile(it->get<std::string>());
     }
     if (auto v = optional_number(body, "aperture_profile_strength")) a.profile_strength = *v;
+    if (auto it = body.find("aperture_image"); it != body.end()) {
+      if (!it->is_null() && !it->is_string())
+        throw Error("'aperture_image' must be a file name or null");
+      a.image = it->is_null() ? std::string() : it->get<std::string>();
+      if (!a.image.empty()) lens::Aperture{a};  // unreadable: refused here, changing nothing
+    }
     for (auto [key, x, y] : {std::tuple{"lens_tilt", &a.tilt_x_deg, &a.tilt_y_deg},
                              std::tuple{"lens_shift", &a.shift_x, &a.shift_y}})
       if (auto it = body.find(key); it != body.end()) {

@@ -374,6 +374,9 @@ TEST_F(Cli, AbsurdParameters) {
                            (dir_ / "o.png").string() + kTiny, "profile strength");
   expect_clean_failure("render --lens-tilt 90,0 --out " + (dir_ / "o.png").string() + kTiny,
                        "tilt must be under 90 degrees");
+  expect_clean_failure("render --aperture-image " + (dir_ / "no_such_aperture.png").string() +
+                           " --out " + (dir_ / "o.png").string() + kTiny,
+                       "no_such_aperture.png");
   expect_clean_failure("sequence " + std::string(DOFCACHE_SOURCE_DIR) +
                            "/scenes/cornell_box_dolly.gltf --frames 0 --persistent --lens-tilt 1,0 "
                            "-o " + (dir_ / "f####.png").string() + kTiny,

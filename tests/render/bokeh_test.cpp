@@ -13,6 +13,9 @@
 
 #include "dofcache/render/camera.h"
 #include "dofcache/render/renderer.h"
+#include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
+#include "scratch_dir.h"
 #include "test_scenes.h"
 
 namespace dofcache::render {
@@ -353,6 +356,56 @@ TEST(Bokeh, TiltPutsThePlaneOfFocusWhereScheimpflugPredicts) {
     EXPECT_GT(untilted_radius, 4.0);
     // The lamp lands where its pinhole ray does (tilt does not move the image).
     EXPECT_NEAR(axis == 0 ? sharp.cy : sharp.cx, -0.03 * k, 0.3) << "axis " << axis;
+  }
+}
+
+// An aperture image: transmission over the square around the round aperture, top row up,
+// importance-sampled. This one transmits 1 over x in [1/4, 1], y in [-1/2, 1/2] (right of the
+// centre) and 1/4 over the mirror rectangle on the left, nothing elsewhere. Behind the focus the
+// bokeh is the image scaled by the circle of confusion c, upright: a 3c/4 x c box centred at
+// (+5c/8, 0) holding 4/5 of the light and its mirror holding 1/5.
+class ApertureImageBokeh : public dofcache::testing::ScratchDirTest {};
+
+TEST_F(ApertureImageBokeh, TheBokehIsTheImageScaledByTheCircleOfConfusion) {
+  image::Image t(64, 64, 3, 0.0f);
+  for (int y = 16; y < 48; ++y)
+    for (int x = 0; x < 24; ++x)
+      for (int k = 0; k < 3; ++k) t.at(x, y, k) = 0.25f, t.at(x + 40, y, k) = 1.0f;
+  const std::string file = path("aperture.exr");
+  image::write_image(file, t);
+  lens::ThinLens lens{0.05, 2.0, 1.0};
+  lens.aperture.image = file;
+  const float yfov = 0.0286f;
+  const lens::LensImaging imaging{lens, yfov, kSize};
+  const double c = imaging.coc_radius_pixels(kDepth);
+  const double side = kLampPixels * imaging.pixel_footprint(kDepth);
+  const image::Image im =
+      lamp_image(lens, yfov, kSize, {0.0f, 0.0f, -static_cast<float>(kDepth)}, side, 4096);
+  double right = 0, left = 0, rx = 0, ry = 0, rxx = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const double v = im.at(x, y, 1), px = x + 0.5 - kSize / 2.0, py = kSize / 2.0 - y - 0.5;
+      if (px > 0) right += v, rx += v * px, ry += v * py, rxx += v * px * px;
+      else left += v;
+    }
+  EXPECT_NEAR(right / (right + left), 0.8, 0.01);
+  rx /= right, ry /= right, rxx = rxx / right - rx * rx;
+  EXPECT_NEAR(rx, 5.0 * c / 8.0, 0.03 * c);
+  EXPECT_NEAR(ry, 0.0, 0.3);
+  // A w-wide box's second moment w^2 / 12, plus the lamp's and the pixel's (side^2 + 1) / 12.
+  EXPECT_NEAR(std::sqrt(12.0 * rxx - kLampPixels * kLampPixels - 1.0), 0.75 * c, 0.04 * c);
+  // An unreadable or black image is one line naming the file.
+  lens::ApertureShape missing;
+  missing.image = path("nothing.png");
+  EXPECT_THROW(lens::Aperture{missing}, Error);
+  image::write_image(path("black.exr"), image::Image(8, 8, 3, 0.0f));
+  lens::ApertureShape black;
+  black.image = path("black.exr");
+  try {
+    lens::Aperture{black};
+    ADD_FAILURE() << "a black aperture image was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("transmits no light"), std::string::npos) << e.what();
   }
 }
 

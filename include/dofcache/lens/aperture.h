@@ -36,6 +36,12 @@
 // uniformly over the shape, rho has the density 2 rho whatever the shape (it is star-shaped
 // about its centre), so T's mean is 1 - s / 2 for both.
 //
+// An aperture image (`image`, a PNG or EXR path) replaces blades and roundness: its grey values
+// (the mean of its channels) are the transmission over the square around the round aperture,
+// x right and the top row up, and lens rays are importance-sampled in proportion to them (as
+// pbrt-v4 does), each of weight 1. The anamorphic squeeze, the profile, the stop, chromatic
+// aberration and tilt-shift still apply.
+//
 // Tilt and shift (a tilt-shift lens; ApertureShape carries them with the rest of the lens's
 // character). Shift moves the film parallel to itself: the view moves by shift_x, shift_y image
 // heights (right, up) without turning the camera, so verticals stay parallel. Tilt turns the lens
@@ -77,11 +83,12 @@ struct ApertureShape {
                 VignettingStop stop = {}, double axial_ca = 0.0, double lateral_ca = 0.0,
                 ApertureProfile profile = ApertureProfile::Uniform, double profile_strength = 1.0,
                 double tilt_x_deg = 0.0, double tilt_y_deg = 0.0, double shift_x = 0.0,
-                double shift_y = 0.0)
+                double shift_y = 0.0, std::string image = {})
       : blades(blades), rotation_deg(rotation_deg), roundness(roundness),
         anamorphic_ratio(anamorphic_ratio), stop(stop), axial_ca(axial_ca),
         lateral_ca(lateral_ca), profile(profile), profile_strength(profile_strength),
-        tilt_x_deg(tilt_x_deg), tilt_y_deg(tilt_y_deg), shift_x(shift_x), shift_y(shift_y) {}
+        tilt_x_deg(tilt_x_deg), tilt_y_deg(tilt_y_deg), shift_x(shift_x), shift_y(shift_y),
+        image(std::move(image)) {}
 
   int blades = 0;                 // 0: round; else kMinBlades..kMaxBlades
   double rotation_deg = 0.0;      // a corner's angle from the image's +x, counter-clockwise
@@ -94,9 +101,10 @@ struct ApertureShape {
   double profile_strength = 1.0;  // s in [0, 1]
   double tilt_x_deg = 0.0, tilt_y_deg = 0.0;  // lens tilt about the horizontal, vertical axes
   double shift_x = 0.0, shift_y = 0.0;        // film shift, in image heights
+  std::string image;                          // an aperture image's path; empty: none
 
   // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
-  bool round() const { return blades == 0 && anamorphic_ratio == 1.0; }
+  bool round() const { return blades == 0 && anamorphic_ratio == 1.0 && image.empty(); }
   bool vignetting() const { return stop.radius > 0.0; }
   bool chromatic() const { return axial_ca != 0.0 || lateral_ca != 0.0; }
   bool weighted() const { return profile != ApertureProfile::Uniform && profile_strength > 0.0; }
@@ -125,7 +133,8 @@ struct ApertureShape {
            anamorphic_ratio == o.anamorphic_ratio && stop == o.stop &&
            axial_ca == o.axial_ca && lateral_ca == o.lateral_ca && profile == o.profile &&
            profile_strength == o.profile_strength && tilt_x_deg == o.tilt_x_deg &&
-           tilt_y_deg == o.tilt_y_deg && shift_x == o.shift_x && shift_y == o.shift_y;
+           tilt_y_deg == o.tilt_y_deg && shift_x == o.shift_x && shift_y == o.shift_y &&
+           image == o.image;
   }
 };
 
@@ -143,6 +152,7 @@ struct ApertureChoices {
   std::optional<ApertureProfile> profile;
   std::optional<double> profile_strength;
   std::optional<std::pair<double, double>> lens_tilt, lens_shift;  // (x, y)
+  std::optional<std::string> image;
 
   // Each value from here, else from `fallback`.
   ApertureChoices over(const ApertureChoices& fallback) const;
@@ -150,13 +160,19 @@ struct ApertureChoices {
   ApertureShape shape() const;
   bool any() const {
     return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop ||
-           axial_ca || lateral_ca || profile || profile_strength || lens_tilt || lens_shift;
+           axial_ca || lateral_ca || profile || profile_strength || lens_tilt || lens_shift ||
+           image;
   }
 };
 
+// The largest aperture image read (pixels): a transmission map needs no more.
+constexpr int kMaxApertureImageSide = 4096;
+
 class Aperture {
  public:
-  explicit Aperture(const ApertureShape& shape = {});  // validates
+  // Validates; reads the aperture image if the shape names one (throws dofcache::Error, one line
+  // naming the file, if it is unreadable, larger than kMaxApertureImageSide a side, or black).
+  explicit Aperture(const ApertureShape& shape = {});
 
   // A point of the aperture for u in [0, 1)^2, uniform over its area: the round aperture's
   // concentric mapping (concentric_disk) exactly; a polygon by the fan of triangles from the
@@ -169,7 +185,7 @@ class Aperture {
   glm::vec2 sample(glm::vec2 u, float* rho = nullptr) const;
   // The rim's distance from the centre in the direction `angle` (radians, from +x
   // counter-clockwise).
-  double rim(double angle) const;
+  double rim(double angle) const;  // blades and ovals (an aperture image's rim is not traced)
   bool contains(glm::vec2 p) const;
   const ApertureShape& shape() const { return shape_; }
 
@@ -182,6 +198,12 @@ class Aperture {
   // cumulative share of the area up to each (0 first, 1 last).
   std::vector<glm::vec2> rim_points_;
   std::vector<float> area_cdf_;
+  // The aperture image: its size, the cumulative transmission down its rows (height + 1 values,
+  // 0 first, 1 last) and along each row (width + 1 values per row, likewise).
+  int image_w_ = 0, image_h_ = 0;
+  std::vector<float> row_cdf_, column_cdf_;
+  glm::vec2 sample_image(glm::vec2 u) const;
+  float transmission_at(glm::vec2 p) const;  // unsqueezed, in the round aperture's units
 };
 
 }  // namespace dofcache::lens

@@ -33,6 +33,7 @@ inline nlohmann::json lens_json(const ThinLens& lens) {
               {"aperture_profile_strength", a.profile_strength}});
   if (a.tilted()) j["lens_tilt"] = {a.tilt_x_deg, a.tilt_y_deg};
   if (a.shifted()) j["lens_shift"] = {a.shift_x, a.shift_y};
+  if (!a.image.empty()) j["aperture_image"] = a.image;
   return j;
 }
 
