@@ -129,10 +129,10 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
              note)
       ->expected(2)
       ->delimiter(',');
-  cmd->add_option("--aperture-image", a.image,
-                  "A grey-scale PNG or EXR: the transmission over the aperture (the square around "
-                  "the round one, top row up), importance-sampled; it replaces blades and "
-                  "roundness" + note);
+  cmd->add_option_function<std::string>(
+      "--aperture-image", [&a](const std::string& file) { a.image = file; },
+      "A grey-scale PNG or EXR: the transmission over the aperture (the square around the round "
+      "one, top row up), importance-sampled; it replaces blades and roundness" + note);
   cmd->add_option("--aperture-profile-strength", a.profile_strength,
                   "How strongly the profile weighs: 0 none, 1 full (transmission 0 at the rim or "
                   "the centre); default 1" + note);

@@ -98,7 +98,8 @@ ApertureChoices ApertureChoices::over(const ApertureChoices& fallback) const {
           profile ? profile : fallback.profile,
           profile_strength ? profile_strength : fallback.profile_strength,
           lens_tilt ? lens_tilt : fallback.lens_tilt,
-          lens_shift ? lens_shift : fallback.lens_shift};
+          lens_shift ? lens_shift : fallback.lens_shift,
+          image ? image : fallback.image};
 }
 
 ApertureShape ApertureChoices::shape() const {

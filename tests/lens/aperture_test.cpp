@@ -189,6 +189,25 @@ TEST(Aperture, ChoicesFallBackValueByValue) {
   EXPECT_DOUBLE_EQ(s.anamorphic_ratio, 1.5);
   EXPECT_DOUBLE_EQ(s.roundness, 0.0);
   EXPECT_TRUE(ApertureChoices{}.shape().round());
+  // Every value falls back, the newer ones too.
+  ApertureChoices more;
+  more.vignetting_stop = VignettingStop{0.01, 0.02};
+  more.axial_ca = 0.1;
+  more.lateral_ca = 0.01;
+  more.profile = ApertureProfile::Rim;
+  more.profile_strength = 0.5;
+  more.lens_tilt = std::pair{1.0, 2.0};
+  more.lens_shift = std::pair{0.1, 0.2};
+  more.image = "a.png";
+  const ApertureShape m = ApertureChoices{}.over(more).shape();
+  EXPECT_EQ(m.stop, (VignettingStop{0.01, 0.02}));
+  EXPECT_EQ(m.axial_ca, 0.1);
+  EXPECT_EQ(m.lateral_ca, 0.01);
+  EXPECT_EQ(m.profile, ApertureProfile::Rim);
+  EXPECT_EQ(m.profile_strength, 0.5);
+  EXPECT_EQ(m.tilt_y_deg, 2.0);
+  EXPECT_EQ(m.shift_x, 0.1);
+  EXPECT_EQ(m.image, "a.png");
 }
 
 }  // namespace
