@@ -40,6 +40,9 @@ import time
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from peer_bench import frame_path  # noqa: E402  (standard library only, like this script)
+
 try:  # Blender's glTF importer uses np.bool, which numpy >= 1.24 removed.
     import warnings
 
@@ -307,15 +310,6 @@ def rewire_materials(lambert, one_sided_emission):
             if lambert:
                 nodes.remove(p)
     return changed
-
-
-def frame_path(pattern, frame):
-    """`pattern` with its last run of '#' replaced by the zero-padded frame (as Blender does)."""
-    i = pattern.rfind("#")
-    j = i
-    while j > 0 and pattern[j - 1] == "#":
-        j -= 1
-    return pattern[:j] + str(frame).zfill(i + 1 - j) + pattern[i + 1:]
 
 
 def read_frames(path, out):

@@ -490,6 +490,16 @@ def fitted_slope(points, x="spp"):
     return sum((a - mx) * (b - my) for a, b in pts) / den if den > 0 else None
 
 
+def frame_path(pattern, frame):
+    """`pattern` with its last run of '#' replaced by the zero-padded frame (as Blender and
+    `dofcache sequence` do)."""
+    i = pattern.rfind("#")
+    j = i
+    while j > 0 and pattern[j - 1] == "#":
+        j -= 1
+    return pattern[:j] + str(frame).zfill(i + 1 - j) + pattern[i + 1:]
+
+
 def pow2_ceil(x):
     return 1 << max(0, math.ceil(math.log2(max(1.0, x))))
 

@@ -69,14 +69,6 @@ def reference_frames(first, last, every):
     return frames, pairs
 
 
-def frame_file(pattern, frame):
-    i = pattern.rfind("#")
-    j = i
-    while j > 0 and pattern[j - 1] == "#":
-        j -= 1
-    return pattern[:j] + str(frame).zfill(i + 1 - j) + pattern[i + 1:]
-
-
 def oiio_mean(args, what):
     """The mean over pixels and channels of the image oiiotool computes from `args` (scaled by 1e6
     before --printstats, whose six decimals would round small errors away)."""
@@ -170,7 +162,7 @@ class SequenceBench:
         ckey = self.key("cycles", {"blender": self.cycles_version,
                                    "script": pb.sha256_file(pb.CYCLES_SCRIPT)})
         cdir = os.path.join(self.cache_dir, "sequence_cycles_" + ckey)
-        if not all(os.path.isfile(frame_file(os.path.join(cdir, "####.exr"), f)) for f in frames):
+        if not all(os.path.isfile(pb.frame_path(os.path.join(cdir, "####.exr"), f)) for f in frames):
             pb.log("  Cycles references: %d frames at %d spp ..." % (len(frames), spp))
             tmp = cdir + ".tmp"
             shutil.rmtree(tmp, ignore_errors=True)
@@ -184,7 +176,7 @@ class SequenceBench:
         dkey = self.key("dofcache", {"binary": pb.sha256_file(self.dof),
                                      "config": DOFCACHE_REFERENCE})
         ddir = os.path.join(self.cache_dir, "sequence_dofcache_" + dkey)
-        if not all(os.path.isfile(frame_file(os.path.join(ddir, "####.exr"), f)) for f in frames):
+        if not all(os.path.isfile(pb.frame_path(os.path.join(ddir, "####.exr"), f)) for f in frames):
             pb.log("  dofcache references: %d frames at %d spp ..." % (len(frames), spp))
             tmp = ddir + ".tmp"
             shutil.rmtree(tmp, ignore_errors=True)
@@ -228,18 +220,18 @@ class SequenceBench:
         e = {}
         rel = []
         for f in frames:
-            _, out = pb.run([self.dof, "compare", frame_file(pattern, f),
-                             frame_file(ref_pattern, f), "--json"], "dofcache compare")
+            _, out = pb.run([self.dof, "compare", pb.frame_path(pattern, f),
+                             pb.frame_path(ref_pattern, f), "--json"], "dofcache compare")
             rel.append(float(json.loads(out[out.index("{"):])["rel_mse"]))
         e["rel_mse"] = sum(rel) / len(rel)
         e["rel_mse_frames"] = rel
         if pairs:
-            e["per_frame_error"] = sum(per_frame_error(frame_file(pattern, f),
-                                                       frame_file(ref_pattern, f))
+            e["per_frame_error"] = sum(per_frame_error(pb.frame_path(pattern, f),
+                                                       pb.frame_path(ref_pattern, f))
                                        for f in frames) / len(frames)
             e["temporal_error"] = sum(
-                temporal_error(frame_file(pattern, a), frame_file(pattern, b),
-                               frame_file(ref_pattern, a), frame_file(ref_pattern, b))
+                temporal_error(pb.frame_path(pattern, a), pb.frame_path(pattern, b),
+                               pb.frame_path(ref_pattern, a), pb.frame_path(ref_pattern, b))
                 for a, b in pairs) / len(pairs)
         return e
 
