@@ -6,12 +6,15 @@
 //   aperture_bench [--width W] [--spp N] [--rays N] [--rounds N] [--threads T] [--results NAME]
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <string>
 #include <vector>
 
 #include "bench_common.h"
 #include "dofcache/core/stopwatch.h"
+#include "dofcache/image/image_io.h"
 #include "dofcache/render/camera.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/sampler.h"
@@ -41,26 +44,56 @@ double median(std::vector<double> v) {
 // Seconds to generate `count` camera rays over the film, one thread, through `camera`. The sum
 // of directions keeps the compiler from dropping the work.
 double ray_generation_seconds(const render::ThinLensCamera& camera, int count, float* sink) {
+  const bool chromatic = camera.lens().aperture.chromatic();
   const render::Sobol2D film(1), lens(2);
   const Stopwatch clock;
   float sum = 0.0f;
   const int w = camera.width(), h = camera.height();
   for (int i = 0; i < count; ++i) {
     const glm::vec2 f = film(static_cast<std::uint32_t>(i));
-    const scene::Ray r =
-        camera.generate_ray({f.x * w, f.y * h}, lens(static_cast<std::uint32_t>(i)));
-    sum += r.direction.x + r.origin.y;
+    // The renderer's call: a weighted lens ray, a colour band with chromatic aberration.
+    const render::LensSample s = camera.lens_ray({f.x * w, f.y * h},
+                                                 lens(static_cast<std::uint32_t>(i)),
+                                                 chromatic ? i % 3 : -1);
+    sum += s.ray.direction.x + s.ray.origin.y + s.weight;
   }
   *sink += sum;
   return clock.seconds();
 }
 
+// A 64x64 aperture image (a six-pointed star, written to the temporary directory).
+std::string star_image() {
+  image::Image im(64, 64, 3, 0.0f);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const double dx = (x + 0.5) / 32.0 - 1.0, dy = 1.0 - (y + 0.5) / 32.0;
+      const double r = std::hypot(dx, dy), t = std::atan2(dy, dx);
+      const float v = r < 0.55 + 0.4 * std::cos(6.0 * t) ? 1.0f : 0.0f;
+      for (int k = 0; k < 3; ++k) im.at(x, y, k) = v;
+    }
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "dofcache_aperture_bench_star.exr").string();
+  image::write_image(path, im);
+  return path;
+}
+
 int run(const Options& o) {
+  lens::ApertureShape rim, stop, chromatic, tilt, shaped;
+  rim.profile = lens::ApertureProfile::Rim;
+  stop.stop = {0.03, 0.2};
+  chromatic.axial_ca = 0.15, chromatic.lateral_ca = 0.01;
+  tilt.tilt_x_deg = 2.0;
+  shaped.image = star_image();
   const std::vector<Shape> shapes = {{"round", {}},
                                      {"6 blades", {6, 90.0, 0.0, 1.0}},
                                      {"6 blades, roundness 0.5", {6, 90.0, 0.5, 1.0}},
                                      {"anamorphic 2", {0, 0.0, 0.0, 2.0}},
-                                     {"5 blades, anamorphic 1.5", {5, 0.0, 0.0, 1.5}}};
+                                     {"5 blades, anamorphic 1.5", {5, 0.0, 0.0, 1.5}},
+                                     {"rim profile", rim},
+                                     {"vignetting stop", stop},
+                                     {"chromatic aberration", chromatic},
+                                     {"tilt 2 deg", tilt},
+                                     {"aperture image (star)", shaped}};
   const scene::Scene scene = render::load_scene(bench::scene_path("bokeh_lights.gltf"));
   const scene::Accel accel(scene);
   const scene::Camera& camera = scene.cameras[0];
