@@ -281,8 +281,10 @@ TEST(Bokeh, ApertureProfileShapesTheBrightnessAcrossTheDisc) {
   const image::Image uniform = lamp_image(lens, yfov, kSize, lamp, side, 4096);
   double uniform_total = 0;
   for (float v : uniform.data()) uniform_total += v;
-  for (auto [profile, s] : {std::pair{lens::ApertureProfile::Rim, 1.0},
-                            std::pair{lens::ApertureProfile::Centre, 0.8}}) {
+  for (const auto& choice : {std::pair{lens::ApertureProfile::Rim, 1.0},
+                             std::pair{lens::ApertureProfile::Centre, 0.8}}) {
+    const lens::ApertureProfile profile = choice.first;  // lambdas below capture them
+    const double s = choice.second;
     lens.aperture.profile = profile;
     lens.aperture.profile_strength = s;
     const image::Image im = lamp_image(lens, yfov, kSize, lamp, side, 4096);
