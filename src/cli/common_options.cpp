@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <functional>
 #include <sstream>
 
 #include "dofcache/cache/radiance_cache.h"
@@ -77,6 +78,19 @@ void add_size_options(CLI::App* cmd, request::RenderRequest& r) {
       ->check(CLI::Range(1, 16384));
 }
 
+namespace {
+
+// An option taking two numbers, "A,B" (or "A B"), handed to `set`.
+void add_pair_option(CLI::App* cmd, const char* name,
+                     std::function<void(double, double)> set, const std::string& help) {
+  cmd->add_option_function<std::vector<double>>(
+         name, [set](const std::vector<double>& v) { set(v[0], v[1]); }, help)
+      ->expected(2)
+      ->delimiter(',');
+}
+
+}  // namespace
+
 void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::string& unset) {
   const std::string note = unset.empty() ? "" : " (default: " + unset + ")";
   cmd->add_option("--fstop", lens.fstop, "f-number n (aperture diameter = focal length / n)" + note);
@@ -94,14 +108,11 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
   cmd->add_option("--anamorphic-ratio", a.anamorphic_ratio,
                   "The bokeh's height over its width (2: tall ovals, as anamorphic lenses give)" +
                       note);
-  cmd->add_option_function<std::vector<double>>(
-         "--vignetting-stop",
-         [&a](const std::vector<double>& v) { a.vignetting_stop = lens::VignettingStop{v[0], v[1]}; },
-         "R,D: a second circular stop of radius R at D metres in front of the aperture, which "
-         "clips off-axis lens rays (cat's-eye bokeh towards the corners, optical vignetting)" +
-             note)
-      ->expected(2)
-      ->delimiter(',');
+  add_pair_option(
+      cmd, "--vignetting-stop",
+      [&a](double r, double d) { a.vignetting_stop = lens::VignettingStop{r, d}; },
+      "R,D: a second circular stop of radius R at D metres in front of the aperture, which clips "
+      "off-axis lens rays (cat's-eye bokeh towards the corners, optical vignetting)" + note);
   cmd->add_option("--axial-ca", a.axial_ca,
                   "Axial chromatic aberration: metres between the red and blue planes of focus "
                   "(red farther), coloured fringes on defocused edges" + note);
@@ -114,21 +125,15 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
          "Transmission across the aperture: uniform, centre (soft bokeh) or rim (bright-rimmed "
          "\"soap bubble\" bokeh); it multiplies the shape" + note)
       ->check(CLI::IsMember({"uniform", "centre", "center", "rim"}));
-  cmd->add_option_function<std::vector<double>>(
-         "--lens-tilt",
-         [&a](const std::vector<double>& v) { a.lens_tilt = std::pair{v[0], v[1]}; },
-         "X,Y degrees: tilt the lens about the horizontal axis (positive: the plane of focus "
-         "reaches down, as onto a floor) and the vertical one (positive: towards the left); the "
-         "plane of focus follows the Scheimpflug rule" + note)
-      ->expected(2)
-      ->delimiter(',');
-  cmd->add_option_function<std::vector<double>>(
-         "--lens-shift",
-         [&a](const std::vector<double>& v) { a.lens_shift = std::pair{v[0], v[1]}; },
-         "X,Y: shift the film right and up by this many image heights (verticals stay parallel)" +
-             note)
-      ->expected(2)
-      ->delimiter(',');
+  add_pair_option(
+      cmd, "--lens-tilt", [&a](double x, double y) { a.lens_tilt = std::pair{x, y}; },
+      "X,Y degrees: tilt the lens about the horizontal axis (positive: the plane of focus reaches "
+      "down, as onto a floor) and the vertical one (positive: towards the left); the plane of "
+      "focus follows the Scheimpflug rule" + note);
+  add_pair_option(
+      cmd, "--lens-shift", [&a](double x, double y) { a.lens_shift = std::pair{x, y}; },
+      "X,Y: shift the film right and up by this many image heights (verticals stay parallel)" +
+          note);
   cmd->add_option_function<std::string>(
       "--aperture-image", [&a](const std::string& file) { a.image = file; },
       "A grey-scale PNG or EXR: the transmission over the aperture (the square around the round "

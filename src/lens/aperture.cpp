@@ -114,6 +114,18 @@ ApertureShape ApertureChoices::shape() const {
           image.value_or("")};
 }
 
+ApertureChoices ApertureChoices::of(const ApertureShape& s) {
+  ApertureChoices c;
+  c.blades = s.blades, c.rotation_deg = s.rotation_deg, c.roundness = s.roundness;
+  c.anamorphic_ratio = s.anamorphic_ratio, c.axial_ca = s.axial_ca, c.lateral_ca = s.lateral_ca;
+  c.profile = s.profile, c.profile_strength = s.profile_strength;
+  if (s.vignetting()) c.vignetting_stop = s.stop;
+  if (s.tilted()) c.lens_tilt = std::pair{s.tilt_x_deg, s.tilt_y_deg};
+  if (s.shifted()) c.lens_shift = std::pair{s.shift_x, s.shift_y};
+  if (!s.image.empty()) c.image = s.image;
+  return c;
+}
+
 Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {
   shape_.validate();
   squeeze_ = glm::vec2(static_cast<float>(std::min(1.0, 1.0 / shape_.anamorphic_ratio)),

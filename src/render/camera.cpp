@@ -29,9 +29,12 @@ glm::vec2 ThinLensCamera::film_slopes(glm::vec2 film) const {
           (1.0f - 2.0f * film.y / static_cast<float>(height_)) * tan_half_y_ + shift_.y};
 }
 
+glm::vec3 ThinLensCamera::direction_of(glm::vec2 slopes) const {
+  return forward_ + slopes.x * right_ + slopes.y * up_;
+}
+
 glm::vec3 ThinLensCamera::direction_to_film(glm::vec2 film) const {
-  const glm::vec2 s = film_slopes(film);
-  return forward_ + s.x * right_ + s.y * up_;
+  return direction_of(film_slopes(film));
 }
 
 glm::mat4 ThinLensCamera::film_to_world() const {
@@ -63,7 +66,7 @@ LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) 
     slopes /= static_cast<float>(1.0 + a.lateral_ca * t);
   }
   if (tilted_) p = static_cast<float>(focus_depth(slopes, p));
-  glm::vec3 focus_point = position_ + (forward_ + slopes.x * right_ + slopes.y * up_) * p;
+  glm::vec3 focus_point = position_ + direction_of(slopes) * p;
   const lens::ApertureShape& shape = imaging_.lens.aperture;
   float rho = 0.0f;
   glm::vec2 disk = aperture_.sample(lens_u, &rho) * static_cast<float>(imaging_.lens.aperture_radius());

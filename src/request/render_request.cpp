@@ -147,11 +147,12 @@ std::string text(double v) {
   return s.str();
 }
 
-// Walks one JSON object of a request: every key must be known, every value of its type.
+// [a, b], or null when unset.
 json pair_json(const std::optional<std::pair<double, double>>& p) {
   return p ? json{p->first, p->second} : json(nullptr);
 }
 
+// Walks one JSON object of a request: every key must be known, every value of its type.
 class Reader {
  public:
   Reader(const json& j, std::string where) : j_(j), where_(std::move(where)) {

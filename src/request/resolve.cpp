@@ -131,16 +131,7 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
     if (r.focus_from_scene) chose("focus: autofocus on the image centre");
     q.lens = {s.lens.focal_length, s.lens.fstop, s.lens.focus_distance, {}};
     // The shape as resolved (command line, then extras.lens); round stays unset.
-    if (const lens::ApertureShape& a = s.lens.aperture; !a.plain())
-      q.lens.aperture = {a.blades, a.rotation_deg, a.roundness, a.anamorphic_ratio,
-                         a.vignetting() ? std::optional<lens::VignettingStop>(a.stop)
-                                        : std::nullopt,
-                         a.axial_ca, a.lateral_ca, a.profile, a.profile_strength,
-                         a.tilted() ? std::optional(std::pair{a.tilt_x_deg, a.tilt_y_deg})
-                                    : std::nullopt,
-                         a.shifted() ? std::optional(std::pair{a.shift_x, a.shift_y})
-                                     : std::nullopt,
-                         a.image.empty() ? std::nullopt : std::optional(a.image)};
+    if (!s.lens.aperture.plain()) q.lens.aperture = lens::ApertureChoices::of(s.lens.aperture);
   }
 
   if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {

@@ -696,14 +696,20 @@ class Loader : gltf::Document {
     if (auto v = number("fStop", false)) lens.fstop = v;
     if (auto v = number("focusDistance", true); v && *v > 0.0) lens.focus_distance = v;
     if (ext.Has("sensorSize")) {
-      const tinygltf::Value& v = ext.Get("sensorSize");
-      const auto side = [&](int i) {
-        return v.Get(i).IsNumber() ? v.Get(i).GetNumberAsDouble() : std::nan("");
-      };
-      if (!v.IsArray() || v.ArrayLen() != 2 || !(side(0) > 0.0) || !(side(1) > 0.0) ||
-          !std::isfinite(side(0)) || !std::isfinite(side(1)))
+      const auto size = number_pair(ext.Get("sensorSize"));
+      if (!size || !(size->first > 0.0) || !(size->second > 0.0))
         fail(label, "sensorSize must be [width, height] in metres, both > 0");
     }
+  }
+
+  // Two finite numbers, [a, b]; nullopt for anything else.
+  static std::optional<std::pair<double, double>> number_pair(const tinygltf::Value& v) {
+    if (!v.IsArray() || v.ArrayLen() != 2) return std::nullopt;
+    const auto item = [&](int i) {
+      return v.Get(i).IsNumber() ? v.Get(i).GetNumberAsDouble() : std::nan("");
+    };
+    if (!std::isfinite(item(0)) || !std::isfinite(item(1))) return std::nullopt;
+    return std::pair{item(0), item(1)};
   }
 
   void read_lens(const tinygltf::Value& extras, const std::string& label, LensExtras& lens) const {
@@ -762,23 +768,13 @@ class Loader : gltf::Document {
     for (auto [key, field] : {std::pair{"lens_tilt", &a.lens_tilt},
                               std::pair{"lens_shift", &a.lens_shift}}) {
       if (!obj.Has(key)) continue;
-      const tinygltf::Value& v = obj.Get(key);
-      const auto item = [&](int i) {
-        return v.Get(i).IsNumber() ? v.Get(i).GetNumberAsDouble() : std::nan("");
-      };
-      if (!v.IsArray() || v.ArrayLen() != 2 || !std::isfinite(item(0)) || !std::isfinite(item(1)))
-        fail(label, std::string(key) + " must be [x, y]");
-      *field = std::pair{item(0), item(1)};
+      *field = number_pair(obj.Get(key));
+      if (!*field) fail(label, std::string(key) + " must be [x, y]");
     }
     if (obj.Has("vignetting_stop")) {
-      const tinygltf::Value& v = obj.Get("vignetting_stop");
-      const auto item = [&](int i) {
-        const tinygltf::Value& x = v.Get(i);
-        return x.IsNumber() ? x.GetNumberAsDouble() : std::nan("");
-      };
-      if (!v.IsArray() || v.ArrayLen() != 2 || !std::isfinite(item(0)) || !std::isfinite(item(1)))
-        fail(label, "vignetting_stop must be [radius, distance] in metres");
-      a.vignetting_stop = lens::VignettingStop{item(0), item(1)};
+      const auto stop = number_pair(obj.Get("vignetting_stop"));
+      if (!stop) fail(label, "vignetting_stop must be [radius, distance] in metres");
+      a.vignetting_stop = lens::VignettingStop{stop->first, stop->second};
     }
     try {
       a.shape().validate();

@@ -263,10 +263,11 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
   }
   if (get && path == "/api/status") return json_response(status_json(session_.status()));
   if (get && path == "/api/lens") return json_response(lens_and_method_json(session_.status()));
-  // Any of focal_length, fstop, focus_distance (metres, f-number), the aperture's shape
-  // (aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio, vignetting_stop:
-  // axial_ca, lateral_ca: lens/aperture.h; a null vignetting_stop removes it), method and
-  // composite.
+  // Any of focal_length, fstop, focus_distance (metres, f-number), the lens's character
+  // (aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio, vignetting_stop,
+  // axial_ca, lateral_ca, aperture_profile, aperture_profile_strength, lens_tilt, lens_shift,
+  // aperture_image: lens/aperture.h; a null vignetting_stop or aperture_image removes it),
+  // method and composite.
   if (post && path == "/api/lens") {
     const json body = body_object(req);
     check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",

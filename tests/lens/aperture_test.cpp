@@ -208,6 +208,11 @@ TEST(Aperture, ChoicesFallBackValueByValue) {
   EXPECT_EQ(m.tilt_y_deg, 2.0);
   EXPECT_EQ(m.shift_x, 0.1);
   EXPECT_EQ(m.image, "a.png");
+  // A resolved shape as choices gives the same shape back.
+  EXPECT_EQ(ApertureChoices::of(m).shape(), m);
+  const ApertureShape plain_round;
+  EXPECT_FALSE(ApertureChoices::of(plain_round).vignetting_stop.has_value());
+  EXPECT_EQ(ApertureChoices::of(plain_round).shape(), plain_round);
 }
 
 }  // namespace

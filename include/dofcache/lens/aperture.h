@@ -158,6 +158,9 @@ struct ApertureChoices {
   ApertureChoices over(const ApertureChoices& fallback) const;
   // The shape with the unset values at their defaults (round).
   ApertureShape shape() const;
+  // A resolved shape as choices (what a printed request keeps): every scalar set, the stop, tilt,
+  // shift and image only where the shape has them. of(s).shape() == s.
+  static ApertureChoices of(const ApertureShape& s);
   bool any() const {
     return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop ||
            axial_ca || lateral_ca || profile || profile_strength || lens_tilt || lens_shift ||

@@ -5,10 +5,9 @@
 // with chromatic aberration "axial_ca" and "lateral_ca", with a transmission profile
 // "aperture_profile" and "aperture_profile_strength", and "lens_tilt" and "lens_shift" ([x, y]):
 // the one shape of statistics files, requests, the viewer's API and keyframe files.
+#include <cmath>
 #include <optional>
 #include <utility>
-
-#include <cmath>
 
 #include <nlohmann/json.hpp>
 

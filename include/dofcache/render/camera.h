@@ -65,6 +65,7 @@ class ThinLensCamera {
 
  private:
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
+  glm::vec3 direction_of(glm::vec2 slopes) const;     // forward + slopes.x right + slopes.y up
   glm::vec2 film_slopes(glm::vec2 film) const;  // its right and up components
   // The depth at which the lens rays of the pinhole direction (slopes, 1) converge: p (the
   // focus distance, or a colour band's) untilted, else where it meets the tilted plane of focus.
