@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <glm/geometric.hpp>
 
@@ -83,6 +84,37 @@ LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) 
   ray.origin = position_ + disk.x * right_ + disk.y * up_;
   ray.direction = glm::normalize(focus_point - ray.origin);
   ray.cull_back_faces = true;  // glTF: single-sided surfaces are invisible from behind
+  return out;
+}
+
+BokehSpot ThinLensCamera::bokeh(glm::vec2 film, double depth, int band) const {
+  // The lens ray from lens point l towards the focus point (slopes s_b, depth p) is at
+  // l (1 - D / p) + s_b D at depth D; it meets the point (slopes s0, depth D) from film slopes
+  // s_b = s0 + l (D - p) / (p D), which the band's magnification m scales (lens_ray divides by it).
+  const lens::ApertureShape& a = imaging_.lens.aperture;
+  const glm::vec2 s0 = film_slopes(film);
+  double p = imaging_.lens.focus_distance, m = 1.0;
+  if (band >= 0) {
+    const double t = lens::ApertureShape::band_position(band);
+    p += a.axial_ca * t;
+    m += a.lateral_ca * t;
+  }
+  if (tilted_) p = focus_depth(s0, p);
+  const double slope_per_pixel = 2.0 * tan_half_y_ / height_;
+  BokehSpot out;
+  const glm::vec2 sm = s0 * static_cast<float>(m) - shift_;
+  out.centre = {(sm.x / tan_half_x_ + 1.0f) * 0.5f * static_cast<float>(width_),
+                (1.0f - sm.y / tan_half_y_) * 0.5f * static_cast<float>(height_)};
+  const double r = imaging_.lens.aperture_radius();
+  out.scale = static_cast<float>(m * r * (depth - p) / (p * depth) / slope_per_pixel);
+  out.stop_radius = std::numeric_limits<float>::infinity();
+  const double d = a.stop.distance;
+  if (a.vignetting() && depth > d) {
+    // The ray from l to the point crosses the stop's plane at l (1 - d / D) + s0 d.
+    const double k = (1.0 - d / depth) * r;
+    out.stop_centre = -s0 * static_cast<float>(d / k);
+    out.stop_radius = static_cast<float>(a.stop.radius / k);
+  }
   return out;
 }
 

@@ -102,5 +102,71 @@ TEST(ThinLensCamera, ShiftMovesTheViewWithoutTurningIt) {
   }
 }
 
+// bokeh(): every lens ray that meets a point at depth D leaves the film where the bokeh's centre
+// and scale put its aperture point, and the stop passes exactly the rays inside its disc. The
+// point and its pinhole image come from the traced ray and film_to_world, not from bokeh().
+void expect_bokeh_matches_lens_rays(const lens::ThinLens& lens, int band, float tolerance_px) {
+  const ThinLensCamera cam(glm::mat4(1.0f), kYfov, lens, 200, 100);
+  const glm::mat4 to_film = glm::inverse(cam.film_to_world());
+  const double r = lens.aperture_radius();
+  int checked = 0, stopped = 0;
+  for (float depth : {0.8f, 1.7f, 9.0f}) {
+    for (int i = 0; i < 40; ++i) {
+      const glm::vec2 film(5.0f + 4.7f * i, 3.0f + 2.3f * ((7 * i) % 41));
+      const glm::vec2 u((i * 0.618034f) - std::floor(i * 0.618034f), (i + 0.5f) / 40.0f);
+      const LensSample s = cam.lens_ray(film, u, band);
+      const glm::vec3 x = at_depth(cam, s.ray, depth);
+      const glm::vec4 h = to_film * glm::vec4(x, 1.0f);
+      const glm::vec2 pinhole(h.x / h.z, h.y / h.z);
+      const glm::vec2 a(s.ray.origin.x / static_cast<float>(r), s.ray.origin.y / static_cast<float>(r));
+      const BokehSpot b = cam.bokeh(pinhole, depth, band);
+      const glm::vec2 predicted = b.centre + b.scale * glm::vec2(a.x, -a.y);
+      EXPECT_LT(glm::distance(predicted, film), tolerance_px) << "depth " << depth << " ray " << i;
+      const float off = glm::distance(a, b.stop_centre) - b.stop_radius;
+      if (std::abs(off) > 1e-3f) {  // not on the stop's rim
+        EXPECT_EQ(s.weight == 0.0f, off > 0.0f) << "depth " << depth << " ray " << i;
+        stopped += s.weight == 0.0f;
+      }
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 120);
+  if (lens.aperture.vignetting()) {
+    EXPECT_GT(stopped, 5);  // the stop was exercised
+  }
+}
+
+TEST(ThinLensCamera, BokehPutsEveryLensRayWhereItMeetsItsPoint) {
+  const lens::ThinLens plain{0.1, 1.4, 2.5};
+  expect_bokeh_matches_lens_rays(plain, -1, 2e-3f);
+  lens::ThinLens shaped = plain;
+  shaped.aperture.blades = 6;
+  shaped.aperture.anamorphic_ratio = 1.5;
+  shaped.aperture.shift_x = 0.2;
+  shaped.aperture.shift_y = -0.1;
+  shaped.aperture.stop = {0.01, 0.04};
+  expect_bokeh_matches_lens_rays(shaped, -1, 2e-3f);
+  shaped.aperture.axial_ca = 0.3;
+  shaped.aperture.lateral_ca = 0.05;
+  for (int band : {0, 1, 2}) expect_bokeh_matches_lens_rays(shaped, band, 2e-3f);
+}
+
+TEST(ThinLensCamera, BokehFollowsATiltedPlaneOfFocus) {
+  // Tilted, the rays of one film point converge where their own direction meets the plane, which
+  // varies across the bokeh: its offsets are those of the centre's focus depth, within 2 % of the
+  // bokeh's radius here (pixels).
+  lens::ThinLens tilted{0.1, 1.4, 2.5};
+  tilted.aperture.tilt_x_deg = 4.0;
+  tilted.aperture.tilt_y_deg = -2.0;
+  expect_bokeh_matches_lens_rays(tilted, -1, 0.5f);
+  // The centre's own focus depth: a point on the tilted plane has no bokeh.
+  const ThinLensCamera cam(glm::mat4(1.0f), kYfov, tilted, 200, 100);
+  const glm::vec2 film(40.0f, 20.0f);
+  const scene::Ray ray = cam.pinhole_ray(film);
+  const double p = cam.imaging_at(ray.origin + ray.direction * 3.0f).lens.focus_distance;
+  EXPECT_NEAR(cam.bokeh(film, p).scale, 0.0f, 1e-3f) << p;
+  EXPECT_GT(std::abs(cam.bokeh(film, 2.5).scale), 1.0f);  // the untilted focus is not in focus
+}
+
 }  // namespace
 }  // namespace dofcache::render

@@ -21,6 +21,19 @@ struct LensSample {
   float weight = 1.0f;
 };
 
+// Where the lens spreads a point's light on the film (what a preview draws): the film position of
+// the bokeh's centre (the point's image in a colour band), the film offset of the lens ray through
+// aperture point a (in units of the round aperture's radius, x right, y up) as centre + scale *
+// (a.x, -a.y) pixels, and the disc of aperture points whose rays the vignetting stop lets through.
+// `scale` is the signed CoC radius: negative in front of the plane of focus, where the bokeh is
+// turned by 180 degrees.
+struct BokehSpot {
+  glm::vec2 centre{0.0f};
+  float scale = 0.0f;
+  glm::vec2 stop_centre{0.0f};  // aperture units
+  float stop_radius = 0.0f;     // aperture units; +inf without a stop (or a point before it)
+};
+
 class ThinLensCamera {
  public:
   // `pose` supplies position, orientation and vertical field of view; `lens` the optics.
@@ -38,6 +51,11 @@ class ThinLensCamera {
     return lens_ray(film, lens_u).ray;
   }
   scene::Ray pinhole_ray(glm::vec2 film) const;
+  // The bokeh of the point at camera-space depth `depth` whose pinhole image is at `film` (pixels,
+  // as above), in band `band` (-1: none). Exact for the centre and the stop; the offsets are
+  // exact where the plane of focus is untilted, and take the focus depth of the centre where it
+  // is tilted.
+  BokehSpot bokeh(glm::vec2 film, double depth, int band = -1) const;
 
   // (x z, y z, z, 1) -> world, for film position (x, y) in pixels at camera-space depth z: the
   // pinhole projection through the lens centre, which every lens ray of a film point's focus
