@@ -21,9 +21,8 @@ int run_refocus(RefocusOptions& o) {
   if (!o.method.empty()) o.request.method = preview::parse_preview_method(o.method);
   const preview::RefocusFileResult r = preview::refocus_file(o.request);
   if (!r.warning.empty()) std::fprintf(stderr, "dofcache: warning: %s\n", r.warning.c_str());
-  if (o.request.lens.aperture.any())
-    std::fprintf(stderr, "dofcache: warning: the preview blurs with round bokeh; the aperture's "
-                         "shape shows in drt and accumulation renders\n");
+  if (!r.lens.aperture.plain())
+    std::fprintf(stderr, "dofcache: notice: %s\n", preview::kShapedPreviewNotice);
   image::write_image(o.out, r.image);
   if (!o.quiet)
     std::printf(

@@ -132,6 +132,25 @@ void save_preview_inputs(const std::string& path, const PreviewInputs& in,
       {"revealed_near_depth", number(coverage.near_depth)},
       {"revealed_far_depth", number(coverage.far_depth)},
       {"revealed_aperture", number(coverage.aperture_diameter)}};
+  // The lens's character (lens/aperture.h), for the shaped scatter; absent: the plain lens.
+  const lens::ApertureShape& ap = im.lens.aperture;
+  if (!ap.plain()) {
+    a.insert({{"aperture_blades", std::to_string(ap.blades)},
+              {"aperture_rotation", number(ap.rotation_deg)},
+              {"aperture_roundness", number(ap.roundness)},
+              {"anamorphic_ratio", number(ap.anamorphic_ratio)},
+              {"vignetting_stop_radius", number(ap.stop.radius)},
+              {"vignetting_stop_distance", number(ap.stop.distance)},
+              {"axial_ca", number(ap.axial_ca)},
+              {"lateral_ca", number(ap.lateral_ca)},
+              {"aperture_profile", lens::aperture_profile_name(ap.profile)},
+              {"aperture_profile_strength", number(ap.profile_strength)},
+              {"lens_tilt_x", number(ap.tilt_x_deg)},
+              {"lens_tilt_y", number(ap.tilt_y_deg)},
+              {"lens_shift_x", number(ap.shift_x)},
+              {"lens_shift_y", number(ap.shift_y)}});
+    if (!ap.image.empty()) a["aperture_image"] = ap.image;
+  }
   std::vector<image::ExrPart> parts = {{"color", {"R", "G", "B"}, in.color, a},
                                        {"depth", {"Z"}, in.depth, {}},
                                        {"ids", {"id"}, in.ids, {}}};
@@ -167,6 +186,27 @@ SavedPreviewInputs load_preview_inputs(const std::string& path, std::uint64_t ma
     rd.fail("depth and ids must have the colour's size");
   in.imaging.lens = {rd.real(color, "focal_length"), rd.real(color, "fstop"),
                      rd.real(color, "focus_distance")};
+  if (color.attributes.count("aperture_blades")) {
+    lens::ApertureShape& ap = in.imaging.lens.aperture;
+    ap.blades = rd.integer(color, "aperture_blades", 0, lens::kMaxBlades);
+    ap.rotation_deg = rd.real(color, "aperture_rotation");
+    ap.roundness = rd.real(color, "aperture_roundness");
+    ap.anamorphic_ratio = rd.real(color, "anamorphic_ratio");
+    ap.stop = {rd.real(color, "vignetting_stop_radius"), rd.real(color, "vignetting_stop_distance")};
+    ap.axial_ca = rd.real(color, "axial_ca");
+    ap.lateral_ca = rd.real(color, "lateral_ca");
+    try {
+      ap.profile = lens::parse_aperture_profile(rd.text(color, "aperture_profile"));
+    } catch (const Error& e) {
+      rd.fail(e.what());
+    }
+    ap.profile_strength = rd.real(color, "aperture_profile_strength");
+    ap.tilt_x_deg = rd.real(color, "lens_tilt_x");
+    ap.tilt_y_deg = rd.real(color, "lens_tilt_y");
+    ap.shift_x = rd.real(color, "lens_shift_x");
+    ap.shift_y = rd.real(color, "lens_shift_y");
+    if (color.attributes.count("aperture_image")) ap.image = rd.text(color, "aperture_image");
+  }
   try {
     in.imaging.lens.validate();
   } catch (const Error& e) {

@@ -63,6 +63,7 @@ struct PreviewWorkspace::Impl {
   std::vector<float> tile_radius;
   std::vector<int> bin_start, bin_pixels;
   std::vector<double> diff;
+  std::vector<float> shaped_acc;  // shaped scatter: colour and alpha per channel
 };
 
 namespace detail {
@@ -81,6 +82,11 @@ void gather_preview(const image::Image& color, const PreviewOptions& options,
                     PreviewWorkspace::Impl& ws, image::Image& out);
 void scatter_preview(const image::Image& color, const PreviewOptions& options,
                      PreviewWorkspace::Impl& ws, image::Image& out);
+// The lens's own bokeh (preview.h): every pixel splats the aperture's shape where
+// render::ThinLensCamera::bokeh puts it, per colour band, cut by the vignetting stop. ws.coc must
+// hold the pinhole CoC (the depth order).
+void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
+                            PreviewWorkspace::Impl& ws, image::Image& out);
 
 }  // namespace detail
 }  // namespace dofcache::preview

@@ -155,6 +155,16 @@ image::Image render_preview(const PreviewInputs& inputs, PreviewMethod method,
   run_with_threads(options.threads, [&] {
     auto t0 = clock::now();
     Range range = compute_coc(inputs.depth, inputs.imaging, options, ws);
+    if (!inputs.imaging.lens.aperture.plain()) {
+      // A shaped lens: its bokeh by the shaped scatter, whatever the method (preview.h).
+      out = image::Image(inputs.color.width(), inputs.color.height(), 3);
+      t.setup_ms = ms_since(t0);
+      auto t1 = clock::now();
+      detail::shaped_scatter_preview(inputs, options, ws, out);
+      t.filter_ms = ms_since(t1);
+      t.shaped_bokeh = true;
+      return;
+    }
     if (all_sharp(range)) {
       out = inputs.color;
       t.setup_ms = ms_since(t0);

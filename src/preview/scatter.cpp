@@ -1,8 +1,12 @@
 // Scatter (forward-mapping) baseline: depth-binned disk splats through per-row difference
-// buffers, bins composited far to near (see baselines.h).
+// buffers, bins composited far to near (see baselines.h); and the shaped scatter, which splats
+// the lens's own bokeh (preview.h).
 #include <algorithm>
+#include <array>
 #include <cmath>
 
+#include "aperture_rows.h"
+#include "dofcache/render/camera.h"
 #include "pipeline.h"
 
 namespace dofcache::preview::detail {
@@ -16,6 +20,73 @@ constexpr float kQuantum = 16.0f;  // splat radii are quantised to 1/16 px
 inline int half_width(float r2, int dy) {
   return static_cast<int>(std::sqrt(std::max(0.0f, r2 - static_cast<float>(dy * dy))));
 }
+
+// The pixels sorted into depth bins of signed CoC: bin b holds sorted[start[b] .. start[b + 1]),
+// in scan order (so by row).
+struct Bins {
+  int count = 0;
+  const int* sorted = nullptr;
+  const int* start = nullptr;
+};
+
+Bins sort_into_bins(const float* C, size_t N, const PreviewOptions& options,
+                    PreviewWorkspace::Impl& ws) {
+  float cmin = C[0], cmax = C[0];
+  for (size_t p = 1; p < N; ++p) {
+    cmin = std::min(cmin, C[p]);
+    cmax = std::max(cmax, C[p]);
+  }
+  const double span = static_cast<double>(cmax) - cmin;
+  const double bin_width = std::max({options.scatter_bin_width, span / (kMaxBins - 0.5), 1e-6});
+  const int bins = std::min(kMaxBins, static_cast<int>(span / bin_width) + 1);
+  std::vector<int>& bin_of = ws.bin_pixels;  // the sorted list, then each pixel's bin
+  ensure_size(bin_of, 2 * N);
+  int* bin_index = bin_of.data() + N;
+  for (size_t p = 0; p < N; ++p)
+    bin_index[p] = std::min(bins - 1, static_cast<int>((C[p] - cmin) / bin_width));
+  // Counting sort by bin; within a bin pixels stay in scan order.
+  ws.bin_start.assign(bins + 1, 0);
+  for (size_t p = 0; p < N; ++p) ++ws.bin_start[bin_index[p] + 1];
+  for (int b = 0; b < bins; ++b) ws.bin_start[b + 1] += ws.bin_start[b];
+  std::vector<int> cursor(ws.bin_start.begin(), ws.bin_start.end() - 1);
+  for (size_t p = 0; p < N; ++p) bin_of[cursor[bin_index[p]]++] = static_cast<int>(p);
+  return {bins, bin_of.data(), ws.bin_start.data()};
+}
+
+// The splats of every bin, far to near, through per-row difference buffers of `Channels` doubles
+// a pixel. Bands of rows are independent (each owns its rows of the difference buffer and of the
+// composite), so they run in parallel, each going through the bins. reach[b]: the rows from its
+// own a splat of bin b can touch. splat(q, r0, r1, diff, ya, yb) adds pixel q's splat within
+// rows [r0, r1) (diff: row r0's buffer) and widens [ya, yb) to the rows it touched;
+// composite(y, row) takes row y's differences once the bin is complete.
+template <int Channels, class Splat, class Composite>
+void scatter_bins(int W, int H, const Bins& bins, const std::vector<int>& reach,
+                  std::vector<double>& buffer, const Splat& splat, const Composite& composite) {
+  const size_t row_len = static_cast<size_t>(W + 1) * Channels;
+  ensure_size(buffer, row_len * H);
+  const int bands = (H + kBandRows - 1) / kBandRows;
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int band = range.begin(); band < range.end(); ++band) {
+          const int r0 = band * kBandRows, r1 = std::min(H, (band + 1) * kBandRows);
+          double* diff = buffer.data() + row_len * r0;
+          for (int b = bins.count - 1; b >= 0; --b) {  // far to near
+            const int* begin = bins.sorted + bins.start[b];
+            const int* end = bins.sorted + bins.start[b + 1];
+            if (begin == end) continue;
+            // Sources whose splats can touch rows [r0, r1).
+            const int* first = std::lower_bound(begin, end, std::max(0, r0 - reach[b]) * W);
+            const int* last = std::lower_bound(begin, end, std::min(H, r1 + reach[b]) * W);
+            if (first == last) continue;
+            std::fill(diff, diff + row_len * (r1 - r0), 0.0);
+            int ya = r1, yb = r0;  // rows this bin touches in the band
+            for (const int* s = first; s < last; ++s) splat(*s, r0, r1, diff, ya, yb);
+            for (int y = ya; y < yb; ++y) composite(y, diff + row_len * (y - r0));
+          }
+        }
+      });
+}
+
 }  // namespace
 
 void scatter_preview(const image::Image& color, const PreviewOptions& options,
@@ -26,27 +97,16 @@ void scatter_preview(const image::Image& color, const PreviewOptions& options,
   const float* C = ws.coc.data();
 
   // Radii (quantised), bins and splat densities.
-  float cmin = C[0], cmax = C[0];
-  for (size_t p = 1; p < N; ++p) {
-    cmin = std::min(cmin, C[p]);
-    cmax = std::max(cmax, C[p]);
-  }
-  const double span = static_cast<double>(cmax) - cmin;
-  const double bin_width = std::max({options.scatter_bin_width, span / (kMaxBins - 0.5), 1e-6});
-  const int bins = std::min(kMaxBins, static_cast<int>(span / bin_width) + 1);
   ensure_size(ws.radius, N);
   ensure_size(ws.inv_area, N);
-  std::vector<int>& bin_of = ws.bin_pixels;  // reused below for the sorted pixel list
-  ensure_size(bin_of, 2 * N);
-  int* bin_index = bin_of.data() + N;
   float max_radius = 0;
   for (size_t p = 0; p < N; ++p) {
     float r = 0.5f * std::abs(C[p]);
     r = r > 0.5f ? std::round(r * kQuantum) / kQuantum : 0.0f;
     ws.radius[p] = r;
     max_radius = std::max(max_radius, r);
-    bin_index[p] = std::min(bins - 1, static_cast<int>((C[p] - cmin) / bin_width));
   }
+  const Bins bins = sort_into_bins(C, N, options, ws);
   // Pixel count of the discrete disk per quantised radius.
   const int quanta = static_cast<int>(max_radius * kQuantum) + 1;
   std::vector<float> inv_count(quanta);
@@ -77,84 +137,52 @@ void scatter_preview(const image::Image& color, const PreviewOptions& options,
         ws.inv_area[p] = 1.0f / count;
       }
   });
-  // Counting sort by bin; within a bin pixels stay in scan order (sorted by row).
-  ws.bin_start.assign(bins + 1, 0);
-  for (size_t p = 0; p < N; ++p) ++ws.bin_start[bin_index[p] + 1];
-  for (int b = 0; b < bins; ++b) ws.bin_start[b + 1] += ws.bin_start[b];
-  {
-    std::vector<int> cursor(ws.bin_start.begin(), ws.bin_start.end() - 1);
-    for (size_t p = 0; p < N; ++p) bin_of[cursor[bin_index[p]]++] = static_cast<int>(p);
-  }
-  const int* sorted = bin_of.data();
-
   ensure_size(ws.acc, N);
   std::fill(ws.acc.begin(), ws.acc.begin() + N, Rgba{0, 0, 0, 0});
-  const size_t row_len = static_cast<size_t>(W + 1) * 4;
-  ensure_size(ws.diff, row_len * H);
-  const int bands = (H + kBandRows - 1) / kBandRows;
 
-  // Per bin: the largest splat extent and the rows its splats can touch.
-  std::vector<int> bin_extent(bins, 0);
-  for (int b = 0; b < bins; ++b)
-    for (int k = ws.bin_start[b]; k < ws.bin_start[b + 1]; ++k)
-      bin_extent[b] = std::max(bin_extent[b], static_cast<int>(ws.radius[sorted[k]] + 0.5f));
+  // Per bin: the largest splat extent.
+  std::vector<int> reach(bins.count, 0);
+  for (int b = 0; b < bins.count; ++b)
+    for (int k = bins.start[b]; k < bins.start[b + 1]; ++k)
+      reach[b] = std::max(reach[b], static_cast<int>(ws.radius[bins.sorted[k]] + 0.5f));
 
-  // Bands of rows are independent (each owns its rows of the difference buffer and of the
-  // composite), so they run in parallel, each going through the bins far to near.
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
-        for (int band = range.begin(); band < range.end(); ++band) {
-          const int r0 = band * kBandRows, r1 = std::min(H, (band + 1) * kBandRows);
-          double* diff = ws.diff.data() + row_len * r0;
-          for (int b = bins - 1; b >= 0; --b) {  // far to near
-            const int begin = ws.bin_start[b], end = ws.bin_start[b + 1];
-            if (begin == end) continue;
-            const int e_max = bin_extent[b];
-            // Sources whose disks can touch rows [r0, r1).
-            const int* first =
-                std::lower_bound(sorted + begin, sorted + end, std::max(0, r0 - e_max) * W);
-            const int* last =
-                std::lower_bound(sorted + begin, sorted + end, std::min(H, r1 + e_max) * W);
-            if (first == last) continue;
-            std::fill(diff, diff + row_len * (r1 - r0), 0.0);
-            int ya = r1, yb = r0;  // rows this bin touches in the band
-            for (const int* s = first; s < last; ++s) {
-              const int q = *s, qy = q / W, qx = q % W;
-              const float r = ws.radius[q], r2 = (r + 0.5f) * (r + 0.5f);
-              const int e = static_cast<int>(r + 0.5f);
-              const int dy0 = std::max(-e, r0 - qy), dy1 = std::min(e, r1 - 1 - qy);
-              if (dy0 > dy1) continue;
-              ya = std::min(ya, qy + dy0);
-              yb = std::max(yb, qy + dy1 + 1);
-              const double ia = ws.inv_area[q];
-              const double v[4] = {col[3 * q] * ia, col[3 * q + 1] * ia, col[3 * q + 2] * ia, ia};
-              for (int dy = dy0; dy <= dy1; ++dy) {
-                const int hw = half_width(r2, dy);
-                double* row = diff + row_len * (qy + dy - r0);
-                double* a = row + 4 * std::max(qx - hw, 0);
-                double* z = row + 4 * (std::min(qx + hw, W - 1) + 1);
-                for (int k = 0; k < 4; ++k) {
-                  a[k] += v[k];
-                  z[k] -= v[k];
-                }
-              }
-            }
-            // Prefix sums give the bin's splat sums; composite them over what lies behind.
-            for (int y = ya; y < yb; ++y) {
-              const double* row = diff + row_len * (y - r0);
-              Rgba* accrow = ws.acc.data() + static_cast<size_t>(y) * W;
-              double sum[4] = {0, 0, 0, 0};
-              for (int x = 0; x < W; ++x) {
-                for (int k = 0; k < 4; ++k) sum[k] += row[4 * x + k];
-                if (sum[3] <= 1e-9) continue;
-                const float alpha = static_cast<float>(std::min(1.0, sum[3]));
-                const double scale = alpha / sum[3];
-                Rgba src{static_cast<float>(sum[0] * scale), static_cast<float>(sum[1] * scale),
-                         static_cast<float>(sum[2] * scale), alpha};
-                accrow[x] = src + accrow[x] * (1.0f - alpha);
-              }
-            }
+  constexpr int kCh = 4;
+  const size_t row_len = static_cast<size_t>(W + 1) * kCh;
+  scatter_bins<kCh>(
+      W, H, bins, reach, ws.diff,
+      [&](int q, int r0, int r1, double* diff, int& ya, int& yb) {
+        const int qy = q / W, qx = q % W;
+        const float r = ws.radius[q], r2 = (r + 0.5f) * (r + 0.5f);
+        const int e = static_cast<int>(r + 0.5f);
+        const int dy0 = std::max(-e, r0 - qy), dy1 = std::min(e, r1 - 1 - qy);
+        if (dy0 > dy1) return;
+        ya = std::min(ya, qy + dy0);
+        yb = std::max(yb, qy + dy1 + 1);
+        const double ia = ws.inv_area[q];
+        const double v[kCh] = {col[3 * q] * ia, col[3 * q + 1] * ia, col[3 * q + 2] * ia, ia};
+        for (int dy = dy0; dy <= dy1; ++dy) {
+          const int hw = half_width(r2, dy);
+          double* row = diff + row_len * (qy + dy - r0);
+          double* a = row + kCh * std::max(qx - hw, 0);
+          double* z = row + kCh * (std::min(qx + hw, W - 1) + 1);
+          for (int k = 0; k < kCh; ++k) {
+            a[k] += v[k];
+            z[k] -= v[k];
           }
+        }
+      },
+      // Prefix sums give the bin's splat sums; composite them over what lies behind.
+      [&](int y, const double* row) {
+        Rgba* accrow = ws.acc.data() + static_cast<size_t>(y) * W;
+        double sum[kCh] = {0, 0, 0, 0};
+        for (int x = 0; x < W; ++x) {
+          for (int k = 0; k < kCh; ++k) sum[k] += row[kCh * x + k];
+          if (sum[3] <= 1e-9) continue;
+          const float alpha = static_cast<float>(std::min(1.0, sum[3]));
+          const double scale = alpha / sum[3];
+          Rgba src{static_cast<float>(sum[0] * scale), static_cast<float>(sum[1] * scale),
+                   static_cast<float>(sum[2] * scale), alpha};
+          accrow[x] = src + accrow[x] * (1.0f - alpha);
         }
       });
 
@@ -167,6 +195,217 @@ void scatter_preview(const image::Image& color, const PreviewOptions& options,
       o[3 * p + 1] = a.g * inv;
       o[3 * p + 2] = a.b * inv;
     }
+  });
+}
+
+namespace {
+// One colour band's splat of a pixel: its bokeh's centre (film pixels), signed scale (pixels per
+// aperture unit, clamped to the largest radius), tilt term and the vignetting stop's disc
+// (aperture units), as render::BokehSpot.
+struct ShapedSplat {
+  float cx, cy, scale;
+  float tilt_x, tilt_y;
+  float stop_x, stop_y, stop_r;
+  float pass;  // sharp: the share of the aperture's area that the stop lets through
+
+  bool sharp() const { return std::abs(scale) <= 0.5f; }
+  // How far from its centre the shape reaches (pixels): the aperture within the unit square, a
+  // pixel's half, and the tilt's stretch.
+  float extent() const {
+    const float t = std::min(0.9f, std::hypot(tilt_x, tilt_y));
+    return (std::abs(scale) + 0.5f) / (1.0f - t);
+  }
+};
+
+// The film pixels of a splat's shape (not sharp), row by row: f(y, x0, x1, density) for each run
+// [x0, x1] within the image, the stop's disc cut out if `cut`. `density` is 1 untilted; tilted,
+// the map's Jacobian (scale^2 / (1 + a . tilt)^3) spreads the aperture's uniform rays unevenly,
+// and the run's pixels get (1 + a . tilt)^3 of them. The film offset o (y up) of aperture point
+// a is scale a / (1 + a . tilt) (render::BokehSpot), and the shape is padded by half a pixel as
+// the disk scatter's (r + 1/2). A row's aperture height is exact for a tilt about the
+// horizontal axis; a tilt about the vertical one bends the row's image, which the row's centre
+// stands for.
+template <class F>
+void for_each_run(const ShapedSplat& s, const ApertureRows& rows, int W, int H, bool cut,
+                  const F& f) {
+  const float e = s.extent();
+  const int y0 = std::max(0, static_cast<int>(std::ceil(s.cy - 0.5f - e)));
+  const int y1 = std::min(H - 1, static_cast<int>(std::floor(s.cy - 0.5f + e)));
+  const bool stopped = cut && std::isfinite(s.stop_r);
+  for (int y = y0; y <= y1; ++y) {
+    const float oy = s.cy - 0.5f - static_cast<float>(y);
+    const float d = s.scale - oy * s.tilt_y;  // a = o / (scale - o . tilt), on this row
+    const float rs = std::abs(d) + 0.5f, sign = d < 0.0f ? -1.0f : 1.0f;
+    const float ay = sign * oy / rs;
+    float chord = 0.0f;
+    if (stopped) {
+      const float h2 = s.stop_r * s.stop_r - (ay - s.stop_y) * (ay - s.stop_y);
+      if (h2 < 0.0f) continue;
+      chord = std::sqrt(h2);
+    }
+    for (const ApertureSpan* span = rows.begin(ay); span != rows.end(ay); ++span) {
+      float a0 = span->x0, a1 = span->x1;
+      if (stopped) {
+        a0 = std::max(a0, s.stop_x - chord);
+        a1 = std::min(a1, s.stop_x + chord);
+        if (a0 > a1) continue;
+      }
+      const float o0 = sign * rs * a0 / (1.0f + a0 * s.tilt_x);
+      const float o1 = sign * rs * a1 / (1.0f + a1 * s.tilt_x);
+      const float lo = s.cx + std::min(o0, o1), hi = s.cx + std::max(o0, o1);
+      const int x0 = std::max(0, static_cast<int>(std::ceil(lo - 0.5f)));
+      const int x1 = std::min(W - 1, static_cast<int>(std::floor(hi - 0.5f)));
+      const float j = 1.0f + ay * s.tilt_y + 0.5f * (a0 + a1) * s.tilt_x;
+      if (x0 <= x1) f(y, x0, x1, j * j * j);
+    }
+  }
+}
+
+// A sharp splat: the pixels around its centre, weighted bilinearly (so a colour band's
+// sub-pixel shift shows): f(y, x, weight), the weights of the pixels in the image adding up to 1.
+template <class F>
+void for_each_bilinear(const ShapedSplat& s, int W, int H, const F& f) {
+  const float fx = s.cx - 0.5f, fy = s.cy - 0.5f;
+  const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+  const float tx = fx - static_cast<float>(x0), ty = fy - static_cast<float>(y0);
+  const float w[4] = {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
+  float total = 0.0f;
+  for (int k = 0; k < 4; ++k) {
+    const int x = x0 + (k & 1), y = y0 + (k >> 1);
+    if (x >= 0 && y >= 0 && x < W && y < H) total += w[k];
+  }
+  if (total <= 0.0f) return;
+  for (int k = 0; k < 4; ++k) {
+    const int x = x0 + (k & 1), y = y0 + (k >> 1);
+    if (x >= 0 && y >= 0 && x < W && y < H && w[k] > 0.0f) f(y, x, w[k] / total);
+  }
+}
+}  // namespace
+
+void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
+                            PreviewWorkspace::Impl& ws, image::Image& out) {
+  const image::Image& color = inputs.color;
+  const int W = color.width(), H = color.height();
+  const size_t N = color.pixel_count();
+  const float* col = color.data().data();
+  const float* depth = inputs.depth.data().data();
+  const lens::LensImaging& imaging = inputs.imaging;
+  const render::ThinLensCamera camera(glm::mat4(1.0f), static_cast<float>(imaging.yfov),
+                                      imaging.lens, W, H);
+  const ApertureRows rows(camera.aperture());
+  const int bands = imaging.lens.aperture.chromatic() ? 3 : 1;
+  const float limit = static_cast<float>(options.max_coc_radius);
+
+  // Every pixel's splat per band, where the lens puts it.
+  std::vector<ShapedSplat> splats(N * bands);
+  parallel_rows(H, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t p = static_cast<size_t>(y) * W + x;
+        double z = depth[p];
+        if (!(z > 0.0)) z = std::isnan(z) ? 1e30 : 1e-9;  // a miss is far; at the lens, near
+        if (std::isinf(z)) z = 1e30;
+        for (int b = 0; b < bands; ++b) {
+          const render::BokehSpot spot =
+              camera.bokeh({x + 0.5f, y + 0.5f}, z, bands == 3 ? b : -1);
+          ShapedSplat& s = splats[p * bands + b];
+          s = {spot.centre.x, spot.centre.y, std::clamp(spot.scale, -limit, limit),
+               spot.tilt.x, spot.tilt.y, spot.stop_centre.x, spot.stop_centre.y,
+               spot.stop_radius, 1.0f};
+          if (std::isfinite(s.stop_r) && s.sharp())
+            s.pass = rows.area_share(s.stop_x, s.stop_y, s.stop_r);
+        }
+      }
+  });
+
+  const Bins bins = sort_into_bins(ws.coc.data(), N, options, ws);  // depth order
+  std::vector<int> reach(bins.count, 0);
+  for (int b = 0; b < bins.count; ++b)
+    for (int k = bins.start[b]; k < bins.start[b + 1]; ++k) {
+      const int q = bins.sorted[k], qy = q / W;
+      for (int band = 0; band < bands; ++band) {
+        const ShapedSplat& s = splats[static_cast<size_t>(q) * bands + band];
+        const float off = std::abs(s.cy - (static_cast<float>(qy) + 0.5f));
+        reach[b] = std::max(reach[b], static_cast<int>(std::ceil(off + s.extent() + 1.0f)));
+      }
+    }
+
+  // Colour and alpha per channel: chromatic bands cover differently.
+  constexpr int kCh = 6;
+  const size_t row_len = static_cast<size_t>(W + 1) * kCh;
+  std::vector<float>& acc = ws.shaped_acc;
+  ensure_size(acc, N * kCh);
+  std::fill(acc.begin(), acc.begin() + N * kCh, 0.0f);
+  scatter_bins<kCh>(
+      W, H, bins, reach, ws.diff,
+      [&](int q, int r0, int r1, double* diff, int& ya, int& yb) {
+        for (int band = 0; band < bands; ++band) {
+          const ShapedSplat& s = splats[static_cast<size_t>(q) * bands + band];
+          // Colour and alpha per unit of weight.
+          double colour[kCh] = {0, 0, 0, 0, 0, 0}, alpha[kCh] = {0, 0, 0, 0, 0, 0};
+          for (int c = 0; c < 3; ++c)
+            if (bands == 1 || c == band) {
+              colour[c] = col[3 * q + c];
+              alpha[3 + c] = 1.0;
+            }
+          auto add = [&](const double* v, int y, int x0, int x1, double w) {
+            if (y < r0 || y >= r1) return;
+            ya = std::min(ya, y);
+            yb = std::max(yb, y + 1);
+            double* row = diff + row_len * (y - r0);
+            double* a = row + kCh * x0;
+            double* z = row + kCh * (x1 + 1);
+            for (int k = 0; k < kCh; ++k) {
+              a[k] += v[k] * w;
+              z[k] -= v[k] * w;
+            }
+          };
+          // Normalised over the part inside the image, as the disk scatter; a shape too small to
+          // cover a pixel centre is drawn as a sharp one.
+          double inside = 0;
+          if (!s.sharp())
+            for_each_run(s, rows, W, H, false,
+                         [&](int, int x0, int x1, float j) { inside += (x1 - x0 + 1) * j; });
+          if (!(inside > 0.0)) {  // sharp: its light is what the stop lets through of its bundle
+            for (int c = 0; c < 3; ++c) colour[c] *= s.pass;
+            for_each_bilinear(s, W, H, [&](int y, int x, float w) {
+              add(colour, y, x, x, w);
+              add(alpha, y, x, x, w);
+            });
+            continue;
+          }
+          // The stopped rays bring no light but their share of the coverage: the splats' alphas
+          // then tile as the uncut shapes do, and the light a pixel gathers through the cut ones
+          // is its own bundle's share that the stop passes, as in the ray tracer.
+          const double w = 1.0 / inside;
+          for_each_run(s, rows, W, H, false,
+                       [&](int y, int x0, int x1, float j) { add(alpha, y, x0, x1, w * j); });
+          for_each_run(s, rows, W, H, true,
+                       [&](int y, int x0, int x1, float j) { add(colour, y, x0, x1, w * j); });
+        }
+      },
+      [&](int y, const double* row) {
+        float* accrow = acc.data() + static_cast<size_t>(y) * W * kCh;
+        double sum[kCh] = {0, 0, 0, 0, 0, 0};
+        for (int x = 0; x < W; ++x) {
+          for (int k = 0; k < kCh; ++k) sum[k] += row[kCh * x + k];
+          float* a = accrow + kCh * x;
+          for (int c = 0; c < 3; ++c) {
+            if (sum[3 + c] <= 1e-9) continue;
+            const float alpha = static_cast<float>(std::min(1.0, sum[3 + c]));
+            a[c] = static_cast<float>(sum[c] * alpha / sum[3 + c]) + a[c] * (1.0f - alpha);
+            a[3 + c] = alpha + a[3 + c] * (1.0f - alpha);
+          }
+        }
+      });
+
+  float* o = out.data().data();
+  parallel_rows(H, [&](int y0, int y1) {
+    for (size_t p = static_cast<size_t>(y0) * W; p < static_cast<size_t>(y1) * W; ++p)
+      for (int c = 0; c < 3; ++c) {
+        const float a = acc[kCh * p + 3 + c];
+        o[3 * p + c] = a > 0.0f ? acc[kCh * p + c] / a : 0.0f;
+      }
   });
 }
 

@@ -90,7 +90,9 @@ LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) 
 BokehSpot ThinLensCamera::bokeh(glm::vec2 film, double depth, int band) const {
   // The lens ray from lens point l towards the focus point (slopes s_b, depth p) is at
   // l (1 - D / p) + s_b D at depth D; it meets the point (slopes s0, depth D) from film slopes
-  // s_b = s0 + l (D - p) / (p D), which the band's magnification m scales (lens_ray divides by it).
+  // s_b = s0 + l (1 / p - 1 / D), which the band's magnification m scales (lens_ray divides by
+  // it). Tilted, 1 / p = 1 / p0 - (s_b - s0) . t (focus_depth; p0 the centre's, t = (sin tilt_y,
+  // sin tilt_x) / F), so s_b - s0 = l g / (1 + l . t) with g = 1 / p0 - 1 / D.
   const lens::ApertureShape& a = imaging_.lens.aperture;
   const glm::vec2 s0 = film_slopes(film);
   double p = imaging_.lens.focus_distance, m = 1.0;
@@ -107,6 +109,9 @@ BokehSpot ThinLensCamera::bokeh(glm::vec2 film, double depth, int band) const {
                 (1.0f - sm.y / tan_half_y_) * 0.5f * static_cast<float>(height_)};
   const double r = imaging_.lens.aperture_radius();
   out.scale = static_cast<float>(m * r * (depth - p) / (p * depth) / slope_per_pixel);
+  if (tilted_)
+    out.tilt = glm::vec2(static_cast<float>(r * tilt_sin_.y / imaging_.lens.focal_length),
+                         static_cast<float>(r * tilt_sin_.x / imaging_.lens.focal_length));
   out.stop_radius = std::numeric_limits<float>::infinity();
   const double d = a.stop.distance;
   if (a.vignetting() && depth > d) {

@@ -212,8 +212,11 @@ class PixelSamples {
                   : pixel_key(st.pattern_seed.value_or(st.seed), x, y, Dimension::Lens)) {}
 
   glm::vec2 film(std::uint32_t s) const { return pixel_ + film_(s); }
-  glm::vec2 lens(std::uint32_t s) const {
-    return mode_ == Mode::Pinhole ? glm::vec2(0.5f) : lens_(s);
+  // Sample s's camera ray. The pinhole mode looks through the lens's centre alone, past the
+  // aperture's shape, the stop and the colour bands (a preview draws those itself).
+  LensSample ray(const ThinLensCamera& camera, std::uint32_t s, int band = -1) const {
+    if (mode_ == Mode::Pinhole) return {camera.pinhole_ray(film(s)), 1.0f};
+    return camera.lens_ray(film(s), lens_(s), band);
   }
 
  private:
@@ -280,13 +283,18 @@ glm::vec3 in_band(glm::vec3 l, int band) {
   return only;
 }
 
+// Whether samples carry colour bands (chromatic aberration; not through the pinhole).
+bool banded(const RenderSettings& st) {
+  return st.lens.aperture.chromatic() && st.mode != Mode::Pinhole;
+}
+
 // A pixel's colour from the sum of its n samples: their mean, or with chromatic aberration each
 // channel the mean of its band's samples (sample_band balances them; a band without a sample
 // leaves the plain mean, which is unbiased too).
 glm::vec3 finish_pixel(const RenderSettings& st, int x, int y, glm::dvec3 sum, std::uint32_t n) {
   if (n == 0) return glm::vec3(0.0f);
   glm::dvec3 mean = sum / static_cast<double>(n);
-  if (st.lens.aperture.chromatic()) {
+  if (banded(st)) {
     const std::uint64_t bands = band_key(st, x, y);
     const std::uint32_t counts[3] = {band_samples(bands, n, 0), band_samples(bands, n, 1),
                                      band_samples(bands, n, 2)};
@@ -303,14 +311,14 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
   const RenderSettings& st = c.settings;
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
   const PixelSamples samples(st, x, y);
-  const bool chromatic = st.lens.aperture.chromatic();
+  const bool chromatic = banded(st);
   const std::uint64_t bands = band_key(st, x, y);
   glm::dvec3 acc(0.0);
   for (std::uint32_t s = s0; s < end; ++s) {
     // Chromatic aberration: the sample's band, whose channel alone it estimates (finish_pixel).
     const int band = chromatic ? sample_band(bands, s) : -1;
     // Weight 0: stopped by the vignetting stop, a lens sample that brings no light.
-    const LensSample lens = c.camera.lens_ray(samples.film(s), samples.lens(s), band);
+    const LensSample lens = samples.ray(c.camera, s, band);
     scene::Ray ray = clipped(c.camera, st, lens.ray);
     std::uint64_t key = hash_combine(pixel, s);
     ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
@@ -359,7 +367,7 @@ void add_feature_samples(const Context& c, int x, int y, std::uint32_t s0, std::
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
   const PixelSamples samples(st, x, y);
   for (std::uint32_t s = s0; s < end; ++s) {
-    const LensSample lens = c.camera.lens_ray(samples.film(s), samples.lens(s));
+    const LensSample lens = samples.ray(c.camera, s);
     const bool blocked = lens.weight == 0.0f;  // the vignetting stop's
     scene::Ray ray = clipped(c.camera, st, lens.ray);
     const std::uint64_t key = hash_combine(pixel, s);

@@ -161,10 +161,7 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   if (a.tilted()) text += fmt::format(", tilt {:g}, {:g} deg", a.tilt_x_deg, a.tilt_y_deg);
   if (a.shifted()) text += fmt::format(", shift {:g}, {:g}", a.shift_x, a.shift_y);
   text += "\n";
-  if (r.preview)
-    text += "notice  the preview modes blur with round, colourless, evenly lit bokeh about an "
-            "untilted plane of focus; the aperture's shape, profile, vignetting stop, chromatic "
-            "aberration and tilt show in drt and accumulation renders\n";
+  if (r.preview) text += std::string("notice  ") + preview::kShapedPreviewNotice + "\n";
   return text;
 }
 

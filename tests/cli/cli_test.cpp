@@ -216,8 +216,8 @@ TEST_F(Cli, LensOptionsReadTheSameInEveryCommand) {
 }
 
 // The aperture's shape: described before the render, in the request it prints, and the preview
-// says in one line that it blurs round.
-TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
+// says in one line that its shaped scatter draws it.
+TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysHowItDrawsIt) {
   const std::string out = (dir_ / "o.png").string();
   const std::string small = " --width 24 --height 18 --spp 1 --gather-rays 2 --light-samples 1";
   testing::CliResult drt = run("render --aperture-blades 6 --anamorphic-ratio 1.5 --out " + out +
@@ -225,11 +225,11 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysItBlursRound) {
   ASSERT_EQ(drt.exit_code, 0) << drt.err;
   EXPECT_NE(drt.out.find("aperture 6 blades, a corner at 0 deg, roundness 0, anamorphic ratio "
                          "1.5"), std::string::npos) << drt.out;
-  EXPECT_EQ(drt.out.find("round bokeh"), std::string::npos) << drt.out;
+  EXPECT_EQ(drt.out.find("shaped scatter"), std::string::npos) << drt.out;
   testing::CliResult pre = run("render --mode preview --aperture-blades 6 --out " + out + small);
   ASSERT_EQ(pre.exit_code, 0) << pre.err;
-  EXPECT_NE(pre.out.find("the preview modes blur with round, colourless, evenly lit bokeh"), std::string::npos)
-      << pre.out;
+  EXPECT_NE(pre.out.find("the preview draws this lens's bokeh with its shaped scatter"),
+            std::string::npos) << pre.out;
   testing::CliResult req = run("render --aperture-blades 7 --aperture-rotation 15 --print-request");
   ASSERT_EQ(req.exit_code, 0) << req.err;
   EXPECT_NE(req.out.find("\"aperture_blades\": 7"), std::string::npos) << req.out;

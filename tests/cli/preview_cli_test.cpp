@@ -9,10 +9,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include "dofcache/image/image_io.h"
 
 namespace fs = std::filesystem;
 
@@ -113,6 +116,19 @@ TEST_F(PreviewCli, RefocusRerunsThePostProcessAndWarnsOutsideTheRange) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(fs::exists(path("gather.exr")));
   EXPECT_EQ(r.err, "");
+  // Another aperture without re-rendering: the shaped scatter draws it and says so in one line,
+  // and the image is not the round lens's.
+  r = run("refocus " + path("in.exr") + " --focus-distance 1.0 --method gather --aperture-blades 5"
+          " --anamorphic-ratio 1.6 --out " + path("shaped.exr") + " -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("shaped scatter"), std::string::npos) << r.err;
+  const dofcache::image::Image round = dofcache::image::read_image(path("gather.exr"));
+  const dofcache::image::Image shaped = dofcache::image::read_image(path("shaped.exr"));
+  ASSERT_TRUE(round.same_shape(shaped));
+  double diff = 0;
+  for (size_t i = 0; i < round.data().size(); ++i) diff += std::abs(round.data()[i] - shaped.data()[i]);
+  EXPECT_GT(diff, 1e-3 * static_cast<double>(round.data().size()));
 }
 
 TEST_F(PreviewCli, BadRefocusInputIsOneLineAndNoFile) {

@@ -264,6 +264,27 @@ TEST_F(SavedInputs, RefocusWithTheSameLensEqualsTheDirectPreview) {
                    "refocus against render_scene_preview");
 }
 
+// A lens that is not plain keeps every value of its character through the file, so refocus
+// draws the same bokeh; a plain lens writes none of them.
+TEST_F(SavedInputs, TheLensCharacterRoundTrips) {
+  TwoQuads q;
+  render::RenderSettings s = q.settings(1.4);
+  lens::ApertureShape& a = s.lens.aperture;
+  a.blades = 7, a.rotation_deg = 12.5, a.roundness = 0.25, a.anamorphic_ratio = 1.3;
+  a.stop = {0.02, 0.03}, a.axial_ca = 0.05, a.lateral_ca = -0.01;
+  a.profile = lens::ApertureProfile::Rim, a.profile_strength = 0.4;
+  a.tilt_x_deg = 3, a.tilt_y_deg = -1, a.shift_x = 0.1, a.shift_y = 0.05;
+  ScenePreview r = q.preview(s, PreviewMethod::Layered);
+  const std::string path = (dir_ / "shaped.exr").string();
+  save_preview_inputs(path, r.inputs, r.coverage);
+  SavedPreviewInputs loaded = load_preview_inputs(path);
+  EXPECT_TRUE(loaded.inputs.imaging.lens == s.lens);
+  expect_identical(render_preview(loaded.inputs, PreviewMethod::Layered, {}), r.image, "shaped");
+  ScenePreview plain = q.preview(q.settings(1.4), PreviewMethod::Layered);
+  save_preview_inputs(path, plain.inputs, plain.coverage);
+  EXPECT_TRUE(load_preview_inputs(path).inputs.imaging.lens.aperture.plain());
+}
+
 TEST_F(SavedInputs, AnotherLensReslicesAndWarnsOutsideTheRange) {
   TwoQuads q;
   ScenePreview r = q.preview(q.settings(1.0), PreviewMethod::LayeredOcclusion);

@@ -16,6 +16,7 @@
 #include "dofcache/core/error.h"
 #include "dofcache/image/image_io.h"
 #include "scratch_dir.h"
+#include "lamp_bokeh.h"
 #include "test_scenes.h"
 
 namespace dofcache::render {
@@ -26,30 +27,14 @@ constexpr int kSize = 48;
 constexpr double kDepth = 3.0;  // the lamp; the focus is at 1 m
 constexpr double kLampPixels = 1.5;
 
-struct Moments {
-  double polar = 0, xx = 0, yy = 0;     // per unit intensity, pixels^2
-  std::complex<double> order[17] = {};  // sum I r^2 e^{i m theta} / sum I r^2
-  double cx = 0, cy = 0;
-};
+using Moments = testing::BokehMoments;
 
-// The DRT image of a small square lamp (side `side` metres, centred at `lamp`, facing the camera)
-// seen by a camera at the origin looking down -z.
+// The DRT image of the lamp (lamp_bokeh.h).
 image::Image lamp_image(const lens::ThinLens& lens, float yfov, int size, glm::vec3 lamp,
                         double side, int spp) {
-  scene::Scene s;
-  s.materials.push_back(testing::emissive_material({1.0f, 1.0f, 1.0f}));
-  const float h = static_cast<float>(side / 2);
-  testing::add_quad_z(s, lamp.x - h, lamp.x + h, lamp.y - h, lamp.y + h, lamp.z, 0, 0);
-  testing::build_emitters(s);
-  s.cameras.push_back(testing::origin_camera(yfov));
+  const scene::Scene s = testing::lamp_scene(lamp, side, yfov);
   scene::Accel accel(s);
-  RenderSettings r;
-  r.width = r.height = size;
-  r.spp = spp;
-  r.lens = lens;
-  r.threads = 2;
-  r.progress = Progress::Display::Never;
-  return render(s, accel, s.cameras[0], r).color;
+  return render(s, accel, s.cameras[0], testing::lamp_settings(lens, size, spp)).color;
 }
 
 // Renders the lamp through `aperture` and takes the bokeh's moments about its centroid (image
@@ -65,27 +50,7 @@ Moments bokeh(const lens::ApertureShape& aperture, double* coc_pixels) {
   const image::Image color =
       lamp_image(lens, yfov, kSize, {0.0f, 0.0f, -static_cast<float>(kDepth)}, side, 4096);
 
-  Moments m;
-  double total = 0;
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      const double v = color.at(x, y, 1);
-      total += v, m.cx += v * (x + 0.5), m.cy += v * (kSize - y - 0.5);
-    }
-  m.cx /= total, m.cy /= total;
-  double weight = 0;
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      const double v = color.at(x, y, 1);
-      const double dx = x + 0.5 - m.cx, dy = kSize - y - 0.5 - m.cy;
-      const double r2 = dx * dx + dy * dy;
-      m.xx += v * dx * dx, m.yy += v * dy * dy;
-      weight += v * r2;
-      for (int k = 1; k <= 16; ++k) m.order[k] += v * r2 * std::polar(1.0, k * std::atan2(dy, dx));
-    }
-  m.polar = weight / total, m.xx /= total, m.yy /= total;
-  for (auto& o : m.order) o /= weight;
-  return m;
+  return testing::bokeh_moments(color, 1);
 }
 
 // The lamp's square and the pixel's box: each side^2 / 6 of polar moment, side^2 / 12 per axis.
@@ -194,28 +159,8 @@ TEST(Bokeh, VignettingStopCutsTheBokehToTheIntersectionOfTwoDiscs) {
     }
 }
 
-// The polar moment about its centroid of one channel of an image, and the centroid (pixels, x
-// right and y up from the image centre), per unit of the channel's light.
-struct ChannelMoments {
-  double polar = 0, cx = 0, cy = 0, total = 0;
-};
-ChannelMoments channel_moments(const image::Image& im, int k) {
-  ChannelMoments m;
-  const int n = im.width();
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      const double v = im.at(x, y, k);
-      m.total += v, m.cx += v * (x + 0.5 - n / 2.0), m.cy += v * (n / 2.0 - y - 0.5);
-    }
-  m.cx /= m.total, m.cy /= m.total;
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      const double dx = x + 0.5 - n / 2.0 - m.cx, dy = n / 2.0 - y - 0.5 - m.cy;
-      m.polar += im.at(x, y, k) * (dx * dx + dy * dy);
-    }
-  m.polar /= m.total;
-  return m;
-}
+using ChannelMoments = testing::BokehMoments;
+ChannelMoments channel_moments(const image::Image& im, int k) { return testing::bokeh_moments(im, k); }
 
 // Axial chromatic aberration M: the red band focuses at P + M / 2, the blue at P - M / 2, on the
 // same film. A white lamp at depth Z then images to a red disc of radius a |P_r - Z| / Z on the

@@ -8,7 +8,12 @@
 //                                width, height, the layer-planning options (max_coc_radius,
 //                                max_layers, min_layer_step, layer_count, mask_lens_reach) and
 //                                the revealed layers' coverage (revealed_present,
-//                                revealed_near_depth, revealed_far_depth, revealed_aperture)
+//                                revealed_near_depth, revealed_far_depth, revealed_aperture);
+//                                for a lens that is not plain, its aperture (lens/aperture.h):
+//                                aperture_blades, aperture_rotation, aperture_roundness,
+//                                anamorphic_ratio, vignetting_stop_radius and _distance,
+//                                axial_ca, lateral_ca, aperture_profile, aperture_profile_strength,
+//                                lens_tilt_x and _y, lens_shift_x and _y, aperture_image
 //   part "depth"       Z         camera-space depth, +inf for no hit
 //   part "ids"         id        triangle (or object) ids, -1 for no hit
 //   part "revealed.K"  x, y, R, G, B, Z

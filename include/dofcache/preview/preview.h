@@ -77,6 +77,7 @@ struct PreviewTimings {
   int layers = 0;          // layers planned (layered methods)
   int layers_blurred = 0;  // layers whose matte was not empty
   long traced_pixels = 0;  // occlusion fix: pixels of the edge band whose lens rays were traced
+  bool shaped_bokeh = false;  // the lens is not plain: drawn by the shaped scatter (see above)
 };
 
 // Reusable scratch memory: keep one across frames to avoid reallocating buffers.
@@ -92,6 +93,24 @@ class PreviewWorkspace {
  private:
   std::unique_ptr<Impl> impl_;
 };
+
+// The lens's own bokeh. With a lens that is not plain (lens/aperture.h: blades, an anamorphic
+// squeeze, an aperture image, a vignetting stop, chromatic aberration, tilt or shift), every
+// method draws it with the shaped scatter: each pixel splats the aperture's shape where the lens
+// puts its rays (render::ThinLensCamera::bokeh: turned by 180 degrees in front of the plane of
+// focus, scaled by the band's and the tilted plane's circle of confusion, its centre moved by
+// lateral chromatic aberration, cut by the stop's disc and dimmed by the light the stop takes),
+// binned and composited far to near as the disk scatter (baselines.h), with each colour channel's
+// own coverage. The layered methods' pyramid blurs round discs of one radius per depth, which a
+// tilted plane, a cat's eye or colour fringes break; PreviewTimings::shaped_bokeh says when this
+// path ran. The transmission profile is not drawn (evenly lit splats), an aperture image is drawn
+// as its non-zero pixels, and the occlusion fix's revealed layers are not used.
+//
+// What a front end says when the shaped scatter draws a preview (one line).
+inline constexpr const char* kShapedPreviewNotice =
+    "the preview draws this lens's bokeh with its shaped scatter (the aperture's shape, the "
+    "vignetting stop, the colour bands and the tilted plane, pixel by pixel); the layered "
+    "methods, their occlusion fix and the transmission profile are left out";
 
 // The preview (RGB). If every |CoC| is at most 1 px (zero aperture, or everything at the focus
 // distance) every method returns the input colour unchanged. LayeredOcclusion without revealed

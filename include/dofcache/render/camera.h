@@ -22,14 +22,18 @@ struct LensSample {
 };
 
 // Where the lens spreads a point's light on the film (what a preview draws): the film position of
-// the bokeh's centre (the point's image in a colour band), the film offset of the lens ray through
-// aperture point a (in units of the round aperture's radius, x right, y up) as centre + scale *
-// (a.x, -a.y) pixels, and the disc of aperture points whose rays the vignetting stop lets through.
+// the bokeh's centre (the point's image in a colour band), and where the lens ray through aperture
+// point a (in units of the round aperture's radius, x right, y up) lands: at centre + (o.x, -o.y)
+// pixels with
+//     o = scale a / (1 + a . tilt)
 // `scale` is the signed CoC radius: negative in front of the plane of focus, where the bokeh is
-// turned by 180 degrees.
+// turned by 180 degrees. `tilt` is 0 for an untilted lens; tilted, each film point focuses at its
+// own depth, and the bokeh is the aperture under that projective map (exact). The vignetting
+// stop lets through the rays of the aperture points inside its disc.
 struct BokehSpot {
   glm::vec2 centre{0.0f};
   float scale = 0.0f;
+  glm::vec2 tilt{0.0f};         // aperture radius x (sin tilt_y, sin tilt_x) / F
   glm::vec2 stop_centre{0.0f};  // aperture units
   float stop_radius = 0.0f;     // aperture units; +inf without a stop (or a point before it)
 };
@@ -52,9 +56,7 @@ class ThinLensCamera {
   }
   scene::Ray pinhole_ray(glm::vec2 film) const;
   // The bokeh of the point at camera-space depth `depth` whose pinhole image is at `film` (pixels,
-  // as above), in band `band` (-1: none). Exact for the centre and the stop; the offsets are
-  // exact where the plane of focus is untilted, and take the focus depth of the centre where it
-  // is tilted.
+  // as above), in band `band` (-1: none).
   BokehSpot bokeh(glm::vec2 film, double depth, int band = -1) const;
 
   // (x z, y z, z, 1) -> world, for film position (x, y) in pixels at camera-space depth z: the
@@ -74,6 +76,7 @@ class ThinLensCamera {
   // else imaging().
   lens::LensImaging imaging_at(glm::vec3 world) const;
   const lens::ThinLens& lens() const { return imaging_.lens; }
+  const lens::Aperture& aperture() const { return aperture_; }
   glm::vec3 position() const { return position_; }
   glm::vec3 forward() const { return forward_; }
   int width() const { return width_; }

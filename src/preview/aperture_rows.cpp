@@ -1,0 +1,60 @@
+#include "aperture_rows.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dofcache::preview::detail {
+
+ApertureRows::ApertureRows(const lens::Aperture& aperture, int rows, int columns) : rows_(rows) {
+  first_.reserve(rows + 2);
+  auto inside = [&](float x, float y) { return aperture.contains({x, y}); };
+  // The crossing between a (inside == ia) and b: bisected.
+  auto crossing = [&](float a, float b, float y, bool ia) {
+    for (int k = 0; k < 14 && b - a > 1e-4f; ++k) {
+      const float m = 0.5f * (a + b);
+      (inside(m, y) == ia ? a : b) = m;
+    }
+    return 0.5f * (a + b);
+  };
+  const float dx = 2.0f / static_cast<float>(columns);
+  for (int i = 0; i < rows; ++i) {
+    first_.push_back(static_cast<int>(spans_.size()));
+    const float y = -1.0f + (static_cast<float>(i) + 0.5f) * 2.0f / static_cast<float>(rows);
+    float prev_x = -1.0f;
+    bool prev = inside(prev_x, y);
+    float start = prev ? -1.0f : 0.0f;
+    for (int c = 1; c <= columns; ++c) {
+      const float x = -1.0f + static_cast<float>(c) * dx;
+      const bool now = inside(x, y);
+      if (now != prev) {
+        const float at = crossing(prev_x, x, y, prev);
+        if (now)
+          start = at;
+        else
+          spans_.push_back({start, at});
+      }
+      prev = now;
+      prev_x = x;
+    }
+    if (prev) spans_.push_back({start, 1.0f});
+  }
+  first_.push_back(static_cast<int>(spans_.size()));
+  first_.push_back(static_cast<int>(spans_.size()));  // the empty sentinel row
+  for (const ApertureSpan& s : spans_) area_ += s.x1 - s.x0;
+}
+
+float ApertureRows::area_share(float x, float y, float r) const {
+  if (area_ <= 0.0 || std::hypot(x, y) + 1.5f <= r) return 1.0f;  // the disc holds [-1, 1]^2
+  double inside = 0;
+  for (int i = 0; i < rows_; ++i) {
+    const float yi = -1.0f + (static_cast<float>(i) + 0.5f) * 2.0f / static_cast<float>(rows_);
+    const float h2 = r * r - (yi - y) * (yi - y);
+    if (h2 <= 0.0f) continue;
+    const float h = std::sqrt(h2);
+    for (int k = first_[i]; k < first_[i + 1]; ++k)
+      inside += std::max(0.0f, std::min(spans_[k].x1, x + h) - std::max(spans_[k].x0, x - h));
+  }
+  return static_cast<float>(inside / area_);
+}
+
+}  // namespace dofcache::preview::detail
