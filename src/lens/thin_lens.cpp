@@ -4,6 +4,8 @@
 #include <limits>
 #include <string>
 
+#include <glm/geometric.hpp>
+
 #include "dofcache/core/error.h"
 
 namespace dofcache::lens {
@@ -103,6 +105,43 @@ glm::vec2 concentric_disk(glm::vec2 u) {
     theta = 2.0f * kPiOver4 - kPiOver4 * (o.x / o.y);
   }
   return r * glm::vec2(std::cos(theta), std::sin(theta));
+}
+
+}  // namespace dofcache::lens
+
+namespace dofcache::lens {
+
+TiltedFocus focus_plane_through(const glm::dvec3 (&points)[3], double focal_length) {
+  for (const glm::dvec3& p : points)
+    if (!(p.z > 0.0) || !std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw Error("plane of focus: every point must be a surface ahead of the lens");
+  // Rows (z, -y, -x) . (u, v, w) = 1, u = 1 / P, v = sin(tilt_x) / F, w = sin(tilt_y) / F:
+  // Cramer's rule.
+  auto det = [](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    return glm::dot(a, glm::cross(b, c));
+  };
+  const glm::dvec3 r0(points[0].z, -points[0].y, -points[0].x);
+  const glm::dvec3 r1(points[1].z, -points[1].y, -points[1].x);
+  const glm::dvec3 r2(points[2].z, -points[2].y, -points[2].x);
+  // The columns of the system's matrix are the rows' components.
+  const glm::dvec3 c0(r0.x, r1.x, r2.x), c1(r0.y, r1.y, r2.y), c2(r0.z, r1.z, r2.z);
+  const glm::dvec3 one(1.0);
+  const double d = det(c0, c1, c2);
+  // Relative to the size of the points' triangle seen from the lens (collinear, or a plane
+  // through the lens's centre: no single plane of focus).
+  const double scale = glm::length(r0) * glm::length(r1) * glm::length(r2);
+  if (!(std::abs(d) > 1e-9 * scale))
+    throw Error("plane of focus: the three points lie on one line or on a plane through the "
+                "lens; pick points that span a plane");
+  const double u = det(one, c1, c2) / d, v = det(c0, one, c2) / d, w = det(c0, c1, one) / d;
+  if (!(u > 0.0) || 1.0 / u <= focal_length)
+    throw Error("plane of focus: the plane through the points meets the optical axis " +
+                std::string(u > 0.0 ? "within the focal length" : "behind the lens"));
+  const double sx = v * focal_length, sy = w * focal_length;
+  if (!(std::abs(sx) < 1.0 && std::abs(sy) < 1.0))
+    throw Error("plane of focus: the plane through the points needs a tilt of 90 degrees or more");
+  constexpr double kDegrees = 180.0 / M_PI;
+  return {1.0 / u, std::asin(sx) * kDegrees, std::asin(sy) * kDegrees};
 }
 
 }  // namespace dofcache::lens

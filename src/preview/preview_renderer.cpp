@@ -209,7 +209,8 @@ SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel&
     t.denoise_ms = ms_since(t0);
   }
 
-  if (method == PreviewMethod::LayeredOcclusion) {
+  // A lens that is not plain is drawn by the shaped scatter, which uses no revealed layers.
+  if (method == PreviewMethod::LayeredOcclusion && in.imaging.lens.aperture.plain()) {
     // 2. The near-plane id layers and 3. the masks.
     const LayerPlan plan = plan_layers(in.depth, in.imaging, options);
     const int n = plan.size();

@@ -206,7 +206,9 @@ struct ShapedSplat {
   float cx, cy, scale;
   float tilt_x, tilt_y;
   float stop_x, stop_y, stop_r;
-  float pass;  // sharp: the share of the aperture's area that the stop lets through
+  float pass;    // sharp: the share of the aperture's area that the stop lets through
+  float weight;  // per pixel (times the run's density): one over the shape's pixels in the
+                 // image; 0: drawn as a sharp splat
 
   bool sharp() const { return std::abs(scale) <= 0.5f; }
   // How far from its centre the shape reaches (pixels): the aperture within the unit square, a
@@ -218,7 +220,8 @@ struct ShapedSplat {
 };
 
 // The film pixels of a splat's shape (not sharp), row by row: f(y, x0, x1, density) for each run
-// [x0, x1] within the image, the stop's disc cut out if `cut`. `density` is 1 untilted; tilted,
+// [x0, x1] within the image's columns and rows [row_begin, row_end), the stop's disc cut out if
+// `cut`. `density` is 1 untilted; tilted,
 // the map's Jacobian (scale^2 / (1 + a . tilt)^3) spreads the aperture's uniform rays unevenly,
 // and the run's pixels get (1 + a . tilt)^3 of them. The film offset o (y up) of aperture point
 // a is scale a / (1 + a . tilt) (render::BokehSpot), and the shape is padded by half a pixel as
@@ -226,11 +229,11 @@ struct ShapedSplat {
 // horizontal axis; a tilt about the vertical one bends the row's image, which the row's centre
 // stands for.
 template <class F>
-void for_each_run(const ShapedSplat& s, const ApertureRows& rows, int W, int H, bool cut,
-                  const F& f) {
+void for_each_run(const ShapedSplat& s, const ApertureRows& rows, int W, int row_begin,
+                  int row_end, bool cut, const F& f) {
   const float e = s.extent();
-  const int y0 = std::max(0, static_cast<int>(std::ceil(s.cy - 0.5f - e)));
-  const int y1 = std::min(H - 1, static_cast<int>(std::floor(s.cy - 0.5f + e)));
+  const int y0 = std::max(row_begin, static_cast<int>(std::ceil(s.cy - 0.5f - e)));
+  const int y1 = std::min(row_end - 1, static_cast<int>(std::floor(s.cy - 0.5f + e)));
   const bool stopped = cut && std::isfinite(s.stop_r);
   for (int y = y0; y <= y1; ++y) {
     const float oy = s.cy - 0.5f - static_cast<float>(y);
@@ -311,8 +314,16 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
           ShapedSplat& s = splats[p * bands + b];
           s = {spot.centre.x, spot.centre.y, std::clamp(spot.scale, -limit, limit),
                spot.tilt.x, spot.tilt.y, spot.stop_centre.x, spot.stop_centre.y,
-               spot.stop_radius, 1.0f};
-          if (std::isfinite(s.stop_r) && s.sharp())
+               spot.stop_radius, 1.0f, 0.0f};
+          // Normalised over the part inside the image, as the disk scatter; a shape too small
+          // to cover a pixel centre is drawn as a sharp one.
+          double inside = 0;
+          if (!s.sharp())
+            for_each_run(s, rows, W, 0, H, false,
+                         [&](int, int x0, int x1, float j) { inside += (x1 - x0 + 1) * j; });
+          if (inside > 0.0)
+            s.weight = static_cast<float>(1.0 / inside);
+          else if (std::isfinite(s.stop_r))
             s.pass = rows.area_share(s.stop_x, s.stop_y, s.stop_r);
         }
       }
@@ -349,7 +360,7 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
               alpha[3 + c] = 1.0;
             }
           auto add = [&](const double* v, int y, int x0, int x1, double w) {
-            if (y < r0 || y >= r1) return;
+            if (y < r0 || y >= r1) return;  // (the runs are clipped already; bilinear ones not)
             ya = std::min(ya, y);
             yb = std::max(yb, y + 1);
             double* row = diff + row_len * (y - r0);
@@ -360,28 +371,28 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
               z[k] -= v[k] * w;
             }
           };
-          // Normalised over the part inside the image, as the disk scatter; a shape too small to
-          // cover a pixel centre is drawn as a sharp one.
-          double inside = 0;
-          if (!s.sharp())
-            for_each_run(s, rows, W, H, false,
-                         [&](int, int x0, int x1, float j) { inside += (x1 - x0 + 1) * j; });
-          if (!(inside > 0.0)) {  // sharp: its light is what the stop lets through of its bundle
+          if (s.weight == 0.0f) {  // sharp: its light is what the stop lets through of its bundle
             for (int c = 0; c < 3; ++c) colour[c] *= s.pass;
-            for_each_bilinear(s, W, H, [&](int y, int x, float w) {
-              add(colour, y, x, x, w);
-              add(alpha, y, x, x, w);
+            for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
+            for_each_bilinear(s, W, H, [&](int y, int x, float w) { add(colour, y, x, x, w); });
+            continue;
+          }
+          if (!std::isfinite(s.stop_r)) {  // colour and alpha over the same runs
+            for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
+            for_each_run(s, rows, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
+              add(colour, y, x0, x1, s.weight * j);
             });
             continue;
           }
           // The stopped rays bring no light but their share of the coverage: the splats' alphas
           // then tile as the uncut shapes do, and the light a pixel gathers through the cut ones
           // is its own bundle's share that the stop passes, as in the ray tracer.
-          const double w = 1.0 / inside;
-          for_each_run(s, rows, W, H, false,
-                       [&](int y, int x0, int x1, float j) { add(alpha, y, x0, x1, w * j); });
-          for_each_run(s, rows, W, H, true,
-                       [&](int y, int x0, int x1, float j) { add(colour, y, x0, x1, w * j); });
+          for_each_run(s, rows, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
+            add(alpha, y, x0, x1, s.weight * j);
+          });
+          for_each_run(s, rows, W, r0, r1, true, [&](int y, int x0, int x1, float j) {
+            add(colour, y, x0, x1, s.weight * j);
+          });
         }
       },
       [&](int y, const double* row) {

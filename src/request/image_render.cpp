@@ -60,7 +60,7 @@ ImageResult render_preview_image(const ResolvedRequest& r, const scene::Scene& s
          {"pinhole_render_ms", t.pinhole_render_ms}, {"id_render_ms", t.id_render_ms},
          {"mask_build_ms", t.mask_build_ms}, {"extra_region_mask_ms", t.mask_ms()},
          {"extra_render_ms", t.extra_render_ms}, {"postprocess_ms", t.postprocess_ms},
-         {"total_ms", t.total_ms}}}});
+         {"total_ms", t.total_ms}, {"shaped_bokeh", t.postprocess.shaped_bokeh}}}});
   if (r.preview_options.denoise) result.stats["preview"]["denoise_ms"] = t.denoise_ms;
   return result;
 }

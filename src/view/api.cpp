@@ -336,6 +336,24 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     const Pixel p = pixel(optional_number(body, "x"), optional_number(body, "y"));
     return json_response(lens_json(session_.focus_at(p.x, p.y)));
   }
+  // {points: [[x, y], [x, y], [x, y]]}: pixels of the image; tilts the lens so that the plane of
+  // focus passes through what is seen at all three (lens::focus_plane_through).
+  if (post && path == "/api/focus_plane") {
+    const json body = body_object(req);
+    check_keys(body, {"points"});
+    const auto it = body.find("points");
+    if (it == body.end() || !it->is_array() || it->size() != 3)
+      throw Error("'points' must be three [x, y] pixels");
+    int pixels[3][2];
+    for (int k = 0; k < 3; ++k) {
+      const json& q = (*it)[k];
+      if (!q.is_array() || q.size() != 2 || !q[0].is_number() || !q[1].is_number())
+        throw Error("'points' must be three [x, y] pixels");
+      const Pixel p = pixel(q[0].get<double>(), q[1].get<double>());
+      pixels[k][0] = p.x, pixels[k][1] = p.y;
+    }
+    return json_response(lens_json(session_.focus_plane_at(pixels)));
+  }
   // ?x=X&y=Y: the depth seen there (null: nothing).
   if (get && path == "/api/depth") {
     const Pixel p = pixel(number_param(req, "x"), number_param(req, "y"));

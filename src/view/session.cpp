@@ -21,6 +21,7 @@
 #include "dofcache/core/threads.h"
 #include "dofcache/preview/preview_renderer.h"
 #include "dofcache/preview/refocus.h"
+#include "dofcache/render/camera.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
@@ -434,6 +435,37 @@ lens::ThinLens ViewSession::focus_at(int x, int y) {
   lens::ThinLens lens = this->lens();
   lens.focus_distance = d;
   set_lens(lens);  // validate() refuses a surface nearer than the focal length
+  return lens;
+}
+
+lens::ThinLens ViewSession::focus_plane_at(const int (&pixels)[3][2]) {
+  lens::ThinLens lens = this->lens();
+  glm::dvec3 points[3];
+  int width = 0, height = 0;
+  double yfov = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!state_->inputs) throw Error("no pinhole inputs yet");
+    const preview::PreviewInputs& in = state_->inputs->inputs;
+    width = in.depth.width(), height = in.depth.height(), yfov = in.imaging.yfov;
+  }
+  // The pinhole inputs' camera space: their field of view and the lens's shift.
+  const render::ThinLensCamera camera(glm::mat4(1.0f), static_cast<float>(yfov), lens, width,
+                                      height);
+  for (int k = 0; k < 3; ++k) {
+    const int x = pixels[k][0], y = pixels[k][1];
+    const double d = depth_at(x, y);
+    if (!std::isfinite(d))
+      throw Error("plane of focus: nothing is seen at pixel (" + std::to_string(x) + ", " +
+                  std::to_string(y) + ")");
+    const glm::vec2 s = camera.film_slopes({x + 0.5f, y + 0.5f});
+    points[k] = glm::dvec3(s.x * d, s.y * d, d);
+  }
+  const lens::TiltedFocus f = lens::focus_plane_through(points, lens.focal_length);
+  lens.focus_distance = f.focus_distance;
+  lens.aperture.tilt_x_deg = f.tilt_x_deg;
+  lens.aperture.tilt_y_deg = f.tilt_y_deg;
+  set_lens(lens);  // validates first, so an unusable plane changes nothing
   return lens;
 }
 

@@ -92,3 +92,49 @@ TEST(ConcentricDisk, MapsSquareIntoDiskPreservingArea) {
 
 }  // namespace
 }  // namespace dofcache::lens
+
+namespace dofcache::lens {
+namespace {
+
+// The plane z / 2 - 2 y + x = 1 (camera space): P = 2 m, sin(tilt_x) / F = 2 and sin(tilt_y) / F
+// = -1 per metre, so at F = 50 mm tilt_x = asin(0.1) = 5.7392 and tilt_y = asin(-0.05) =
+// -2.8660 degrees. Three of its points, worked by hand.
+TEST(FocusPlaneThrough, SolvesTheTiltedPlaneThroughThreePoints) {
+  const glm::dvec3 points[3] = {{0.0, 0.5, 4.0}, {-1.0, 0.0, 4.0}, {0.3, -0.2, 0.6}};
+  const TiltedFocus f = focus_plane_through(points, 0.05);
+  EXPECT_NEAR(f.focus_distance, 2.0, 1e-12);
+  EXPECT_NEAR(f.tilt_x_deg, 5.7392, 1e-4);
+  EXPECT_NEAR(f.tilt_y_deg, -2.8660, 1e-4);
+  // An untilted plane: three points at one depth.
+  const glm::dvec3 flat[3] = {{0.1, 0.0, 3.0}, {-0.4, 0.2, 3.0}, {0.0, -0.3, 3.0}};
+  const TiltedFocus g = focus_plane_through(flat, 0.05);
+  EXPECT_NEAR(g.focus_distance, 3.0, 1e-12);
+  EXPECT_NEAR(g.tilt_x_deg, 0.0, 1e-9);
+  EXPECT_NEAR(g.tilt_y_deg, 0.0, 1e-9);
+}
+
+TEST(FocusPlaneThrough, PointsWithoutOneUsablePlaneAreOneLineErrors) {
+  auto message = [](const glm::dvec3 (&p)[3]) {
+    try {
+      focus_plane_through(p, 0.05);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const glm::dvec3 line[3] = {{0.0, 0.0, 1.0}, {0.1, 0.1, 2.0}, {0.2, 0.2, 3.0}};
+  EXPECT_NE(message(line).find("one line"), std::string::npos) << message(line);
+  const glm::dvec3 through_lens[3] = {{1.0, 0.0, 1.0}, {0.0, 1.0, 1.0}, {1.0, 1.0, 2.0}};
+  EXPECT_NE(message(through_lens).find("one line"), std::string::npos);
+  const glm::dvec3 near[3] = {{0.001, 0.0, 0.01}, {0.0, 0.001, 0.01}, {-0.001, 0.0, 0.01}};
+  EXPECT_NE(message(near).find("within the focal length"), std::string::npos) << message(near);
+  const glm::dvec3 steep[3] = {{0.0, 0.0, 2.0}, {0.0, 0.1, 8.0}, {1.0, 0.0, 2.0}};
+  EXPECT_NE(message(steep).find("90 degrees"), std::string::npos) << message(steep);
+  const glm::dvec3 behind[3] = {{0.0, 0.0, -1.0}, {0.0, 0.1, 8.0}, {1.0, 0.0, 2.0}};
+  EXPECT_NE(message(behind).find("ahead of the lens"), std::string::npos);
+  for (const std::string& m : {message(line), message(near), message(steep)})
+    EXPECT_EQ(m.find('\n'), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dofcache::lens

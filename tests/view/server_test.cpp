@@ -289,6 +289,39 @@ TEST_F(ViewServerTest, FocusAtAPixelSetsTheDepthSeenThere) {
   EXPECT_DOUBLE_EQ(lens.at("fstop").get<double>(), 0.5);  // only the focus changed
 }
 
+// Three clicks put a tilted plane of focus through what they see: two pixels of the near quad
+// (1 m) in one column and one of the far wall (4 m). The plane holds that column's vertical
+// line, so it is only swung (tilt_y), worked by hand from the pixels' slopes (yfov 0.8, 64x48):
+// the points (-0.37875, y, 1) and (1.30361, -0.03523, 4) give P = 1.67539 m and
+// tilt_y = asin(0.1 x 1.06435) = 6.1098 degrees for the 100 mm lens.
+TEST_F(ViewServerTest, ThreeClicksPutThePlaneOfFocusThroughThem) {
+  auto res = post("/api/focus_plane", R"({"points": [[10, 10], [10, 40], [50, 24]]})");
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  const json lens = json::parse(res->body);
+  EXPECT_NEAR(lens.at("focus_distance").get<double>(), 1.67539, 2e-4);
+  EXPECT_NEAR(lens.at("lens_tilt")[0].get<double>(), 0.0, 1e-3);
+  EXPECT_NEAR(lens.at("lens_tilt")[1].get<double>(), 6.1098, 1e-3);
+  EXPECT_NEAR(session->lens().aperture.tilt_y_deg, 6.1098, 1e-3);
+  // Three points of the far wall alone: an untilted plane at 4 m.
+  res = post("/api/focus_plane", R"({"points": [[40, 5], [60, 20], [45, 40]]})");
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 200) << res->body;
+  EXPECT_NEAR(session->lens().focus_distance, kFar, 1e-3);
+  EXPECT_FALSE(session->lens().aperture.tilted() &&
+               std::abs(session->lens().aperture.tilt_y_deg) > 1e-3);
+  // One line, and nothing changed: three pixels on one line, too few points, outside the image.
+  for (const char* body : {R"({"points": [[40, 24], [50, 24], [60, 24]]})",
+                           R"({"points": [[40, 24], [50, 24]]})",
+                           R"({"points": [[40, 24], [50, 24], [64, 24]]})", R"({"points": 3})"}) {
+    auto bad = post("/api/focus_plane", body);
+    ASSERT_TRUE(bad);
+    EXPECT_EQ(bad->status, 400) << body;
+    EXPECT_EQ(json::parse(bad->body).at("error").get<std::string>().find('\n'), std::string::npos);
+  }
+  EXPECT_NEAR(session->lens().focus_distance, kFar, 1e-3);
+}
+
 // Focused on the far wall the near quad's edge is spread over many pixels; focused on the near
 // quad it is sharp. The same saved inputs, only the post-process rerun.
 TEST_F(ViewServerTest, RefocusChangesTheImage) {

@@ -2,6 +2,7 @@
 // Thin-lens optics of the paper's section 2. All lengths in metres; depths are distances along the
 // optical axis (camera-space z), which is what the thin-lens law is written in.
 #include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include "dofcache/lens/aperture.h"
 
@@ -73,6 +74,18 @@ struct LensImaging {
   // Inverse of signed_coc_pixels: the depth whose signed CoC is c pixels (infinite if none).
   double depth_for_signed_coc(double coc_pixels) const;
 };
+
+// The tilted plane of focus through three points (camera space: x right, y up, z forward along
+// the optical axis; metres) for a lens of focal length F: the focus distance P on the axis and
+// the tilts of aperture.h, whose plane is z / P - y sin(tilt_x) / F - x sin(tilt_y) / F = 1.
+// Three points give three linear equations in 1 / P, sin(tilt_x) / F and sin(tilt_y) / F.
+// Throws dofcache::Error (one line) if a point is not ahead of the lens, the points are (nearly)
+// on one line or on a plane through the lens's centre, the plane meets the axis behind the lens
+// or within its focal length, or it needs a tilt of 90 degrees or more.
+struct TiltedFocus {
+  double focus_distance = 0, tilt_x_deg = 0, tilt_y_deg = 0;
+};
+TiltedFocus focus_plane_through(const glm::dvec3 (&points)[3], double focal_length);
 
 // Shirley-Chiu concentric mapping of the unit square to the unit disk: area preserving and low
 // distortion, so stratified square samples stay stratified on the lens.

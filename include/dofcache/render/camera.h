@@ -55,6 +55,9 @@ class ThinLensCamera {
     return lens_ray(film, lens_u).ray;
   }
   scene::Ray pinhole_ray(glm::vec2 film) const;
+  // The pinhole direction of a film point as slopes: camera-space (x / z, y / z), x right and y
+  // up (the film's shift included).
+  glm::vec2 film_slopes(glm::vec2 film) const;
   // The bokeh of the point at camera-space depth `depth` whose pinhole image is at `film` (pixels,
   // as above), in band `band` (-1: none).
   BokehSpot bokeh(glm::vec2 film, double depth, int band = -1) const;
@@ -87,7 +90,6 @@ class ThinLensCamera {
  private:
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
   glm::vec3 direction_of(glm::vec2 slopes) const;     // forward + slopes.x right + slopes.y up
-  glm::vec2 film_slopes(glm::vec2 film) const;  // its right and up components
   // The depth at which the lens rays of the pinhole direction (slopes, 1) converge: p (the
   // focus distance, or a colour band's) untilted, else where it meets the tilted plane of focus.
   double focus_depth(glm::vec2 slopes, double p) const;

@@ -142,6 +142,10 @@ class ViewSession {
   // see there. Returns the new lens. Throws dofcache::Error if there are no inputs yet, the pixel
   // is outside the image, nothing is seen there, or it is nearer than the focal length allows.
   lens::ThinLens focus_at(int x, int y);
+  // Puts the plane of focus through what the pinhole inputs see at three pixels: the focus
+  // distance and the tilt of lens::focus_plane_through. Returns the new lens. Throws
+  // dofcache::Error (one line) as focus_at, or if the three points span no usable plane.
+  lens::ThinLens focus_plane_at(const int (&pixels)[3][2]);
   // The camera-space depth the pinhole inputs see at pixel (x, y) (+inf: nothing). Throws like
   // focus_at if there are no inputs or the pixel is outside the image.
   double depth_at(int x, int y) const;
