@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <iterator>
+#include <map>
+#include <mutex>
 #include <string>
 
 #include "dofcache/core/error.h"
@@ -126,41 +130,98 @@ ApertureChoices ApertureChoices::of(const ApertureShape& s) {
   return c;
 }
 
+// The cumulative transmission of an aperture image down its rows (h + 1 values, 0 first, 1
+// last) and along each row (w + 1 values per row, likewise), and for each a guide table: the bin
+// holding k / bins, from which the bin of any u >= k / bins is a short scan forward (constant
+// expected time, where a binary search's mispredicted branches cost more than the ray).
+struct Aperture::ImageTables {
+  int w = 0, h = 0;
+  std::vector<float> row_cdf, column_cdf;
+  std::vector<int> row_guide, column_guide;
+};
+
+namespace {
+
+void build_guide(const float* cdf, int bins, int* guide) {
+  int i = 0;
+  for (int k = 0; k < bins; ++k) {
+    const float u = static_cast<float>(k) / static_cast<float>(bins);
+    while (i < bins - 1 && cdf[i + 1] <= u) ++i;
+    guide[k] = i;
+  }
+}
+
+std::shared_ptr<const Aperture::ImageTables> build_image_tables(const std::string& path) {
+  const image::Image im =
+      image::read_image(path, std::uint64_t{kMaxApertureImageSide} * kMaxApertureImageSide * 3);
+  auto t = std::make_shared<Aperture::ImageTables>();
+  const int w = t->w = im.width(), h = t->h = im.height();
+  if (w > kMaxApertureImageSide || h > kMaxApertureImageSide)
+    throw Error("lens: the aperture image " + path + " is larger than " +
+                std::to_string(kMaxApertureImageSide) + " pixels a side");
+  // Cumulative sums in double (a 4096^2 image's total), stored normalised.
+  std::vector<double> rows(h + 1, 0.0);
+  std::vector<double> cols(static_cast<std::size_t>(h) * (w + 1), 0.0);
+  for (int y = 0; y < h; ++y) {
+    double* c = &cols[static_cast<std::size_t>(y) * (w + 1)];
+    for (int x = 0; x < w; ++x) {
+      double v = 0.0;
+      for (int k = 0; k < im.channels(); ++k) v += im.at(x, y, k);
+      v = std::isfinite(v) ? std::max(0.0, v / im.channels()) : 0.0;
+      c[x + 1] = c[x] + v;
+    }
+    rows[y + 1] = rows[y] + c[w];
+  }
+  if (!(rows.back() > 0.0))
+    throw Error("lens: the aperture image " + path + " transmits no light (all black)");
+  for (double v : rows) t->row_cdf.push_back(static_cast<float>(v / rows.back()));
+  t->column_cdf.resize(cols.size());
+  t->column_guide.resize(static_cast<std::size_t>(h) * w);
+  t->row_guide.resize(h);
+  build_guide(t->row_cdf.data(), h, t->row_guide.data());
+  for (int y = 0; y < h; ++y) {
+    const std::size_t o = static_cast<std::size_t>(y) * (w + 1);
+    const double total = cols[o + w];
+    for (int x = 0; x <= w; ++x)
+      t->column_cdf[o + x] = total > 0.0 ? static_cast<float>(cols[o + x] / total)
+                                         : static_cast<float>(x) / w;
+    build_guide(&t->column_cdf[o], w, &t->column_guide[static_cast<std::size_t>(y) * w]);
+  }
+  return t;
+}
+
+// One image's tables per file, shared while any Aperture holds them: a preview or a sequence
+// constructs cameras again and again with the same lens. Keyed by the path, the file's size and
+// its modification time, so an edited image is read again.
+std::shared_ptr<const Aperture::ImageTables> load_image_tables(const std::string& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  const auto time = std::filesystem::last_write_time(path, ec);
+  if (ec) return build_image_tables(path);  // read_image gives the one-line error
+  const std::string key = path + '\n' + std::to_string(size) + '\n' +
+                          std::to_string(time.time_since_epoch().count());
+  static std::mutex mutex;
+  static std::map<std::string, std::weak_ptr<const Aperture::ImageTables>> loaded;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (auto t = loaded[key].lock()) return t;
+  }
+  auto t = build_image_tables(path);
+  std::lock_guard<std::mutex> lock(mutex);
+  for (auto it = loaded.begin(); it != loaded.end();)  // forget the tables nobody holds
+    it = it->second.expired() ? loaded.erase(it) : std::next(it);
+  loaded[key] = t;
+  return t;
+}
+
+}  // namespace
+
 Aperture::Aperture(const ApertureShape& shape) : shape_(shape) {
   shape_.validate();
   squeeze_ = glm::vec2(static_cast<float>(std::min(1.0, 1.0 / shape_.anamorphic_ratio)),
                        static_cast<float>(std::min(1.0, shape_.anamorphic_ratio)));
   if (!shape_.image.empty()) {
-    const image::Image im = image::read_image(
-        shape_.image, std::uint64_t{kMaxApertureImageSide} * kMaxApertureImageSide * 3);
-    image_w_ = im.width(), image_h_ = im.height();
-    if (image_w_ > kMaxApertureImageSide || image_h_ > kMaxApertureImageSide)
-      throw Error("lens: the aperture image " + shape_.image + " is larger than " +
-                  std::to_string(kMaxApertureImageSide) + " pixels a side");
-    // Cumulative sums in double (a 4096^2 image's total), stored normalised.
-    std::vector<double> rows(image_h_ + 1, 0.0);
-    std::vector<double> cols(static_cast<std::size_t>(image_h_) * (image_w_ + 1), 0.0);
-    for (int y = 0; y < image_h_; ++y) {
-      double* c = &cols[static_cast<std::size_t>(y) * (image_w_ + 1)];
-      for (int x = 0; x < image_w_; ++x) {
-        double t = 0.0;
-        for (int k = 0; k < im.channels(); ++k) t += im.at(x, y, k);
-        t = std::isfinite(t) ? std::max(0.0, t / im.channels()) : 0.0;
-        c[x + 1] = c[x] + t;
-      }
-      rows[y + 1] = rows[y] + c[image_w_];
-    }
-    if (!(rows.back() > 0.0))
-      throw Error("lens: the aperture image " + shape_.image + " transmits no light (all black)");
-    for (double v : rows) row_cdf_.push_back(static_cast<float>(v / rows.back()));
-    column_cdf_.resize(cols.size());
-    for (int y = 0; y < image_h_; ++y) {
-      const std::size_t o = static_cast<std::size_t>(y) * (image_w_ + 1);
-      const double total = cols[o + image_w_];
-      for (int x = 0; x <= image_w_; ++x)
-        column_cdf_[o + x] = total > 0.0 ? static_cast<float>(cols[o + x] / total)
-                                         : static_cast<float>(x) / image_w_;
-    }
+    image_ = load_image_tables(shape_.image);
     return;
   }
   if (shape_.blades == 0) return;
@@ -200,10 +261,11 @@ double Aperture::polygon_rim(double angle) const {
 
 namespace {
 
-// The bin of a cumulative table (first 0, last 1) holding u, and u's place within it.
-std::pair<int, float> invert_cdf(const float* cdf, int bins, float u) {
-  const int i = std::clamp(
-      static_cast<int>(std::upper_bound(cdf, cdf + bins + 1, u) - cdf) - 1, 0, bins - 1);
+// The bin of a cumulative table (first 0, last 1) holding u, from its guide, and u's place
+// within it.
+std::pair<int, float> invert_cdf(const float* cdf, const int* guide, int bins, float u) {
+  int i = guide[std::min(bins - 1, static_cast<int>(u * static_cast<float>(bins)))];
+  while (i < bins - 1 && cdf[i + 1] <= u) ++i;
   const float width = cdf[i + 1] - cdf[i];
   return {i, width > 0.0f ? std::clamp((u - cdf[i]) / width, 0.0f, 1.0f) : 0.5f};
 }
@@ -211,21 +273,24 @@ std::pair<int, float> invert_cdf(const float* cdf, int bins, float u) {
 }  // namespace
 
 glm::vec2 Aperture::sample_image(glm::vec2 u) const {
-  const auto [row, fy] = invert_cdf(row_cdf_.data(), image_h_, u.y);
+  const ImageTables& t = *image_;
+  const auto [row, fy] = invert_cdf(t.row_cdf.data(), t.row_guide.data(), t.h, u.y);
   const auto [col, fx] =
-      invert_cdf(&column_cdf_[static_cast<std::size_t>(row) * (image_w_ + 1)], image_w_, u.x);
+      invert_cdf(&t.column_cdf[static_cast<std::size_t>(row) * (t.w + 1)],
+                 &t.column_guide[static_cast<std::size_t>(row) * t.w], t.w, u.x);
   // Pixel (col, row) covers [col, col + 1) x [row, row + 1) of the square [-1, 1]^2, top row up.
-  return {2.0f * (static_cast<float>(col) + fx) / image_w_ - 1.0f,
-          1.0f - 2.0f * (static_cast<float>(row) + fy) / image_h_};
+  return {2.0f * (static_cast<float>(col) + fx) / t.w - 1.0f,
+          1.0f - 2.0f * (static_cast<float>(row) + fy) / t.h};
 }
 
 float Aperture::transmission_at(glm::vec2 p) const {
-  const int x = static_cast<int>(std::floor((p.x + 1.0f) * 0.5f * image_w_));
-  const int y = static_cast<int>(std::floor((1.0f - p.y) * 0.5f * image_h_));
-  if (x < 0 || y < 0 || x >= image_w_ || y >= image_h_) return 0.0f;
-  const std::size_t o = static_cast<std::size_t>(y) * (image_w_ + 1);
-  return column_cdf_[o + x + 1] - column_cdf_[o + x] > 0.0f &&
-                 row_cdf_[y + 1] - row_cdf_[y] > 0.0f
+  const ImageTables& t = *image_;
+  const int x = static_cast<int>(std::floor((p.x + 1.0f) * 0.5f * t.w));
+  const int y = static_cast<int>(std::floor((1.0f - p.y) * 0.5f * t.h));
+  if (x < 0 || y < 0 || x >= t.w || y >= t.h) return 0.0f;
+  const std::size_t o = static_cast<std::size_t>(y) * (t.w + 1);
+  return t.column_cdf[o + x + 1] - t.column_cdf[o + x] > 0.0f &&
+                 t.row_cdf[y + 1] - t.row_cdf[y] > 0.0f
              ? 1.0f
              : 0.0f;
 }
@@ -241,13 +306,13 @@ double Aperture::rim(double angle) const {
 
 bool Aperture::contains(glm::vec2 p) const {
   const double x = p.x / squeeze_.x, y = p.y / squeeze_.y;
-  if (image_w_ > 0)
+  if (image_)
     return transmission_at(glm::vec2(static_cast<float>(x), static_cast<float>(y))) > 0.0f;
   return std::hypot(x, y) <= polygon_rim(std::atan2(y, x));
 }
 
 glm::vec2 Aperture::sample(glm::vec2 u, float* rho) const {
-  if (image_w_ > 0) {
+  if (image_) {
     const glm::vec2 p = sample_image(u);
     if (rho) *rho = std::min(1.0f, std::sqrt(p.x * p.x + p.y * p.y));
     return p * squeeze_;

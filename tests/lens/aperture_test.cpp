@@ -6,10 +6,15 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <string>
 #include <utility>
 
 #include "dofcache/core/error.h"
+#include "dofcache/image/image_io.h"
 #include "dofcache/lens/thin_lens.h"
 
 namespace dofcache::lens {
@@ -81,6 +86,40 @@ TEST(Aperture, PolygonSamplesAreUniformOverItsArea) {
   // The wedge's area: the integral of (inradius / cos t)^2 / 2 over [0, 20 deg].
   const double wedge = 0.5 * std::pow(std::cos(kPi / n), 2) * std::tan(deg(20));
   EXPECT_NEAR(double(in_wedge) / total, wedge / area, 0.002);
+}
+
+// An aperture image of 5x4 pixels with black rows and columns and uneven weights: every sample
+// lands in a lit pixel, in proportion to its transmission (counted per pixel against the weights
+// written here), and two apertures naming the file share one reading of it.
+TEST(Aperture, ImageSamplesFollowTheTransmissionPixelByPixel) {
+  const float weights[4][5] = {{0, 0, 0, 0, 0}, {1, 0, 3, 0.5f, 0}, {0, 0, 0, 0, 0}, {2, 0, 0, 0, 4}};
+  image::Image im(5, 4, 3, 0.0f);
+  double total = 0;
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 5; ++x) {
+      for (int k = 0; k < 3; ++k) im.at(x, y, k) = weights[y][x];
+      total += weights[y][x];
+    }
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("dofcache_aperture_test_" + std::to_string(::getpid()) + ".exr"))
+                               .string();
+  image::write_image(path, im);
+  ApertureShape shape;
+  shape.image = path;
+  const Aperture a(shape), b(shape);
+  int counts[4][5] = {}, n = 0;
+  for_grid(300, [&](glm::vec2 u) {
+    const glm::vec2 p = a.sample(u);
+    const int x = static_cast<int>(std::floor((p.x + 1.0f) * 2.5f));
+    const int y = static_cast<int>(std::floor((1.0f - p.y) * 2.0f));
+    ASSERT_TRUE(x >= 0 && x < 5 && y >= 0 && y < 4) << p.x << ", " << p.y;
+    ++counts[y][x], ++n;
+    EXPECT_EQ(b.sample(u), p);  // the same tables
+  });
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 5; ++x)
+      EXPECT_NEAR(counts[y][x] / double(n), weights[y][x] / total, 0.002) << x << ", " << y;
+  std::filesystem::remove(path);
 }
 
 TEST(Aperture, RoundedBladeSamplesAreUniformOverTheirArea) {

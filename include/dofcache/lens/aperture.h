@@ -51,6 +51,7 @@
 // and through the hinge line at J = F / sin(tilt) from the lens: in camera space (x right, y up,
 // z forward) it is z / P - y sin(tilt_x) / F - x sin(tilt_y) / F = 1. The aperture stays
 // perpendicular to the axis (a thin-lens approximation).
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -191,6 +192,9 @@ class Aperture {
   double rim(double angle) const;  // blades and ovals (an aperture image's rim is not traced)
   bool contains(glm::vec2 p) const;
   const ApertureShape& shape() const { return shape_; }
+  // The aperture image's sampling tables (opaque: aperture.cpp), read once per file and shared
+  // by every Aperture (and camera) that names it.
+  struct ImageTables;
 
  private:
   double polygon_rim(double angle) const;  // before the anamorphic squeeze
@@ -201,10 +205,7 @@ class Aperture {
   // cumulative share of the area up to each (0 first, 1 last).
   std::vector<glm::vec2> rim_points_;
   std::vector<float> area_cdf_;
-  // The aperture image: its size, the cumulative transmission down its rows (height + 1 values,
-  // 0 first, 1 last) and along each row (width + 1 values per row, likewise).
-  int image_w_ = 0, image_h_ = 0;
-  std::vector<float> row_cdf_, column_cdf_;
+  std::shared_ptr<const ImageTables> image_;
   glm::vec2 sample_image(glm::vec2 u) const;
   float transmission_at(glm::vec2 p) const;  // unsqueezed, in the round aperture's units
 };
