@@ -154,12 +154,17 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
   // `takes_part` is false keep their value and give none; tap(i, j, kx, ky, step) is a tap's
   // weight besides the B3 spline and the luminance step measured against the noise, as a factor
   // and an exponent e (the weight takes exp(-e): one exponential per tap). The step is measured
-  // against the pixel's own noise, or with `symmetric` against the larger of the two pixels'
-  // (so two pixels weigh each other alike, and light one gives up the other takes).
+  // against the pixel's own noise. With `sparse`, where one of the two pixels has no measured
+  // noise (all its samples alike: a lamp's bokeh where no lens ray met the lamp, or where every
+  // one did; the dark beyond its rim), both weigh each other by the chance that its samples saw
+  // the other's mean by chance, exp(-step^2 / the noisy one's variance): a rare event of mean m
+  // and variance v of the mean is met about m^2 / v times in that many samples, and none with
+  // probability exp(-m^2 / v). Such pairs weigh each other alike, so light one gives up the
+  // other takes.
   std::vector<float> next_value(n * 3), next_variance(n);
   auto iterate = [&](std::vector<float>& value, std::vector<float>& variance,
                      std::vector<float>& luma, const auto& takes_part, const auto& tap,
-                     bool symmetric = false) {
+                     bool sparse = false) {
     run_with_threads(o.threads, [&] {
       for (int it = 0; it < o.iterations; ++it) {
         const int step = 1 << it;
@@ -172,15 +177,13 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
             };
             // No measured noise: every other value is refused (to float precision), so the pixel
             // keeps its own.
-            if (!takes_part(i) || (!symmetric && !(variance[i] > 0.0f))) {
+            if (!takes_part(i) || (!sparse && !(variance[i] > 0.0f))) {
               keep();
               continue;
             }
             const float lp = luma[i];
-            auto inverse_noise = [&](float v) {
-              return 1.0f / (o.sigma_luminance * std::sqrt(v) + 1e-6f * (lp + 1e-3f));
-            };
-            const float inv_lum = inverse_noise(variance[i]);
+            const float inv_lum =
+                1.0f / (o.sigma_luminance * std::sqrt(variance[i]) + 1e-6f * (lp + 1e-3f));
             float sum[3] = {0, 0, 0}, wsum = 0, vsum = 0;
             for (int ky = 0; ky < 5; ++ky) {
               const int qy = y + (ky - 2) * step;
@@ -192,11 +195,16 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
                 if (!takes_part(j)) continue;
                 const Tap t = j == i ? Tap{} : tap(i, j, kx, ky, step);
                 if (!(t.factor > 0.0f)) continue;
-                const float inv = symmetric && variance[j] > variance[i]
-                                      ? inverse_noise(variance[j])
-                                      : inv_lum;
-                const float wgt = kKernel[kx] * kKernel[ky] * t.factor *
-                                  exp_neg(std::abs(lp - luma[j]) * inv + t.exponent);
+                const float step_lum = std::abs(lp - luma[j]);
+                float e;
+                if (variance[i] > 0.0f && (!sparse || variance[j] > 0.0f))
+                  e = step_lum * inv_lum;
+                else if (variance[i] > 0.0f || variance[j] > 0.0f)  // sparse: one is sure
+                  e = step_lum * step_lum / std::max(variance[i], variance[j]);
+                else
+                  e = step_lum > 0.0f ? 1e30f : 0.0f;
+                const float wgt =
+                    kKernel[kx] * kKernel[ky] * t.factor * exp_neg(e + t.exponent);
                 for (int c = 0; c < 3; ++c) sum[c] += wgt * value[j * 3 + c];
                 wsum += wgt;
                 vsum += wgt * wgt * variance[j];
@@ -237,11 +245,10 @@ image::Image render_filter(const image::Image& color, const RenderGuides& g,
 
   // The emission (lamps, the sky): its noise is which lamp or sky the lens and film samples met,
   // so only its own measured noise steers, and no tap reaches beyond the pixel's circle of
-  // confusion (an in-focus lamp's edge stays as sharp as the film made it). The steps are
-  // measured symmetrically: a lamp's bokeh seen by few lens rays leaves many of its pixels
-  // without a hit, with no measured noise; judged by their own noise they would refuse their
-  // neighbours' light while those averaged it away (a small lamp's bokeh lost half its light at
-  // 16 spp).
+  // confusion (an in-focus lamp's edge stays as sharp as the film made it). It is sparse: a
+  // small lamp's bokeh seen by few lens rays leaves many of its pixels without a hit and without
+  // measured noise; sure of their zero they refused their neighbours' light while those averaged
+  // it away (a small lamp's bokeh lost half its light at 16 spp).
   std::vector<float> emit(n * 3), emit_lum(n), emit_var(n);
   for (std::size_t i = 0; i < n; ++i) {
     for (int c = 0; c < 3; ++c) emit[i * 3 + c] = g.emission_estimate->data()[i * 3 + c];

@@ -2,8 +2,8 @@
 // an anamorphic squeeze, rendered with 64 lens samples (a lens ray in 17 meets the lamp) and
 // denoised, against the same lamp converged (1024 samples, no filter). The moments of
 // tests/render/lamp_bokeh.h: the corner count and a corner's angle, the size and the aspect, and
-// the light (which the emission pass's one-sided noise test lost at the bokeh's rim: 5.6 % here,
-// half at 16 samples of a smaller lamp).
+// the light (which the emission pass lost at the bokeh's rim when a pixel without measured noise
+// was taken as sure of its value: 5.6 % here, more than half at 16 samples of a smaller lamp).
 #include <gtest/gtest.h>
 
 #include <cmath>
