@@ -13,11 +13,12 @@ constexpr double kMm = 1e-3;
 constexpr std::size_t kMaxSurfaces = 256;
 
 struct Paraxial {
-  double y, u;  // at the film side of the last surface
+  double h, y, u;  // the entering height; at the film side of the last surface
 };
 
-// A ray parallel to the axis at height h through every surface (y-nu), in millimetre-free units.
-Paraxial trace_parallel(const std::vector<LensSurface>& s, double h) {
+// A ray parallel to the axis through every surface (y-nu). Throws for an afocal system.
+Paraxial trace_parallel(const std::vector<LensSurface>& s) {
+  const double h = 1e-3;
   double y = h, u = 0.0, n = 1.0;
   for (std::size_t k = 0; k < s.size(); ++k) {
     const double c = s[k].radius != 0.0 ? 1.0 / s[k].radius : 0.0;
@@ -26,7 +27,8 @@ Paraxial trace_parallel(const std::vector<LensSurface>& s, double h) {
     n = n2;
     if (k + 1 < s.size()) y += s[k].thickness * u;  // the last thickness is the film's
   }
-  return {y, u};
+  if (!(std::abs(u) > 1e-15)) throw Error("the lens is afocal: it has no focal length");
+  return {h, y, u};
 }
 
 }  // namespace
@@ -92,15 +94,12 @@ LensSystem LensSystem::read(const std::string& path) {
 }
 
 double LensSystem::effective_focal_length() const {
-  const double h = 1e-3;
-  const Paraxial p = trace_parallel(surfaces_, h);
-  if (!(std::abs(p.u) > 1e-15)) throw Error("the lens is afocal: it has no focal length");
-  return -h / p.u;
+  const Paraxial p = trace_parallel(surfaces_);
+  return -p.h / p.u;
 }
 
 double LensSystem::back_focal_distance() const {
-  const Paraxial p = trace_parallel(surfaces_, 1e-3);
-  if (!(std::abs(p.u) > 1e-15)) throw Error("the lens is afocal: it has no focal length");
+  const Paraxial p = trace_parallel(surfaces_);
   return -p.y / p.u;
 }
 

@@ -19,7 +19,7 @@ ApertureRows::ApertureRows(const lens::Aperture& aperture, int rows, int columns
   const float dx = 2.0f / static_cast<float>(columns);
   for (int i = 0; i < rows; ++i) {
     first_.push_back(static_cast<int>(spans_.size()));
-    const float y = -1.0f + (static_cast<float>(i) + 0.5f) * 2.0f / static_cast<float>(rows);
+    const float y = row_centre(i);
     float prev_x = -1.0f;
     bool prev = inside(prev_x, y);
     float start = prev ? -1.0f : 0.0f;
@@ -47,7 +47,7 @@ float ApertureRows::area_share(float x, float y, float r) const {
   if (area_ <= 0.0 || std::hypot(x, y) + 1.5f <= r) return 1.0f;  // the disc holds [-1, 1]^2
   double inside = 0;
   for (int i = 0; i < rows_; ++i) {
-    const float yi = -1.0f + (static_cast<float>(i) + 0.5f) * 2.0f / static_cast<float>(rows_);
+    const float yi = row_centre(i);
     const float h2 = r * r - (yi - y) * (yi - y);
     if (h2 <= 0.0f) continue;
     const float h = std::sqrt(h2);

@@ -29,6 +29,9 @@ class ApertureRows {
     const float f = (y + 1.0f) * 0.5f * static_cast<float>(rows_);
     return f >= 0.0f && f < static_cast<float>(rows_) ? static_cast<int>(f) : rows_;
   }
+  float row_centre(int i) const {  // the height of row i's centre
+    return -1.0f + (static_cast<float>(i) + 0.5f) * 2.0f / static_cast<float>(rows_);
+  }
   int rows_;
   std::vector<int> first_;  // rows_ + 2 offsets into spans_
   std::vector<ApertureSpan> spans_;

@@ -106,6 +106,32 @@ class Reader {
 
 }  // namespace
 
+namespace {
+
+// The aperture's numbers as the file's attributes, one table for the writer and the reader.
+struct ApertureReal {
+  const char* key;
+  double& (*field)(lens::ApertureShape&);
+};
+constexpr ApertureReal kApertureReals[] = {
+    {"aperture_rotation", [](lens::ApertureShape& a) -> double& { return a.rotation_deg; }},
+    {"aperture_roundness", [](lens::ApertureShape& a) -> double& { return a.roundness; }},
+    {"anamorphic_ratio", [](lens::ApertureShape& a) -> double& { return a.anamorphic_ratio; }},
+    {"vignetting_stop_radius", [](lens::ApertureShape& a) -> double& { return a.stop.radius; }},
+    {"vignetting_stop_distance",
+     [](lens::ApertureShape& a) -> double& { return a.stop.distance; }},
+    {"axial_ca", [](lens::ApertureShape& a) -> double& { return a.axial_ca; }},
+    {"lateral_ca", [](lens::ApertureShape& a) -> double& { return a.lateral_ca; }},
+    {"aperture_profile_strength",
+     [](lens::ApertureShape& a) -> double& { return a.profile_strength; }},
+    {"lens_tilt_x", [](lens::ApertureShape& a) -> double& { return a.tilt_x_deg; }},
+    {"lens_tilt_y", [](lens::ApertureShape& a) -> double& { return a.tilt_y_deg; }},
+    {"lens_shift_x", [](lens::ApertureShape& a) -> double& { return a.shift_x; }},
+    {"lens_shift_y", [](lens::ApertureShape& a) -> double& { return a.shift_y; }},
+};
+
+}  // namespace
+
 void save_preview_inputs(const std::string& path, const PreviewInputs& in,
                          const RevealedCoverage& coverage, const PreviewOptions& options) {
   const int w = in.color.width(), h = in.color.height();
@@ -133,22 +159,11 @@ void save_preview_inputs(const std::string& path, const PreviewInputs& in,
       {"revealed_far_depth", number(coverage.far_depth)},
       {"revealed_aperture", number(coverage.aperture_diameter)}};
   // The lens's character (lens/aperture.h), for the shaped scatter; absent: the plain lens.
-  const lens::ApertureShape& ap = im.lens.aperture;
+  lens::ApertureShape ap = im.lens.aperture;
   if (!ap.plain()) {
-    a.insert({{"aperture_blades", std::to_string(ap.blades)},
-              {"aperture_rotation", number(ap.rotation_deg)},
-              {"aperture_roundness", number(ap.roundness)},
-              {"anamorphic_ratio", number(ap.anamorphic_ratio)},
-              {"vignetting_stop_radius", number(ap.stop.radius)},
-              {"vignetting_stop_distance", number(ap.stop.distance)},
-              {"axial_ca", number(ap.axial_ca)},
-              {"lateral_ca", number(ap.lateral_ca)},
-              {"aperture_profile", lens::aperture_profile_name(ap.profile)},
-              {"aperture_profile_strength", number(ap.profile_strength)},
-              {"lens_tilt_x", number(ap.tilt_x_deg)},
-              {"lens_tilt_y", number(ap.tilt_y_deg)},
-              {"lens_shift_x", number(ap.shift_x)},
-              {"lens_shift_y", number(ap.shift_y)}});
+    a["aperture_blades"] = std::to_string(ap.blades);
+    for (const ApertureReal& r : kApertureReals) a[r.key] = number(r.field(ap));
+    a["aperture_profile"] = lens::aperture_profile_name(ap.profile);
     if (!ap.image.empty()) a["aperture_image"] = ap.image;
   }
   std::vector<image::ExrPart> parts = {{"color", {"R", "G", "B"}, in.color, a},
@@ -189,22 +204,12 @@ SavedPreviewInputs load_preview_inputs(const std::string& path, std::uint64_t ma
   if (color.attributes.count("aperture_blades")) {
     lens::ApertureShape& ap = in.imaging.lens.aperture;
     ap.blades = rd.integer(color, "aperture_blades", 0, lens::kMaxBlades);
-    ap.rotation_deg = rd.real(color, "aperture_rotation");
-    ap.roundness = rd.real(color, "aperture_roundness");
-    ap.anamorphic_ratio = rd.real(color, "anamorphic_ratio");
-    ap.stop = {rd.real(color, "vignetting_stop_radius"), rd.real(color, "vignetting_stop_distance")};
-    ap.axial_ca = rd.real(color, "axial_ca");
-    ap.lateral_ca = rd.real(color, "lateral_ca");
+    for (const ApertureReal& r : kApertureReals) r.field(ap) = rd.real(color, r.key);
     try {
       ap.profile = lens::parse_aperture_profile(rd.text(color, "aperture_profile"));
     } catch (const Error& e) {
       rd.fail(e.what());
     }
-    ap.profile_strength = rd.real(color, "aperture_profile_strength");
-    ap.tilt_x_deg = rd.real(color, "lens_tilt_x");
-    ap.tilt_y_deg = rd.real(color, "lens_tilt_y");
-    ap.shift_x = rd.real(color, "lens_shift_x");
-    ap.shift_y = rd.real(color, "lens_shift_y");
     if (color.attributes.count("aperture_image")) ap.image = rd.text(color, "aperture_image");
   }
   try {

@@ -2,7 +2,6 @@
 // buffers, bins composited far to near (see baselines.h); and the shaped scatter, which splats
 // the lens's own bokeh (preview.h).
 #include <algorithm>
-#include <array>
 #include <cmath>
 
 #include "aperture_rows.h"

@@ -59,13 +59,9 @@ scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
 LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) const {
   // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
   glm::vec2 slopes = film_slopes(film);
-  float p = static_cast<float>(imaging_.lens.focus_distance);
-  if (band >= 0) {  // chromatic aberration: the band's plane of focus and magnification
-    const lens::ApertureShape& a = imaging_.lens.aperture;
-    const double t = lens::ApertureShape::band_position(band);
-    p = static_cast<float>(imaging_.lens.focus_distance + a.axial_ca * t);
-    slopes /= static_cast<float>(1.0 + a.lateral_ca * t);
-  }
+  const BandOptics optics = band_optics(band);
+  float p = static_cast<float>(optics.focus_distance);
+  if (band >= 0) slopes /= static_cast<float>(optics.magnification);
   if (tilted_) p = static_cast<float>(focus_depth(slopes, p));
   glm::vec3 focus_point = position_ + direction_of(slopes) * p;
   const lens::ApertureShape& shape = imaging_.lens.aperture;
@@ -95,12 +91,9 @@ BokehSpot ThinLensCamera::bokeh(glm::vec2 film, double depth, int band) const {
   // sin tilt_x) / F), so s_b - s0 = l g / (1 + l . t) with g = 1 / p0 - 1 / D.
   const lens::ApertureShape& a = imaging_.lens.aperture;
   const glm::vec2 s0 = film_slopes(film);
-  double p = imaging_.lens.focus_distance, m = 1.0;
-  if (band >= 0) {
-    const double t = lens::ApertureShape::band_position(band);
-    p += a.axial_ca * t;
-    m += a.lateral_ca * t;
-  }
+  const BandOptics optics = band_optics(band);
+  double p = optics.focus_distance;
+  const double m = optics.magnification;
   if (tilted_) p = focus_depth(s0, p);
   const double slope_per_pixel = 2.0 * tan_half_y_ / height_;
   BokehSpot out;
@@ -121,6 +114,13 @@ BokehSpot ThinLensCamera::bokeh(glm::vec2 film, double depth, int band) const {
     out.stop_radius = static_cast<float>(a.stop.radius / k);
   }
   return out;
+}
+
+ThinLensCamera::BandOptics ThinLensCamera::band_optics(int band) const {
+  if (band < 0) return {imaging_.lens.focus_distance, 1.0};
+  const lens::ApertureShape& a = imaging_.lens.aperture;
+  const double t = lens::ApertureShape::band_position(band);
+  return {imaging_.lens.focus_distance + a.axial_ca * t, 1.0 + a.lateral_ca * t};
 }
 
 double ThinLensCamera::focus_depth(glm::vec2 slopes, double p) const {

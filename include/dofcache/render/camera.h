@@ -93,6 +93,11 @@ class ThinLensCamera {
   // The depth at which the lens rays of the pinhole direction (slopes, 1) converge: p (the
   // focus distance, or a colour band's) untilted, else where it meets the tilted plane of focus.
   double focus_depth(glm::vec2 slopes, double p) const;
+  struct BandOptics {
+    double focus_distance, magnification;
+  };
+  // Band `band`'s plane of focus and magnification (chromatic aberration; -1: the lens's own).
+  BandOptics band_optics(int band) const;
 
   lens::LensImaging imaging_;
   lens::Aperture aperture_;  // where lens rays start: imaging_.lens.aperture's shape
