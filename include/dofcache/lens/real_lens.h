@@ -1,0 +1,112 @@
+#pragma once
+// A real lens traced element by element (the lens-prescription issue): a LensSystem with its stop
+// set to an f-number and the film placed, by tracing, where a chosen distance is in focus.
+//
+// Lens space: metres, the optical axis along +z towards the scene, the film plane at z = 0 and the
+// rear surface's vertex at z = film_distance(). A ray from the film point (x, y, 0) leaves the
+// front element as the camera ray; the lens turns the image over, so a camera maps the scene's
+// right and up to the film's -x and -y.
+//
+// Sampling (as pbrt-v4's realistic camera): for a film point, a point is chosen uniformly on the
+// bounds of the exit pupil as seen from that distance from the film centre (precomputed in
+// radial bins), the ray towards it is traced, and a ray that an element stops weighs 0. The
+// weight of a ray that passes is the irradiance measure cos^4(theta) A / z_rear^2 (A the bounds'
+// area), divided by a normalisation: the same film distance's mean throughput by default (every
+// film point then sees a uniform scene at its radiance, as through a thin lens), or the film
+// centre's at the lens's widest stop when the exposure follows the lens (the image then darkens
+// with the f-stop and with the lens's own vignetting, as a camera's does).
+#include <array>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "dofcache/lens/lens_system.h"
+
+namespace dofcache::lens {
+
+struct LensRay {
+  glm::dvec3 origin{0.0};
+  glm::dvec3 direction{0.0, 0.0, 1.0};  // unit length
+};
+
+// The paraxial cardinal points of the whole lens found with traced rays near the axis, as z in lens
+// space. Object distances are measured from the front principal plane, image distances from the
+// rear one; the pupils are the stop's images (their diameters at the current stop).
+struct CardinalPoints {
+  double focal_length = 0;  // effective, metres
+  double front_principal_z = 0, rear_principal_z = 0;
+  double entrance_pupil_z = 0, entrance_pupil_diameter = 0;
+  double exit_pupil_z = 0, exit_pupil_diameter = 0;
+};
+
+struct RealLensSettings {
+  double fstop = 0;              // 0: the table's own stop
+  double focus_distance = 1e30;  // metres from the film plane to the plane in focus (>= 1e29: infinity)
+  double film_radius = 0.0216;   // metres: the largest distance from the film centre rays start at
+  bool exposure_follows_lens = false;
+};
+
+class RealLens {
+ public:
+  // Throws dofcache::Error in one line: a table without a stop, an f-number wider than the lens's
+  // widest, a focus distance the lens cannot reach (inside its own length or focal length), a
+  // lens through which no ray reaches the film centre.
+  RealLens(const LensSystem& system, const RealLensSettings& settings);
+
+  // Trace through every surface, refracting (Snell) and clipping at each element's clear aperture;
+  // false where an aperture or total internal reflection stops the ray. `band` -1: the glass's
+  // index n_d; 0, 1, 2: red, green, blue at the Fraunhofer C, d and F lines, from the Abbe
+  // numbers (no Abbe number: no dispersion). `clip` false ignores the apertures (chief rays).
+  bool trace_from_film(LensRay& ray, int band = -1, bool clip = true) const;
+  bool trace_from_scene(LensRay& ray, int band = -1, bool clip = true) const;
+
+  struct Sample {
+    LensRay ray;  // leaving the front element, lens space
+    double weight = 0;
+  };
+  // The lens ray of film point `film` (lens space x, y; metres) for the sample u in [0,1)^2.
+  Sample sample(glm::dvec2 film, glm::dvec2 u, int band = -1) const;
+
+  const CardinalPoints& cardinal() const { return cardinal_; }
+  double film_distance() const { return film_distance_; }  // rear vertex to film
+  double fstop() const { return fstop_; }
+  double widest_fstop() const { return widest_fstop_; }
+  double focus_distance() const { return settings_.focus_distance; }
+  double length() const { return length_; }  // front vertex to rear vertex
+  // The object-space angle (radians) of the chief ray, through the stop's centre, from the film
+  // point at distance `height` from the centre.
+  double field_angle(double height) const;
+  const std::vector<LensSurface>& surfaces() const { return surfaces_; }
+
+  static constexpr int kPupilBins = 64;
+
+ private:
+  struct PupilBin {
+    glm::dvec2 lo{0.0}, hi{0.0};  // bounds on the rear vertex plane, film point on +x
+    double throughput = 0;       // mean weight before normalisation
+  };
+  double ior(std::size_t k, int band) const;  // of the medium after surface k
+  double z_of(std::size_t k) const { return film_distance_ + z_from_rear_[k]; }
+  bool intersect(std::size_t k, LensRay& ray, glm::dvec3& normal) const;
+  // On-axis bundle from infinity: the radius of the widest parallel ray that passes.
+  double marginal_height() const;
+  CardinalPoints compute_cardinal() const;
+  // Where an on-axis point at `distance` (lens space z; >= 1e29 infinity) focuses best (the RMS
+  // spot of a traced fan is smallest), as a z in lens space.
+  double best_focus_z(double distance) const;
+  void focus(double distance_from_film);
+  void build_pupil_table();
+  double raw_weight(const LensRay& from_film, double area) const;
+
+  std::vector<LensSurface> surfaces_;
+  std::vector<double> z_from_rear_;  // each surface's vertex, relative to the rear vertex
+  int stop_ = -1;
+  RealLensSettings settings_;
+  double film_distance_ = 0, length_ = 0, fstop_ = 0, widest_fstop_ = 0;
+  double normalisation_ = 1;  // the centre's throughput at the widest stop (exposure follows)
+  CardinalPoints cardinal_;
+  std::array<PupilBin, kPupilBins> pupil_{};
+};
+
+}  // namespace dofcache::lens

@@ -1,0 +1,385 @@
+#include "dofcache/lens/real_lens.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
+
+#include "dofcache/core/error.h"
+
+namespace dofcache::lens {
+namespace {
+
+constexpr double kInfinity = 1e29;  // focus distances from here on are infinity
+constexpr int kBoundsGrid = 48;     // per axis, the exit-pupil search over the rear element
+constexpr int kThroughputGrid = 64;  // per axis, the mean weight of one radial bin
+
+// Fraunhofer C, d and F lines (micrometres): the red, green and blue bands' wavelengths.
+constexpr double kLambda[3] = {0.65627, 0.58756, 0.48613};
+
+std::string mm(double metres) { return std::to_string(metres * 1e3).substr(0, 8) + " mm"; }
+
+// Snell's law for unit `d` meeting a surface of unit normal `n` (facing the incoming ray) from a
+// medium of index eta_i into one of eta_t; false on total internal reflection.
+bool refract(glm::dvec3& d, const glm::dvec3& n, double eta_i, double eta_t) {
+  const double eta = eta_i / eta_t;
+  const double cos_i = -glm::dot(n, d);
+  const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
+  if (sin2_t >= 1.0) return false;
+  const double cos_t = std::sqrt(1.0 - sin2_t);
+  d = glm::normalize(eta * d + (eta * cos_i - cos_t) * n);
+  return true;
+}
+
+// Where a ray crosses the axis plane y = 0 of its meridional section (its x reaches 0) and where it
+// reaches height h: the z of each, for the cardinal points.
+double z_at_x(const LensRay& r, double x) {
+  return r.origin.z + (x - r.origin.x) / r.direction.x * r.direction.z;
+}
+
+}  // namespace
+
+RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
+    : surfaces_(system.surfaces()), stop_(system.stop_index()), settings_(settings) {
+  if (stop_ < 0)
+    throw Error("the lens table has no aperture stop (a row with radius 0 and index 0)");
+  if (!(settings.film_radius > 0.0 && settings.film_radius < 1.0))
+    throw Error("the film's half-diagonal must be in (0, 1) m");
+  if (!(settings.focus_distance > 0.0) || std::isnan(settings.focus_distance))
+    throw Error("the focus distance must be positive");
+  if (!(settings.fstop >= 0.0) || !std::isfinite(settings.fstop))
+    throw Error("the f-number must be positive");
+  z_from_rear_.assign(surfaces_.size(), 0.0);
+  for (std::size_t k = surfaces_.size() - 1; k-- > 0;)
+    z_from_rear_[k] = z_from_rear_[k + 1] + surfaces_[k].thickness;
+  length_ = z_from_rear_.front();
+  // The table's own stop: the widest f-number. Focus at infinity first (cardinal points do not
+  // depend on where the film is).
+  film_distance_ = 0.0;
+  cardinal_ = compute_cardinal();
+  if (!(cardinal_.focal_length > 0.0))
+    throw Error("the lens does not form a real image (effective focal length " +
+                mm(cardinal_.focal_length) + ")");
+  widest_fstop_ = cardinal_.focal_length / cardinal_.entrance_pupil_diameter;
+  fstop_ = settings.fstop > 0.0 ? settings.fstop : widest_fstop_;
+  if (fstop_ < widest_fstop_ * (1.0 - 1e-6))
+    throw Error("f/" + std::to_string(fstop_).substr(0, 5) + " is wider than the lens's widest, f/" +
+                std::to_string(widest_fstop_).substr(0, 5));
+  if (fstop_ > 1000.0) throw Error("an f-number above 1000");
+  if (settings.exposure_follows_lens) {
+    // A camera's exposure: the film centre's throughput wide open and focused at infinity.
+    focus(kInfinity);
+    build_pupil_table();
+    normalisation_ = pupil_[0].throughput;
+  }
+  // The pupil scales with the stop paraxially; the marginal ray's aberrations need a few rounds.
+  const double target = fstop_;
+  fstop_ = widest_fstop_;  // what the table's stop gives
+  film_distance_ = 0.0;
+  for (int i = 0; i < 8 && std::abs(fstop_ / target - 1.0) > 1e-4; ++i) {
+    surfaces_[stop_].aperture_diameter *= fstop_ / target;
+    cardinal_ = compute_cardinal();
+    fstop_ = cardinal_.focal_length / cardinal_.entrance_pupil_diameter;
+  }
+  focus(settings.focus_distance);
+  build_pupil_table();
+  if (!(pupil_[0].throughput > 0.0)) throw Error("no ray through the lens reaches the film centre");
+  if (!settings.exposure_follows_lens) normalisation_ = 0.0;  // per radius, below
+}
+
+double RealLens::ior(std::size_t k, int band) const {
+  const LensSurface& s = surfaces_[k];
+  if (band < 0 || band > 2 || s.abbe <= 0.0 || s.ior == 1.0) return s.ior;
+  // Cauchy's n = A + B / lambda^2 through n_d, with n_F - n_C = (n_d - 1) / V_d.
+  const double b = (s.ior - 1.0) / s.abbe /
+                   (1.0 / (kLambda[2] * kLambda[2]) - 1.0 / (kLambda[0] * kLambda[0]));
+  return s.ior + b * (1.0 / (kLambda[band] * kLambda[band]) - 1.0 / (kLambda[1] * kLambda[1]));
+}
+
+bool RealLens::intersect(std::size_t k, LensRay& ray, glm::dvec3& normal) const {
+  const LensSurface& s = surfaces_[k];
+  const double zk = z_of(k);
+  double t;
+  if (s.radius == 0.0) {
+    if (ray.direction.z == 0.0) return false;
+    t = (zk - ray.origin.z) / ray.direction.z;
+    normal = {0.0, 0.0, 1.0};
+  } else {
+    // The sphere's centre lies on the axis at z_k - R (positive R: towards the film). Of its two
+    // crossings the surface is the one on the vertex's side of the centre.
+    const glm::dvec3 c{0.0, 0.0, zk - s.radius};
+    const glm::dvec3 oc = ray.origin - c;
+    const double b = glm::dot(oc, ray.direction);
+    const double disc = b * b - (glm::dot(oc, oc) - s.radius * s.radius);
+    if (disc < 0.0) return false;
+    const double root = std::sqrt(disc);
+    const bool closer = (ray.direction.z > 0.0) == (s.radius < 0.0);
+    t = closer ? -b - root : -b + root;
+    normal = glm::normalize(ray.origin + t * ray.direction - c);
+  }
+  if (!(t > 0.0)) return false;
+  ray.origin += t * ray.direction;
+  if (glm::dot(normal, ray.direction) > 0.0) normal = -normal;
+  return true;
+}
+
+bool RealLens::trace_from_film(LensRay& ray, int band, bool clip) const {
+  for (std::size_t k = surfaces_.size(); k-- > 0;) {
+    glm::dvec3 n;
+    if (!intersect(k, ray, n)) return false;
+    const double r2 = ray.origin.x * ray.origin.x + ray.origin.y * ray.origin.y;
+    const double half = 0.5 * surfaces_[k].aperture_diameter;
+    if (clip && r2 > half * half) return false;
+    if (surfaces_[k].stop) continue;
+    if (!refract(ray.direction, n, ior(k, band), k == 0 ? 1.0 : ior(k - 1, band))) return false;
+  }
+  return true;
+}
+
+bool RealLens::trace_from_scene(LensRay& ray, int band, bool clip) const {
+  for (std::size_t k = 0; k < surfaces_.size(); ++k) {
+    glm::dvec3 n;
+    if (!intersect(k, ray, n)) return false;
+    const double r2 = ray.origin.x * ray.origin.x + ray.origin.y * ray.origin.y;
+    const double half = 0.5 * surfaces_[k].aperture_diameter;
+    if (clip && r2 > half * half) return false;
+    if (surfaces_[k].stop) continue;
+    if (!refract(ray.direction, n, k == 0 ? 1.0 : ior(k - 1, band), ior(k, band))) return false;
+  }
+  return true;
+}
+
+double RealLens::marginal_height() const {
+  const double front = z_of(0) + 1.0;
+  auto passes = [&](double h) {
+    LensRay r{{h, 0.0, front}, {0.0, 0.0, -1.0}};
+    return trace_from_scene(r);
+  };
+  double lo = 0.0, hi = 0.5 * surfaces_.front().aperture_diameter;
+  if (passes(hi)) return hi;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (passes(mid) ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+CardinalPoints RealLens::compute_cardinal() const {
+  CardinalPoints c;
+  const double h = 1e-3 * marginal_height();
+  if (!(h > 0.0)) throw Error("no ray parallel to the axis passes the lens");
+  // A ray parallel to the axis from the scene crosses the axis at the rear focal point; the
+  // extensions of its entering and leaving parts meet on the rear principal plane.
+  LensRay in{{h, 0.0, z_of(0) + 1.0}, {0.0, 0.0, -1.0}};
+  if (!trace_from_scene(in)) throw Error("a paraxial ray does not pass the lens");
+  const double rear_focal_z = z_at_x(in, 0.0);
+  c.rear_principal_z = z_at_x(in, h);
+  c.focal_length = c.rear_principal_z - rear_focal_z;
+  // The same from the film side: the front principal plane.
+  LensRay out{{h, 0.0, z_of(surfaces_.size() - 1) - 1.0}, {0.0, 0.0, 1.0}};
+  if (!trace_from_film(out)) throw Error("a paraxial ray does not pass the lens backwards");
+  c.front_principal_z = z_at_x(out, h);
+  // The pupils: a ray from the stop's centre at a small angle, through the front group to the
+  // scene (its extension meets the axis at the entrance pupil) and through the rear group to the
+  // film (the exit pupil). The pupil magnification is the ratio of its slopes.
+  const double a = 1e-4;
+  auto through = [&](bool towards_scene) {
+    LensRay r{{0.0, 0.0, z_of(stop_)}, glm::normalize(glm::dvec3{a, 0.0, towards_scene ? 1 : -1})};
+    if (towards_scene) {
+      for (std::size_t k = stop_; k-- > 0;) {
+        glm::dvec3 n;
+        if (!intersect(k, r, n) ||
+            !refract(r.direction, n, ior(k, -1), k == 0 ? 1.0 : ior(k - 1, -1)))
+          throw Error("a paraxial chief ray does not pass the lens");
+      }
+    } else {
+      for (std::size_t k = stop_ + 1; k < surfaces_.size(); ++k) {
+        glm::dvec3 n;
+        if (!intersect(k, r, n) || !refract(r.direction, n, ior(k - 1, -1), ior(k, -1)))
+          throw Error("a paraxial chief ray does not pass the lens");
+      }
+    }
+    return r;
+  };
+  const LensRay front = through(true), rear = through(false);
+  c.entrance_pupil_z = z_at_x(front, 0.0);
+  c.exit_pupil_z = z_at_x(rear, 0.0);
+  c.entrance_pupil_diameter = 2.0 * marginal_height();
+  c.exit_pupil_diameter = c.entrance_pupil_diameter * std::abs((front.direction.x / front.direction.z) /
+                                                               (rear.direction.x / rear.direction.z));
+  return c;
+}
+
+double RealLens::best_focus_z(double distance) const {
+  constexpr int kFan = 1024;
+  const double front_half = 0.5 * surfaces_.front().aperture_diameter;
+  double sab = 0.0, sbb = 0.0;
+  for (int i = 0; i < kFan; ++i) {
+    const double h = (i + 0.5) / kFan * front_half;
+    LensRay r;
+    if (distance >= kInfinity) {
+      r = {{0.0, h, z_of(0) + 1.0}, {0.0, 0.0, -1.0}};
+    } else {
+      r.origin = {0.0, 0.0, distance};
+      r.direction = glm::normalize(glm::dvec3{0.0, h, z_of(0)} - r.origin);
+    }
+    if (!trace_from_scene(r)) continue;
+    // y(z) = a + b z along the leaving ray; a ring of height h weighs h.
+    const double b = r.direction.y / r.direction.z;
+    const double a = r.origin.y - r.origin.z * b;
+    sab += h * a * b;
+    sbb += h * b * b;
+  }
+  if (!(sbb > 0.0)) throw Error("no ray from the focus distance passes the lens");
+  return -sab / sbb;
+}
+
+void RealLens::focus(double distance) {
+  // The thick-lens focus first: with a = object distance from the front principal plane and b =
+  // image distance from the rear one, a + b = T (the distance minus the hiatus) and ab = f T.
+  const double f = cardinal_.focal_length;
+  const double zh = cardinal_.front_principal_z - film_distance_;   // from the rear vertex
+  const double zh2 = cardinal_.rear_principal_z - film_distance_;
+  double b = f;
+  if (distance < kInfinity) {
+    const double t = distance - zh + zh2;
+    if (!(t > 4.0 * f) || distance <= length_)
+      throw Error("the lens cannot focus at " + std::to_string(distance).substr(0, 8) +
+                  " m from the film (its closest is about " +
+                  std::to_string(4.0 * f + zh - zh2).substr(0, 8) + " m)");
+    b = 0.5 * (t - std::sqrt(t * (t - 4.0 * f)));
+  }
+  film_distance_ = b - zh2;
+  // Then by tracing: move the film to where the traced bundle's RMS spot is smallest.
+  for (int i = 0; i < 30; ++i) {
+    const double z = best_focus_z(distance);
+    film_distance_ -= z;
+    if (std::abs(z) < 1e-10) break;
+  }
+  if (!(film_distance_ > 0.0))
+    throw Error("the lens focuses inside itself (back focus " + mm(film_distance_) + ")");
+  cardinal_ = compute_cardinal();  // the same points, now placed relative to the film
+}
+
+double RealLens::raw_weight(const LensRay& from_film, double area) const {
+  const double c = from_film.direction.z;
+  const double z = z_of(surfaces_.size() - 1);
+  return c * c * c * c * area / (z * z);
+}
+
+void RealLens::build_pupil_table() {
+  const double rear_half = 0.5 * surfaces_.back().aperture_diameter * 1.5;
+  const double z_rear = z_of(surfaces_.size() - 1);
+  tbb::parallel_for(0, kPupilBins, [&](int i) {
+    PupilBin bin;
+    const double r0 = settings_.film_radius * i / kPupilBins;
+    const double r1 = settings_.film_radius * (i + 1) / kPupilBins;
+    glm::dvec2 lo{std::numeric_limits<double>::max()}, hi{-std::numeric_limits<double>::max()};
+    const double cell = 2.0 * rear_half / kBoundsGrid;
+    for (double x : {r0, 0.5 * (r0 + r1), r1})
+      for (int gy = 0; gy <= kBoundsGrid; ++gy)
+        for (int gx = 0; gx <= kBoundsGrid; ++gx) {
+          const glm::dvec2 q{-rear_half + gx * cell, -rear_half + gy * cell};
+          LensRay r{{x, 0.0, 0.0}, glm::normalize(glm::dvec3{q.x - x, q.y, z_rear})};
+          if (!trace_from_film(r)) continue;
+          lo = glm::min(lo, q);
+          hi = glm::max(hi, q);
+        }
+    if (lo.x <= hi.x) {
+      // One cell of margin: the grid can miss a sliver of the pupil.
+      bin.lo = glm::max(lo - cell, glm::dvec2{-rear_half});
+      bin.hi = glm::min(hi + cell, glm::dvec2{rear_half});
+      const double area = (bin.hi.x - bin.lo.x) * (bin.hi.y - bin.lo.y);
+      const double x = 0.5 * (r0 + r1) * (i == 0 ? 0.0 : 1.0);  // bin 0: the centre itself
+      double sum = 0.0;
+      for (int gy = 0; gy < kThroughputGrid; ++gy)
+        for (int gx = 0; gx < kThroughputGrid; ++gx) {
+          const glm::dvec2 q = bin.lo + (glm::dvec2{gx + 0.5, gy + 0.5} / double(kThroughputGrid)) *
+                                            (bin.hi - bin.lo);
+          LensRay r{{x, 0.0, 0.0}, glm::normalize(glm::dvec3{q.x - x, q.y, z_rear})};
+          const double w = raw_weight(r, area);
+          if (trace_from_film(r)) sum += w;
+        }
+      bin.throughput = sum / (kThroughputGrid * kThroughputGrid);
+    }
+    pupil_[i] = bin;
+  });
+}
+
+RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const {
+  Sample s;
+  s.ray.origin = {film.x, film.y, 0.0};
+  const double r = std::hypot(film.x, film.y);
+  const double t = r / settings_.film_radius * kPupilBins;
+  const int i = std::min(static_cast<int>(t), kPupilBins - 1);
+  const PupilBin& bin = pupil_[i];
+  if (!(bin.throughput > 0.0)) return s;
+  glm::dvec2 q = bin.lo + u * (bin.hi - bin.lo);
+  if (r > 0.0) {  // the bins hold film points on +x: turn to this one's angle
+    const double c = film.x / r, sn = film.y / r;
+    q = {q.x * c - q.y * sn, q.x * sn + q.y * c};
+  }
+  const double area = (bin.hi.x - bin.lo.x) * (bin.hi.y - bin.lo.y);
+  s.ray.direction = glm::normalize(glm::dvec3{q.x - film.x, q.y - film.y, z_of(surfaces_.size() - 1)});
+  const double w = raw_weight(s.ray, area);
+  if (!trace_from_film(s.ray, band)) return s;
+  double norm = normalisation_;
+  if (norm == 0.0) {
+    // The mean throughput at this distance from the centre: linear between the bins' centres (bin 0
+    // holds the centre itself).
+    const double x = std::clamp(t - 0.5, 0.0, kPupilBins - 1.0);
+    const int j = std::min(static_cast<int>(x), kPupilBins - 2);
+    const double f = x - j;
+    norm = (1.0 - f) * pupil_[j].throughput + f * pupil_[j + 1].throughput;
+  }
+  s.weight = norm > 0.0 ? w / norm : 0.0;
+  return s;
+}
+
+double RealLens::field_angle(double height) const {
+  // The chief ray: aim at the point x of the rear vertex plane whose ray crosses the stop's plane
+  // on the axis, then follow it to the scene without clipping.
+  const double z_rear = z_of(surfaces_.size() - 1);
+  auto stop_x = [&](double x) {
+    LensRay r{{height, 0.0, 0.0}, glm::normalize(glm::dvec3{x - height, 0.0, z_rear})};
+    for (std::size_t k = surfaces_.size(); k-- > static_cast<std::size_t>(stop_) + 1;) {
+      glm::dvec3 n;
+      if (!intersect(k, r, n) || !refract(r.direction, n, ior(k, -1), ior(k - 1, -1)))
+        return std::numeric_limits<double>::quiet_NaN();
+    }
+    const double t = (z_of(stop_) - r.origin.z) / r.direction.z;
+    return r.origin.x + t * r.direction.x;
+  };
+  // Bracket the crossing on a scan of the rear plane (rays that miss a surface have none), the
+  // bracket nearest the axis, then bisect.
+  const double reach = 3.0 * surfaces_.back().aperture_diameter;
+  constexpr int kScan = 600;
+  double lo = 0.0, hi = 0.0, f_lo = 0.0;
+  bool found = false;
+  for (int i = 0; i < kScan && !found; ++i) {
+    // From the axis outwards on both sides: 0, -d, +d, -2d, ...
+    const double a = ((i + 1) / 2) * (reach / kScan) * (i % 2 ? -1.0 : 1.0);
+    const double b = a + (i % 2 ? -1.0 : 1.0) * (reach / kScan);
+    const double fa = stop_x(a), fb = stop_x(b);
+    if (std::isfinite(fa) && std::isfinite(fb) && (fa <= 0.0) != (fb <= 0.0))
+      lo = a, hi = b, f_lo = fa, found = true;
+  }
+  if (!found) return std::numeric_limits<double>::quiet_NaN();
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    const double fm = stop_x(mid);
+    if (!std::isfinite(fm)) break;
+    if ((fm <= 0.0) == (f_lo <= 0.0)) lo = mid, f_lo = fm;
+    else hi = mid;
+  }
+  const double x1 = 0.5 * (lo + hi);
+  LensRay r{{height, 0.0, 0.0}, glm::normalize(glm::dvec3{x1 - height, 0.0, z_rear})};
+  if (!trace_from_film(r, -1, false))
+    return std::numeric_limits<double>::quiet_NaN();
+  return std::atan2(std::hypot(r.direction.x, r.direction.y), r.direction.z);
+}
+
+}  // namespace dofcache::lens
