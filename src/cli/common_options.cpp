@@ -143,6 +143,31 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
                   "the centre); default 1" + note);
 }
 
+void add_real_lens_options(CLI::App* cmd, render::LensOverrides& lens) {
+  cmd->add_option("--lens-file", lens.real.file,
+                  "A real lens: its prescription table (millimetres, front element first, as "
+                  "pbrt-v4's; scenes/lenses/ has four), traced element by element. The lens and "
+                  "the sensor then set the field of view (the camera's yfov and --focal-length are "
+                  "ignored), --focus-distance is measured from the sensor and focuses by tracing, "
+                  "--fstop sets its stop (default: the table's)");
+  add_pair_option(
+      cmd, "--sensor-size",
+      [&lens](double w, double h) {
+        lens.real.sensor.width = w;
+        lens.real.sensor.height = h;
+      },
+      "W,H metres: the sensor behind a --lens-file (default 0.036,0.024, full frame)");
+  cmd->add_option_function<std::string>(
+         "--sensor-fit",
+         [&lens](const std::string& name) { lens.real.sensor.fit = lens::parse_sensor_fit(name); },
+         "Which part of the sensor the image covers: inside (default: the largest rectangle of "
+         "the image's aspect), horizontal (the sensor's width) or vertical (its height)")
+      ->check(CLI::IsMember({"inside", "horizontal", "vertical"}));
+  cmd->add_flag("--exposure-follows-lens", lens.real.exposure_follows_lens,
+                "With --lens-file: the image darkens with the f-stop and the lens's vignetting, as "
+                "a camera's does (default: every film point sees a uniform scene at its radiance)");
+}
+
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help) {
   cmd->add_option("--seed", r.seed, seed_help)->capture_default_str();
   cmd->add_option("--pattern-seed", r.pattern_seed,

@@ -21,6 +21,9 @@ void add_size_options(CLI::App* cmd, request::RenderRequest& r);
 // --fstop, --focal-length, --focus-distance (render, sequence, view, refocus): each overrides the
 // lens the command would otherwise use, which `unset`, if given, names in the help.
 void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::string& unset = "");
+// --lens-file, --sensor-size, --sensor-fit, --exposure-follows-lens (render, sequence): a real
+// lens traced element by element (lens/real_lens.h).
+void add_real_lens_options(CLI::App* cmd, render::LensOverrides& lens);
 // --seed, --threads.
 void add_seed_and_threads(CLI::App* cmd, request::RenderRequest& r, const std::string& seed_help);
 // --light-samples, --gather-rays, --bounces, --specular-depth, --rough-lobe-rate,

@@ -62,6 +62,7 @@ void add_render_options(CLI::App* cmd, request::RenderRequest& r) {
       ->default_str(request::mode_name(r.mode))
       ->check(CLI::IsMember(request::mode_names()));
   add_lens_options(cmd, r.lens);
+  add_real_lens_options(cmd, r.lens);
   add_seed_and_threads(cmd, r, "Random seed; a fixed seed gives the same image");
   add_shading_options(cmd, r);
   add_environment_options(cmd, r.environment);

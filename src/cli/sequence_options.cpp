@@ -31,6 +31,7 @@ void add_sequence_options(CLI::App* cmd, request::RenderRequest& r) {
       ->default_str(render::mode_name(r.mode.integrator))
       ->check(CLI::IsMember(render::mode_names()));
   add_lens_options(cmd, r.lens);
+  add_real_lens_options(cmd, r.lens);
   add_seed_and_threads(cmd, r,
                        "Random seed; each frame's seed is derived from it and the frame "
                        "number, so any subset of frames reproduces");

@@ -12,6 +12,7 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
 
 #include "dofcache/core/error.h"
 #include "exr_encoder.h"
@@ -41,7 +42,8 @@ class MemoryStream final : public Imf::OStream {
 }  // namespace
 
 std::vector<unsigned char> exr_bytes(const Image& color, const std::vector<NamedChannels>& extra,
-                                     const std::string& context) {
+                                     const std::string& context,
+                                     const std::map<std::string, std::string>& attributes) {
   auto fail = [&](const std::string& reason) -> void { throw Error(context + ": " + reason); };
   if (color.empty() || color.channels() != 3) fail("colour must be a non-empty RGB image");
   const int width = color.width(), height = color.height();
@@ -75,6 +77,8 @@ std::vector<unsigned char> exr_bytes(const Image& color, const std::vector<Named
   try {
     Imf::Header header(width, height);
     header.compression() = Imf::ZIP_COMPRESSION;  // lossless and compact
+    for (const auto& [key, value] : attributes)
+      header.insert("dofcache:" + key, Imf::StringAttribute(value));
     Imf::FrameBuffer frame;
     for (const Channel& c : channels) {
       header.channels().insert(c.name, Imf::Channel(Imf::FLOAT));

@@ -1,5 +1,6 @@
 #pragma once
 // The EXR encoder behind write_image and encode_exr (exr_encoder.cpp).
+#include <map>
 #include <string>
 #include <vector>
 
@@ -7,9 +8,11 @@
 
 namespace dofcache::image {
 
-// `color` and `extra` as the bytes of a float, ZIP-compressed EXR file. Throws dofcache::Error
-// "<context>: <reason>" for bad channels or a failed encode.
+// `color` and `extra` as the bytes of a float, ZIP-compressed EXR file, with `attributes` in its
+// header as "dofcache:<key>" strings. Throws dofcache::Error "<context>: <reason>" for bad
+// channels or a failed encode.
 std::vector<unsigned char> exr_bytes(const Image& color, const std::vector<NamedChannels>& extra,
-                                     const std::string& context);
+                                     const std::string& context,
+                                     const std::map<std::string, std::string>& attributes = {});
 
 }  // namespace dofcache::image

@@ -62,7 +62,8 @@ void check_output_path(const std::string& path) {
 }
 
 void write_image(const std::string& path, const Image& color,
-                 const std::vector<NamedChannels>& extra) {
+                 const std::vector<NamedChannels>& extra,
+                 const std::map<std::string, std::string>& attributes) {
   check_output_path(path);
   if (color.empty()) fail_write(path, "empty image");
   if (color.channels() != 3)
@@ -70,7 +71,7 @@ void write_image(const std::string& path, const Image& color,
   // Encoded in memory first: a bad channel fails before the file is touched.
   const std::vector<unsigned char> bytes =
       format_of(path) == Format::Png ? encode_png(color)
-                                     : exr_bytes(color, extra, "cannot write '" + path + "'");
+                                     : exr_bytes(color, extra, "cannot write '" + path + "'", attributes);
   write_bytes_atomically(
       path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }

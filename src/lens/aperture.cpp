@@ -2,13 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <iterator>
-#include <map>
-#include <mutex>
 #include <string>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/shared_cache.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/lens/thin_lens.h"
 
@@ -194,24 +191,10 @@ std::shared_ptr<const Aperture::ImageTables> build_image_tables(const std::strin
 // constructs cameras again and again with the same lens. Keyed by the path, the file's size and
 // its modification time, so an edited image is read again.
 std::shared_ptr<const Aperture::ImageTables> load_image_tables(const std::string& path) {
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  const auto time = std::filesystem::last_write_time(path, ec);
-  if (ec) return build_image_tables(path);  // read_image gives the one-line error
-  const std::string key = path + '\n' + std::to_string(size) + '\n' +
-                          std::to_string(time.time_since_epoch().count());
-  static std::mutex mutex;
-  static std::map<std::string, std::weak_ptr<const Aperture::ImageTables>> loaded;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    if (auto t = loaded[key].lock()) return t;
-  }
-  auto t = build_image_tables(path);
-  std::lock_guard<std::mutex> lock(mutex);
-  for (auto it = loaded.begin(); it != loaded.end();)  // forget the tables nobody holds
-    it = it->second.expired() ? loaded.erase(it) : std::next(it);
-  loaded[key] = t;
-  return t;
+  static core::SharedCache<Aperture::ImageTables> loaded;
+  const auto key = core::file_version_key(path);
+  if (!key) return build_image_tables(path);  // read_image gives the one-line error
+  return loaded.get(*key, [&] { return build_image_tables(path); });
 }
 
 }  // namespace

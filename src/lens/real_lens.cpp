@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <string>
 
 #include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
 
 #include "dofcache/core/error.h"
+#include "dofcache/core/shared_cache.h"
 
 namespace dofcache::lens {
 namespace {
@@ -380,6 +382,91 @@ double RealLens::field_angle(double height) const {
   if (!trace_from_film(r, -1, false))
     return std::numeric_limits<double>::quiet_NaN();
   return std::atan2(std::hypot(r.direction.x, r.direction.y), r.direction.z);
+}
+
+bool RealLens::dispersive() const {
+  return std::any_of(surfaces_.begin(), surfaces_.end(),
+                     [](const LensSurface& s) { return s.abbe > 0.0 && s.ior != 1.0; });
+}
+
+glm::dvec2 Sensor::film_size(int width_px, int height_px) const {
+  const double aspect = static_cast<double>(width_px) / height_px;
+  switch (fit) {
+    case SensorFit::Horizontal: return {width, width / aspect};
+    case SensorFit::Vertical: return {height * aspect, height};
+    case SensorFit::Inside: break;
+  }
+  return aspect >= width / height ? glm::dvec2{width, width / aspect}
+                                  : glm::dvec2{height * aspect, height};
+}
+
+void Sensor::validate() const {
+  if (!(width > 0.0 && width <= 1.0 && height > 0.0 && height <= 1.0))
+    throw Error("the sensor's width and height must be in (0, 1] m (36 x 24 mm is 0.036,0.024)");
+}
+
+const char* sensor_fit_name(SensorFit fit) {
+  switch (fit) {
+    case SensorFit::Horizontal: return "horizontal";
+    case SensorFit::Vertical: return "vertical";
+    case SensorFit::Inside: break;
+  }
+  return "inside";
+}
+
+SensorFit parse_sensor_fit(const std::string& name) {
+  for (SensorFit f : {SensorFit::Inside, SensorFit::Horizontal, SensorFit::Vertical})
+    if (name == sensor_fit_name(f)) return f;
+  throw Error("sensor fit '" + name.substr(0, 32) + "': expected inside, horizontal or vertical");
+}
+
+ThinLens MountedLens::equivalent() const {
+  const CardinalPoints& c = lens->cardinal();
+  // Infinity stays finite for the thin-lens law (the circle of confusion differs by less than
+  // f / 1e7 of the aperture).
+  const double focus = std::min(lens->focus_distance(), 1e7) - c.front_principal_z;
+  return ThinLens(c.focal_length, lens->fstop(), focus);
+}
+
+double MountedLens::yfov() const {
+  const ThinLens t = equivalent();
+  return 2.0 * std::atan(0.5 * film_size.y / t.film_distance());
+}
+
+double MountedLens::principal_offset() const { return lens->cardinal().front_principal_z; }
+
+std::shared_ptr<const LensSystem> read_lens_file(const std::string& path) {
+  static core::SharedCache<LensSystem> read;
+  auto load = [&] { return std::make_shared<const LensSystem>(LensSystem::read(path)); };
+  const auto key = core::file_version_key(path);
+  if (!key) return load();  // LensSystem::read gives the one-line error
+  return read.get(*key, load);
+}
+
+MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const std::string& source,
+                       double fstop, double focus_distance, const Sensor& sensor, int width,
+                       int height, bool exposure_follows_lens) {
+  sensor.validate();
+  if (width < 1 || height < 1) throw Error("the image must have at least one pixel");
+  MountedLens m;
+  m.film_size = sensor.film_size(width, height);
+  m.source = source;
+  RealLensSettings settings;
+  settings.fstop = fstop;
+  settings.focus_distance = focus_distance;
+  settings.film_radius = 0.5 * std::hypot(m.film_size.x, m.film_size.y) * (1.0 + 1e-9);
+  settings.exposure_follows_lens = exposure_follows_lens;
+  // Keyed by the prescription's numbers and the settings.
+  static core::SharedCache<RealLens> mounted;
+  std::ostringstream key;
+  key.precision(17);
+  for (const LensSurface& s : system->surfaces())
+    key << s.radius << ' ' << s.thickness << ' ' << s.ior << ' ' << s.aperture_diameter << ' '
+        << s.abbe << ' ' << s.stop << '\n';
+  key << fstop << ' ' << focus_distance << ' ' << settings.film_radius << ' '
+      << exposure_follows_lens;
+  m.lens = mounted.get(key.str(), [&] { return std::make_shared<const RealLens>(*system, settings); });
+  return m;
 }
 
 }  // namespace dofcache::lens

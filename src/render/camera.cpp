@@ -9,12 +9,20 @@
 namespace dofcache::render {
 
 ThinLensCamera::ThinLensCamera(const glm::mat4& camera_to_world, float yfov,
-                               const lens::ThinLens& lens, int width, int height)
-    : imaging_{lens, yfov, height}, aperture_(lens.aperture), width_(width), height_(height) {
+                               const lens::ThinLens& lens, int width, int height,
+                               const lens::MountedLens& mounted)
+    : imaging_{lens, yfov, height}, aperture_(lens.aperture), width_(width), height_(height),
+      mounted_(mounted) {
   position_ = glm::vec3(camera_to_world[3]);
   right_ = glm::normalize(glm::vec3(camera_to_world[0]));
   up_ = glm::normalize(glm::vec3(camera_to_world[1]));
   forward_ = -glm::normalize(glm::vec3(camera_to_world[2]));  // glTF cameras look down -Z
+  if (mounted_) {
+    // The thin-lens equivalent sits at the front principal plane, in front of the sensor.
+    yfov = static_cast<float>(mounted_.yfov());
+    imaging_.yfov = yfov;
+    position_ += forward_ * static_cast<float>(mounted_.principal_offset());
+  }
   tan_half_y_ = std::tan(0.5f * yfov);
   tan_half_x_ = tan_half_y_ * static_cast<float>(width) / static_cast<float>(height);
   const lens::ApertureShape& a = lens.aperture;
@@ -57,6 +65,23 @@ scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
 }
 
 LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) const {
+  if (mounted_) {
+    // The lens turns the image over: the scene's right and up land on the film's -x and -y.
+    const glm::dvec2 f{(0.5 - film.x / width_) * mounted_.film_size.x,
+                       (film.y / height_ - 0.5) * mounted_.film_size.y};
+    const lens::RealLens::Sample s = mounted_.lens->sample(f, glm::dvec2(lens_u), band);
+    LensSample out;
+    out.weight = static_cast<float>(s.weight);
+    const glm::dvec3 o = s.ray.origin, d = s.ray.direction;
+    const float z = static_cast<float>(o.z - mounted_.principal_offset());
+    out.ray.origin = position_ + static_cast<float>(o.x) * right_ +
+                     static_cast<float>(o.y) * up_ + z * forward_;
+    out.ray.direction = glm::normalize(static_cast<float>(d.x) * right_ +
+                                       static_cast<float>(d.y) * up_ +
+                                       static_cast<float>(d.z) * forward_);
+    out.ray.cull_back_faces = true;
+    return out;
+  }
   // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
   glm::vec2 slopes = film_slopes(film);
   const BandOptics optics = band_optics(band);

@@ -283,9 +283,11 @@ glm::vec3 in_band(glm::vec3 l, int band) {
   return only;
 }
 
-// Whether samples carry colour bands (chromatic aberration; not through the pinhole).
+// Whether samples carry colour bands (chromatic aberration, a real lens's dispersive glass; not
+// through the pinhole).
 bool banded(const RenderSettings& st) {
-  return st.lens.aperture.chromatic() && st.mode != Mode::Pinhole;
+  const bool dispersive = st.real_lens && st.real_lens.lens->dispersive();
+  return (st.lens.aperture.chromatic() || dispersive) && st.mode != Mode::Pinhole;
 }
 
 // A pixel's colour from the sum of its n samples: their mean, or with chromatic aberration each
@@ -584,7 +586,7 @@ void RenderSettings::validate() const {
 
 ThinLensCamera make_camera(const scene::Camera& camera, const RenderSettings& settings) {
   return ThinLensCamera(camera.camera_to_world, camera.yfov, settings.lens, settings.width,
-                        settings.height);
+                        settings.height, settings.real_lens);
 }
 
 RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,

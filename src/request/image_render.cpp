@@ -32,6 +32,7 @@ json common_stats(const ResolvedRequest& r, const scene::Scene& scene,
           {"spp", s.spp},
           {"seed", s.seed},
           {"lens", lens::lens_json(s.lens)},
+          {"real_lens", s.real_lens ? lens::real_lens_json(s.real_lens) : json(nullptr)},
           {"shading", shading_json(s.shading)},
           {"environment", environment_json(r.request.environment, r.environment)},
           {"output", r.request.out}};
@@ -68,10 +69,12 @@ ImageResult render_preview_image(const ResolvedRequest& r, const scene::Scene& s
 }  // namespace
 
 void write_render(const std::string& path, const render::RenderOutput& out,
-                  const std::optional<image::Image>& denoised) {
+                  const std::optional<image::Image>& denoised, const lens::MountedLens& real_lens) {
   std::vector<image::NamedChannels> layers = {
       {{"Z"}, out.depth}, {{"N.X", "N.Y", "N.Z"}, out.normal}, {{"id"}, out.ids}};
-  if (!denoised) return image::write_image(path, out.color, layers);
+  const auto attributes =
+      real_lens ? lens::real_lens_attributes(real_lens) : std::map<std::string, std::string>{};
+  if (!denoised) return image::write_image(path, out.color, layers, attributes);
   if (!image::is_exr_path(path)) return image::write_image(path, *denoised, layers);
   const render::LensFeatures& f = out.lens_features;
   layers.insert(layers.end(), {{{"denoised.R", "denoised.G", "denoised.B"}, *denoised},
@@ -85,7 +88,7 @@ void write_render(const std::string& path, const render::RenderOutput& out,
                                 f.emission_estimate},
                                {{"emission_variance.Y"}, f.emission_variance},
                                {{"variance.Y"}, f.variance}});
-  image::write_image(path, out.color, layers);
+  image::write_image(path, out.color, layers, attributes);
 }
 
 image::Image denoised(const render::RenderOutput& out, const render::RenderSettings& settings,
@@ -134,11 +137,21 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   if (r.environment.environment) text += "env     " + r.environment.description + "\n";
   if (camera.synthesized)
     text += "notice  the scene has no camera; using one that frames its bounds\n";
+  const char* autofocus = r.focus_from_scene ? " (autofocus on the image centre)" : "";
+  if (const lens::MountedLens& m = r.settings.real_lens) {
+    const lens::RealLens& real = *m.lens;
+    text += fmt::format("camera  '{}', lens {} ({:.1f} mm f/{:.3g}), focus {} from the sensor{}\n",
+                        camera.name, m.source, real.cardinal().focal_length * 1000.0,
+                        real.fstop(),
+                        real.focus_distance() >= 1e29 ? std::string("at infinity")
+                                                      : fmt::format("{:.3g} m", real.focus_distance()),
+                        autofocus);
+    return text;
+  }
   text += fmt::format("camera  '{}', lens {:.0f} mm f/{:.3g}, focus {:.3g} m (aperture "
                        "{:.3g} mm){}\n",
                        camera.name, l.focal_length * 1000.0, l.fstop, l.focus_distance,
-                       l.aperture_diameter() * 1000.0,
-                       r.focus_from_scene ? " (autofocus on the image centre)" : "");
+                       l.aperture_diameter() * 1000.0, autofocus);
   const lens::ApertureShape& a = l.aperture;
   if (a.plain()) return text;
   text += "        aperture ";
@@ -224,7 +237,7 @@ ImageResult render_image(const ResolvedRequest& r, const scene::Scene& scene,
       result.denoised = denoised(out, s, camera);
       result.denoise_seconds = clock.seconds();
     }
-    write_render(q.out, out, result.denoised);
+    write_render(q.out, out, result.denoised, r.settings.real_lens);
     if (trace) trace->close();
     if (!q.cache_debug.empty() && radiance_cache) {
       double max_density = 1.0;

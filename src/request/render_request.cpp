@@ -286,7 +286,11 @@ json to_json(const RenderRequest& r) {
         {"aperture_profile_strength", optional_number(r.lens.aperture.profile_strength)},
         {"lens_tilt", pair_json(r.lens.aperture.lens_tilt)},
         {"lens_shift", pair_json(r.lens.aperture.lens_shift)},
-        {"aperture_image", r.lens.aperture.image ? json(*r.lens.aperture.image) : json(nullptr)}}},
+        {"aperture_image", r.lens.aperture.image ? json(*r.lens.aperture.image) : json(nullptr)},
+        {"lens_file", r.lens.real.file.empty() ? json(nullptr) : json(r.lens.real.file)},
+        {"sensor_size", {r.lens.real.sensor.width, r.lens.real.sensor.height}},
+        {"sensor_fit", lens::sensor_fit_name(r.lens.real.sensor.fit)},
+        {"exposure_follows_lens", r.lens.real.exposure_follows_lens}}},
       {"shading", r.shading ? shading_json(*r.shading) : json(nullptr)},
       {"environment", environment_settings_json(r.environment)},
       {"cache", cache_json(r.cache, c)},
@@ -387,6 +391,15 @@ RenderRequest request_from_json(const json& j) {
         *field = lens::number_pair_from_json(l.at(key));
         if (!*field) l.fail("must be [x, y] (or null)", key);
       }
+    l.get("lens_file", r.lens.real.file);
+    if (l.has("sensor_size")) {
+      const auto size = lens::number_pair_from_json(l.at("sensor_size"));
+      if (!size) l.fail("must be [width, height] in metres", "sensor_size");
+      r.lens.real.sensor.width = size->first;
+      r.lens.real.sensor.height = size->second;
+    }
+    named(l, "sensor_fit", r.lens.real.sensor.fit, lens::parse_sensor_fit);
+    l.get("exposure_follows_lens", r.lens.real.exposure_follows_lens);
   });
   if (top.has("shading")) {
     render::ShadingSettings sh;

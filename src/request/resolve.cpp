@@ -1,5 +1,7 @@
 #include "dofcache/request/resolve.h"
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include <nlohmann/json.hpp>
@@ -30,6 +32,32 @@ std::string cache_rule(const RenderRequest& q, bool* uses_cache) {
   *uses_cache = integrates_lens(q.mode);
   return *uses_cache ? mode_name(q.mode) + " integrates the lens"
                      : mode_name(q.mode) + " shades each pixel once";
+}
+
+std::string fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+// One choice line for a mounted real lens: what the table and the sensor decided, and what of the
+// request's lens they replace.
+std::string real_lens_choice(const lens::MountedLens& m, const render::LensOverrides& asked) {
+  const lens::RealLens& l = *m.lens;
+  const double deg = 180.0 / 3.14159265358979323846;
+  const double yfov = m.yfov() * deg;
+  const double xfov = 2.0 * std::atan(std::tan(0.5 * m.yfov()) * m.film_size.x / m.film_size.y) * deg;
+  std::string line = "lens: " + std::filesystem::path(m.source).filename().string() +
+                     ", effective focal length " + fixed(l.cardinal().focal_length * 1e3, 2) +
+                     " mm, f/" + fixed(l.fstop(), 2) +
+                     (asked.fstop ? "" : " (the table's stop)") + ", focused at " +
+                     (l.focus_distance() >= 1e29 ? std::string("infinity")
+                                                 : fixed(l.focus_distance(), 3) + " m") +
+                     " from the sensor; field of view " + fixed(xfov, 2) + " x " +
+                     fixed(yfov, 2) + " degrees on " + fixed(m.film_size.x * 1e3, 1) + " x " +
+                     fixed(m.film_size.y * 1e3, 1) + " mm of the sensor (the camera's yfov";
+  line += asked.focal_length ? " and --focal-length are ignored)" : " is ignored)";
+  return line;
 }
 
 }  // namespace
@@ -121,17 +149,30 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
   s.adaptive.enabled = q.adaptive == Choice::On;
   s.progress = q.quiet ? Progress::Display::Never : Progress::Display::Auto;
 
-  const render::ResolvedLens lens = render::resolve_lens(scene, accel, camera, q.lens);
+  const render::ResolvedLens lens =
+      render::resolve_lens(scene, accel, camera, q.lens, s.width, s.height);
   s.lens = lens.lens;
+  s.real_lens = lens.mounted;
   // An aperture image is read here once, so an unreadable one is refused before the render.
   if (!s.lens.aperture.image.empty()) lens::Aperture{s.lens.aperture};
   r.focus_from_scene = lens.focus_from_scene;
+  if (s.real_lens) chose(real_lens_choice(s.real_lens, q.lens));
   // A sequence's lens may change per frame (its path's keys): only images fix it here.
   if (q.kind != Kind::Sequence) {
     if (r.focus_from_scene) chose("focus: autofocus on the image centre");
-    q.lens = {s.lens.focal_length, s.lens.fstop, s.lens.focus_distance, {}};
-    // The shape as resolved (command line, then extras.lens); round stays unset.
-    if (!s.lens.aperture.plain()) q.lens.aperture = lens::ApertureChoices::of(s.lens.aperture);
+    if (s.real_lens) {
+      // The lens file sets the focal length; the focus is the sensor's distance.
+      q.lens.focal_length.reset();
+      q.lens.fstop = s.real_lens.lens->fstop();
+      q.lens.focus_distance = s.real_lens.lens->focus_distance();
+    } else {
+      q.lens.focal_length = s.lens.focal_length;
+      q.lens.fstop = s.lens.fstop;
+      q.lens.focus_distance = s.lens.focus_distance;
+      q.lens.aperture = {};
+      // The shape as resolved (command line, then extras.lens); round stays unset.
+      if (!s.lens.aperture.plain()) q.lens.aperture = lens::ApertureChoices::of(s.lens.aperture);
+    }
   }
 
   if (q.kind == Kind::Sequence && q.sequence.temporal > 0) {

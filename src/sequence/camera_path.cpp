@@ -89,7 +89,8 @@ std::pair<int, int> path_frame_range(const CameraPath& path, double fps) {
 
 std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel& accel,
                                    const scene::Camera& base, const CameraPath& path, double fps,
-                                   int first, int last, const render::LensOverrides& overrides) {
+                                   int first, int last, const render::LensOverrides& overrides,
+                                   int width, int height) {
   if (!(fps > 0.0) || !std::isfinite(fps)) throw Error("frame rate must be a positive number");
   if (first < 0 || last < first)
     throw Error("frame range " + std::to_string(first) + "-" + std::to_string(last) +
@@ -115,10 +116,11 @@ std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel
     if (s.fstop) o.fstop = s.fstop;
     if (s.focus_distance) o.focus_distance = s.focus_distance;
     o.aperture = s.aperture.over(o.aperture);
-    render::ResolvedLens lens = render::resolve_lens(scene, accel, spec.camera, o);
-    spec.lens = lens.lens;
-    spec.autofocus = lens.focus_from_scene;
     try {
+      render::ResolvedLens lens = render::resolve_lens(scene, accel, spec.camera, o, width, height);
+      spec.lens = lens.lens;
+      spec.real_lens = lens.mounted;
+      spec.autofocus = lens.focus_from_scene;
       spec.lens.validate();
     } catch (const Error& e) {
       throw Error(path.source + ": frame " + std::to_string(f) + ": " + e.what());

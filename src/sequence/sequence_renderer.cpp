@@ -39,6 +39,7 @@ double cpu_seconds() {
 render::RenderSettings frame_settings(const SequenceSettings& s, const FrameSpec& spec) {
   render::RenderSettings rs = s.render;
   rs.lens = spec.lens;
+  rs.real_lens = spec.real_lens;
   rs.seed = frame_seed(s.render.seed, spec.number);
   // The lens pattern stays from frame to frame; the shading draws anew.
   rs.pattern_seed = s.render.pattern_seed.value_or(s.render.seed);
@@ -181,6 +182,12 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
     if (a.tilted()) h.add(a.tilt_x_deg), h.add(a.tilt_y_deg);
     if (a.shifted()) h.add(a.shift_x), h.add(a.shift_y);
     if (!a.image.empty()) h.add(a.image);
+    if (const lens::MountedLens& m = f.real_lens) {  // the prescription, the film and the exposure
+      for (const lens::LensSurface& s : m.lens->surfaces())
+        h.add(s.radius), h.add(s.thickness), h.add(s.ior), h.add(s.aperture_diameter), h.add(s.abbe);
+      h.add(m.film_size.x), h.add(m.film_size.y), h.add(m.lens->focus_distance());
+      h.add(static_cast<int>(m.lens->exposure_follows_lens()));
+    }
   }
   return h.value();
 }

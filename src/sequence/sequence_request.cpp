@@ -56,7 +56,7 @@ PreparedSequence prepare_sequence(const request::RenderRequest& request) {
   s.validate();  // before planning frames (which may probe the scene for autofocus)
 
   p.frames = keep_every(plan_frames(scene, *p.accel, camera, p.path, p.fps, p.first, p.last,
-                                    request.lens),
+                                    request.lens, s.render.width, s.render.height),
                         q.frame_step);
   return p;
 }

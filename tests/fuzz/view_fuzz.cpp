@@ -59,7 +59,7 @@ view::ViewSettings settings() {
   return s;
 }
 
-const render::LensOverrides kLens{0.05, 2.0, 4.0, {}};
+const render::LensOverrides kLens{0.05, 2.0, 4.0, {}, {}};
 
 struct Sessions {
   Sessions()

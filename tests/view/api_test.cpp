@@ -34,7 +34,7 @@ ViewSettings tiny() {
 
 class ViewApiTest : public ::testing::Test {
  protected:
-  ViewApiTest() : session(one_plane(), {0.05, 2.0, 2.0, {}}, tiny()), api(session, kToken) {}
+  ViewApiTest() : session(one_plane(), {0.05, 2.0, 2.0, {}, {}}, tiny()), api(session, kToken) {}
   ApiResponse request(const std::string& method, const std::string& path,
                       const std::string& body = "", const std::string& token = kToken) {
     ApiRequest r;

@@ -32,7 +32,7 @@ TEST_F(ViewReference, FirstPassEqualsRenderOfTheSameRequest) {
   v.request.seed = 11;
   v.reference_pass_spp = 4;
   v.reference_max_spp = 4;
-  const render::LensOverrides lens{0.1, 1.4, 3.0, {}};
+  const render::LensOverrides lens{0.1, 1.4, 3.0, {}, {}};
   view::ViewSession session(render::load_scene(""), lens, v);
   session.start();
   std::optional<view::ViewImage> ref;

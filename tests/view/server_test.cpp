@@ -50,7 +50,7 @@ scene::Scene two_planes() {
 
 // A 100 mm f/0.5 lens: focused at 4 m, the near quad's circle of confusion is about 8 pixels
 // across (eq. (2.4)).
-render::LensOverrides wide_open() { return {0.1, 0.5, double(kFar), {}}; }
+render::LensOverrides wide_open() { return {0.1, 0.5, double(kFar), {}, {}}; }
 
 ViewSettings small_settings(bool reference) {
   ViewSettings s;

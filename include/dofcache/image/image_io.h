@@ -23,9 +23,11 @@ struct NamedChannels {
 };
 
 // Throws dofcache::Error (one line) if the extension is unsupported or the write fails; the target
-// is then left untouched.
+// is then left untouched. An EXR also keeps `attributes` in its header, as "dofcache:<key>"
+// strings (read_multipart_exr gives them back); a PNG has no place for them.
 void write_image(const std::string& path, const Image& color,
-                 const std::vector<NamedChannels>& extra = {});
+                 const std::vector<NamedChannels>& extra = {},
+                 const std::map<std::string, std::string>& attributes = {});
 
 // `color` (RGB linear) as the bytes of an 8-bit sRGB PNG file, in memory (what write_image
 // writes for .png), e.g. for an HTTP response. Throws dofcache::Error if encoding fails.

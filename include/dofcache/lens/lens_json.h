@@ -6,11 +6,14 @@
 // "aperture_profile" and "aperture_profile_strength", and "lens_tilt" and "lens_shift" ([x, y]):
 // the one shape of statistics files, requests, the viewer's API and keyframe files.
 #include <cmath>
+#include <map>
 #include <optional>
+#include <string>
 #include <utility>
 
 #include <nlohmann/json.hpp>
 
+#include "dofcache/lens/real_lens.h"
 #include "dofcache/lens/thin_lens.h"
 
 namespace dofcache::lens {
@@ -34,6 +37,33 @@ inline nlohmann::json lens_json(const ThinLens& lens) {
   if (a.shifted()) j["lens_shift"] = {a.shift_x, a.shift_y};
   if (!a.image.empty()) j["aperture_image"] = a.image;
   return j;
+}
+
+// A mounted real lens as statistics and EXR headers record it: the file, the effective focal length
+// and f-number, the focus distance from the sensor, the film distance behind the rear element,
+// the field of view and the part of the sensor used. Metres and degrees.
+inline nlohmann::json real_lens_json(const MountedLens& m) {
+  const RealLens& l = *m.lens;
+  const double deg = 180.0 / 3.14159265358979323846;
+  const double yfov = m.yfov();
+  const double xfov = 2.0 * std::atan(std::tan(0.5 * yfov) * m.film_size.x / m.film_size.y);
+  return {{"lens_file", m.source},
+          {"effective_focal_length", l.cardinal().focal_length},
+          {"fstop", l.fstop()},
+          {"focus_distance_from_sensor",
+           l.focus_distance() >= 1e29 ? nlohmann::json("infinity") : nlohmann::json(l.focus_distance())},
+          {"film_distance", l.film_distance()},
+          {"field_of_view", {xfov * deg, yfov * deg}},
+          {"film_size", {m.film_size.x, m.film_size.y}}};
+}
+
+// The same as EXR header strings ("dofcache:real_lens.<key>").
+inline std::map<std::string, std::string> real_lens_attributes(const MountedLens& m) {
+  std::map<std::string, std::string> a;
+  const nlohmann::json j = real_lens_json(m);  // items() of a temporary would dangle
+  for (const auto& [key, value] : j.items())
+    a["real_lens." + key] = value.is_string() ? value.get<std::string>() : value.dump();
+  return a;
 }
 
 // "vignetting_stop" ([radius, distance] in metres), "lens_tilt" and "lens_shift" ([x, y]) as

@@ -16,12 +16,15 @@
 // centre's at the lens's widest stop when the exposure follows the lens (the image then darkens
 // with the f-stop and with the lens's own vignetting, as a camera's does).
 #include <array>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "dofcache/lens/lens_system.h"
+#include "dofcache/lens/thin_lens.h"
 
 namespace dofcache::lens {
 
@@ -73,11 +76,15 @@ class RealLens {
   double fstop() const { return fstop_; }
   double widest_fstop() const { return widest_fstop_; }
   double focus_distance() const { return settings_.focus_distance; }
+  bool exposure_follows_lens() const { return settings_.exposure_follows_lens; }
   double length() const { return length_; }  // front vertex to rear vertex
   // The object-space angle (radians) of the chief ray, through the stop's centre, from the film
   // point at distance `height` from the centre.
   double field_angle(double height) const;
   const std::vector<LensSurface>& surfaces() const { return surfaces_; }
+
+  // Whether any glass has an Abbe number (the colour bands then differ).
+  bool dispersive() const;
 
   static constexpr int kPupilBins = 64;
 
@@ -108,5 +115,62 @@ class RealLens {
   CardinalPoints cardinal_;
   std::array<PupilBin, kPupilBins> pupil_{};
 };
+
+// The sensor a real lens images onto, and which part of it an image of another aspect ratio uses:
+// `inside`, the largest rectangle of the image's aspect inside the sensor (a camera's crop);
+// `horizontal`, the image's width spans the sensor's; `vertical`, its height spans the sensor's.
+enum class SensorFit { Inside, Horizontal, Vertical };
+struct Sensor {
+  double width = 0.036, height = 0.024;  // metres
+  SensorFit fit = SensorFit::Inside;
+  // The film's size (metres) an image of width x height pixels covers.
+  glm::dvec2 film_size(int width_px, int height_px) const;
+  void validate() const;  // one-line errors: non-positive or absurd sizes
+  bool operator==(const Sensor& o) const {
+    return width == o.width && height == o.height && fit == o.fit;
+  }
+};
+const char* sensor_fit_name(SensorFit fit);
+// "inside", "horizontal", "vertical"; throws dofcache::Error naming the choices.
+SensorFit parse_sensor_fit(const std::string& name);
+
+// What a request asks of a real lens: its prescription file (empty: the thin lens), the sensor it
+// images onto and whether the exposure follows its f-stop and vignetting.
+struct RealLensChoices {
+  std::string file;
+  Sensor sensor;
+  bool exposure_follows_lens = false;
+};
+
+// A real lens as a camera mounts it: focused, its stop set, and the part of the sensor the image
+// covers. The camera node is the sensor plane.
+struct MountedLens {
+  std::shared_ptr<const RealLens> lens;
+  glm::dvec2 film_size{0.0};  // metres
+  std::string source;         // the lens file (messages, cache files)
+
+  explicit operator bool() const { return lens != nullptr; }
+  // The thin lens a cache's reuse rule and a preview see: the effective focal length, the f-number
+  // of the entrance pupil, and the focus distance measured from the front principal plane (the
+  // thick-lens law, which the traced bokeh follows: tests/lens/real_lens_test.cpp).
+  ThinLens equivalent() const;
+  // The paraxial vertical field of view: the film's height over the image distance behind the
+  // rear principal plane.
+  double yfov() const;
+  // The front principal plane's distance in front of the sensor: where the equivalent thin lens
+  // sits.
+  double principal_offset() const;
+};
+
+// Mounts `system` (read from `source`) focused at `focus_distance` from the sensor with `fstop`
+// (0: the table's stop) on `sensor` for an image of width x height pixels. Lenses are kept, so a
+// second request for the same lens and settings (a viewer's pass, a sequence's repeated focus)
+// does not rebuild its exit-pupil table. Throws dofcache::Error (RealLens's errors).
+MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const std::string& source,
+                       double fstop, double focus_distance, const Sensor& sensor, int width,
+                       int height, bool exposure_follows_lens);
+
+// LensSystem::read, kept per path, size and modification time (as aperture images are).
+std::shared_ptr<const LensSystem> read_lens_file(const std::string& path);
 
 }  // namespace dofcache::lens

@@ -8,6 +8,7 @@
 #include <glm/vec3.hpp>
 
 #include "dofcache/cache/frame_camera.h"
+#include "dofcache/lens/real_lens.h"
 #include "dofcache/lens/thin_lens.h"
 #include "dofcache/scene/accel.h"
 #include "dofcache/scene/scene.h"
@@ -41,8 +42,14 @@ struct BokehSpot {
 class ThinLensCamera {
  public:
   // `pose` supplies position, orientation and vertical field of view; `lens` the optics.
+  //
+  // With a real lens mounted (lens/real_lens.h), `camera_to_world` places the sensor, lens rays
+  // are traced through its elements, and `lens` must be the mounted lens's thin-lens equivalent
+  // (MountedLens::equivalent): the pinhole projection, imaging() and bokeh() then are the
+  // thick lens's paraxial ones, seen from its front principal plane, and `yfov` is ignored for
+  // the lens's and the sensor's.
   ThinLensCamera(const glm::mat4& camera_to_world, float yfov, const lens::ThinLens& lens,
-                 int width, int height);
+                 int width, int height, const lens::MountedLens& mounted = {});
 
   // `film` in pixels (x right, y down, pixel (i,j) covers [i,i+1)x[j,j+1)); `lens_u` in [0,1)^2 is
   // mapped to the aperture (lens::Aperture: the concentric mapping for a round one). Direction is
@@ -80,6 +87,7 @@ class ThinLensCamera {
   lens::LensImaging imaging_at(glm::vec3 world) const;
   const lens::ThinLens& lens() const { return imaging_.lens; }
   const lens::Aperture& aperture() const { return aperture_; }
+  const lens::MountedLens& mounted_lens() const { return mounted_; }
   glm::vec3 position() const { return position_; }
   glm::vec3 forward() const { return forward_; }
   int width() const { return width_; }
@@ -107,6 +115,7 @@ class ThinLensCamera {
   glm::vec2 shift_{0.0f};             // the film's shift, in slope units (lens/aperture.h)
   bool tilted_ = false;
   glm::dvec2 tilt_sin_{0.0};          // sin(tilt_x), sin(tilt_y)
+  lens::MountedLens mounted_;         // a real lens, or none
 };
 
 }  // namespace dofcache::render

@@ -113,6 +113,9 @@ struct RenderSettings {
   int threads = 0;  // 0: every available core (core/threads.h)
   ShadingSettings shading;
   lens::ThinLens lens;
+  // A real lens traced element by element (lens/real_lens.h; none: the thin lens). `lens` is then
+  // its thin-lens equivalent (MountedLens::equivalent), which the cache and the preview follow.
+  lens::MountedLens real_lens;
   // Camera-space depth of a near clipping plane (0: none). Surfaces nearer are not seen. In the
   // id image of a clipped render, a pixel whose ray first meets the back of a one-sided surface
   // (the inside of a closed object the plane cuts) gets kInsideId.

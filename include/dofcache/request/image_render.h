@@ -39,8 +39,10 @@ image::Image denoised(const render::RenderOutput& out, const render::RenderSetti
 // An integrator's image file, atomically: its colour (with `denoised`, that for an 8-bit file;
 // an EXR keeps the raw render, with the denoised colour and the denoiser's guides as layers beside
 // it) and the centre ray's depth, normal and id. What `render` and `sequence` write.
+// A real lens (settings.real_lens) is recorded in an EXR's header (lens::real_lens_attributes).
 void write_render(const std::string& path, const render::RenderOutput& out,
-                  const std::optional<image::Image>& denoised);
+                  const std::optional<image::Image>& denoised,
+                  const lens::MountedLens& real_lens = {});
 
 // What is about to be rendered, in words, as `render` prints it: the scene, the environment, a
 // synthesized camera, the camera and lens. Each line ends with a newline.

@@ -106,17 +106,22 @@ struct FrameSpec {
   int number = 0;
   double time = 0.0;  // seconds
   scene::Camera camera;
-  lens::ThinLens lens;
+  lens::ThinLens lens;     // with a real lens, its thin-lens equivalent at this frame's focus
+  lens::MountedLens real_lens;  // a real lens (overrides.real), focused for this frame
   bool autofocus = false;  // focus found by probing the scene (no value anywhere)
 };
 
 // Frames [first, last] of `path` sampled at `fps` (frame f at time f / fps). Lens precedence, per
 // value: the path's animated value, then `overrides` (command line), then the camera's
 // extras.lens, then render::resolve_lens's defaults (autofocus on the image centre). Throws
-// dofcache::Error on a bad range or fps, or a lens value that fails ThinLens::validate.
+// dofcache::Error on a bad range or fps, or a lens value that fails ThinLens::validate. A real
+// lens (overrides.real) is mounted per frame for width x height images, focused at the frame's
+// focus distance (from the sensor): its field of view breathes as the focus moves, as a real
+// lens's does; the path's focal lengths and fields of view do not apply to it.
 std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel& accel,
                                    const scene::Camera& base, const CameraPath& path, double fps,
-                                   int first, int last, const render::LensOverrides& overrides);
+                                   int first, int last, const render::LensOverrides& overrides,
+                                   int width = 0, int height = 0);
 
 // Every `step`-th frame of `frames` from the first, plus the last (keyframes, e.g. to warm a
 // cache over a path); step 1 keeps all. Throws dofcache::Error if step < 1.
