@@ -435,6 +435,13 @@ double MountedLens::yfov() const {
 
 double MountedLens::principal_offset() const { return lens->cardinal().front_principal_z; }
 
+double MountedLens::corner_distortion() const {
+  const double r = 0.5 * std::hypot(film_size.x, film_size.y);
+  const double theta = lens->field_angle(r);
+  if (!(theta < 1.5)) return std::numeric_limits<double>::infinity();  // ~86 degrees and beyond
+  return std::abs(equivalent().film_distance() * std::tan(theta) / r - 1.0);
+}
+
 std::shared_ptr<const LensSystem> read_lens_file(const std::string& path) {
   static core::SharedCache<LensSystem> read;
   auto load = [&] { return std::make_shared<const LensSystem>(LensSystem::read(path)); };

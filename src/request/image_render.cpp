@@ -139,6 +139,7 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
     text += "notice  the scene has no camera; using one that frames its bounds\n";
   const char* autofocus = r.focus_from_scene ? " (autofocus on the image centre)" : "";
   if (const lens::MountedLens& m = r.settings.real_lens) {
+    if (r.preview) text += std::string("notice  ") + preview::kRealLensPreviewNotice + "\n";
     const lens::RealLens& real = *m.lens;
     text += fmt::format("camera  '{}', lens {} ({:.1f} mm f/{:.3g}), focus {} from the sensor{}\n",
                         camera.name, m.source, real.cardinal().focal_length * 1000.0,

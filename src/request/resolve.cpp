@@ -156,7 +156,17 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
   // An aperture image is read here once, so an unreadable one is refused before the render.
   if (!s.lens.aperture.image.empty()) lens::Aperture{s.lens.aperture};
   r.focus_from_scene = lens.focus_from_scene;
-  if (s.real_lens) chose(real_lens_choice(s.real_lens, q.lens));
+  if (s.real_lens) {
+    chose(real_lens_choice(s.real_lens, q.lens));
+    const double distortion = s.real_lens.corner_distortion();
+    if (r.preview && !(distortion <= preview::kMaxPreviewDistortion))
+      throw Error("the preview draws a perspective projection and " +
+                  std::filesystem::path(s.real_lens.source).filename().string() +
+                  " is far from one (" +
+                  (std::isfinite(distortion) ? fixed(100.0 * distortion, 0) + " %"
+                                             : std::string("90 degrees or more")) +
+                  " at the frame's corner: a fisheye); render it with --mode drt");
+  }
   // A sequence's lens may change per frame (its path's keys): only images fix it here.
   if (q.kind != Kind::Sequence) {
     if (r.focus_from_scene) chose("focus: autofocus on the image centre");

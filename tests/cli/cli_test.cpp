@@ -258,6 +258,60 @@ TEST_F(Cli, ApertureShapeIsDescribedAndThePreviewSaysHowItDrawsIt) {
   EXPECT_NE(req.out.find("\"aperture_rotation\": 15"), std::string::npos) << req.out;
 }
 
+// A real lens from a prescription: described, recorded in the statistics and the EXR's header,
+// and every bad choice a one-line error.
+TEST_F(Cli, RealLensFromAPrescriptionFile) {
+  const std::string lenses = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/lenses/";
+  const std::string gauss = " --lens-file " + lenses + "double_gauss_50mm.lens";
+  const std::string out = (dir_ / "o.exr").string(), stats = (dir_ / "s.json").string();
+  const std::string small = " --width 24 --height 16 --spp 1 --gather-rays 2 --light-samples 1";
+  testing::CliResult r = run("render" + gauss + " --fstop 4 --focus-distance 2 --out " + out +
+                             " --stats-json " + stats + small);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("double_gauss_50mm.lens (50.4 mm f/4), focus 2 m from the sensor"),
+            std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(stats));
+  const nlohmann::json& real = j["real_lens"];
+  EXPECT_NEAR(real["effective_focal_length"].get<double>(), 0.0504, 0.0002) << real;
+  EXPECT_NEAR(real["fstop"].get<double>(), 4.0, 0.001) << real;
+  // 24 x 16 pixels fill the 36 x 24 mm sensor; a 50 mm lens focused at 2 m sees about 38 x 26
+  // degrees.
+  EXPECT_NEAR(real["field_of_view"][0].get<double>(), 38.4, 0.5) << real;
+  EXPECT_NEAR(real["field_of_view"][1].get<double>(), 26.2, 0.5) << real;
+  const auto parts = dofcache::image::read_multipart_exr(out);
+  ASSERT_FALSE(parts.empty());
+  EXPECT_EQ(parts[0].attributes.count("real_lens.effective_focal_length"), 1u);
+  // The request it prints keeps the file and the sensor.
+  testing::CliResult req = run("render" + gauss + " --sensor-size 0.024,0.016 --sensor-fit "
+                               "vertical --print-request");
+  ASSERT_EQ(req.exit_code, 0) << req.err;
+  const nlohmann::json printed = nlohmann::json::parse(req.out.substr(req.out.find('{')));
+  EXPECT_EQ(printed["lens"]["sensor_size"], nlohmann::json({0.024, 0.016})) << req.out;
+  EXPECT_EQ(printed["lens"]["sensor_fit"], "vertical") << req.out;
+  EXPECT_NE(printed["lens"]["lens_file"].get<std::string>().find("double_gauss_50mm.lens"),
+            std::string::npos);
+  // The preview draws its thick-lens equivalent, and says so; a fisheye it refuses.
+  testing::CliResult pre = run("render --mode preview" + gauss + " --out " + out + small);
+  ASSERT_EQ(pre.exit_code, 0) << pre.err;
+  EXPECT_NE(pre.out.find("the preview draws the real lens as its thick-lens equivalent"),
+            std::string::npos) << pre.out;
+  expect_one_line_error(run("render --mode preview --lens-file " + lenses + "fisheye_10mm.lens" +
+                            " --out " + out + small),
+                        "a fisheye");
+  expect_one_line_error(run("render" + gauss + " --fstop 1.4 --out " + out + small),
+                        "wider than the lens's widest, f/2.0");
+  expect_one_line_error(run("render" + gauss + " --focus-distance 0.1 --out " + out + small),
+                        "cannot focus at 0.1");
+  expect_one_line_error(run("render" + gauss + " --aperture-blades 6 --out " + out + small),
+                        "a real lens's stop is round");
+  expect_one_line_error(run("render --lens-file " + (dir_ / "none.lens").string() + " --out " +
+                            out + small),
+                        "cannot read the lens file");
+  expect_one_line_error(run("render" + gauss + " --sensor-size 0,0.024 --out " + out + small),
+                        "sensor's width and height");
+  EXPECT_FALSE(std::filesystem::exists(out + ".tmp"));
+}
+
 // A scene with no light of any kind is lit by the default sky, with one notice naming the options;
 // a scene with lights, or an explicit environment, gets no notice; --no-default-sky keeps it dark.
 TEST_F(Cli, DefaultSkyNoticeExactlyWhenTheSceneHasNoLight) {

@@ -533,4 +533,40 @@ TEST(KeepEvery, KeyframesFromTheFirstPlusTheLast) {
   EXPECT_THROW(keep_every({}, 0), Error);
 }
 
+// A real lens on a path with a rack focus: each frame mounts it focused at its own distance, and
+// its field of view breathes as a unit-focusing lens's does: the film moves back to focus close,
+// so the same film sees a narrower field, tan(yfov / 2) = (h / 2) / V with the image distance V
+// of the thick-lens law (1 / a + 1 / V = 1 / f, a measured from the front principal plane).
+TEST(KeyframePath, RealLensBreathesAsItsFocusMoves) {
+  CameraPath p = parse_keyframe_path(R"({
+    "dofcache_camera_path": 1, "fps": 1,
+    "keys": [{"frame": 0, "position": [0, 0, 5], "focus_distance": 0.6},
+             {"frame": 1, "position": [0, 0, 5], "focus_distance": 10}]})",
+                                     "rack.json", base_camera());
+  scene::Scene sc = render::load_scene("");
+  scene::Accel accel(sc);
+  render::LensOverrides o;
+  o.real.file = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/lenses/double_gauss_50mm.lens";
+  const std::vector<FrameSpec> frames =
+      plan_frames(sc, accel, base_camera(), p, 1.0, 0, 1, o, 60, 40);
+  ASSERT_EQ(frames.size(), 2u);
+  double tan_half[2];
+  for (int i = 0; i < 2; ++i) {
+    const lens::MountedLens& m = frames[i].real_lens;
+    ASSERT_TRUE(m);
+    EXPECT_DOUBLE_EQ(m.lens->focus_distance(), i == 0 ? 0.6 : 10.0);
+    const lens::CardinalPoints& c = m.lens->cardinal();
+    const double a = m.lens->focus_distance() - c.front_principal_z;
+    const double v = 1.0 / (1.0 / c.focal_length - 1.0 / a);
+    EXPECT_NEAR(m.film_size.y, 0.024, 1e-12);  // 3:2 on the 36 x 24 mm sensor
+    tan_half[i] = std::tan(0.5 * m.yfov());
+    EXPECT_NEAR(tan_half[i], 0.012 / v, 1e-4 * tan_half[i]);
+    // The frame's thin lens is the equivalent the cache and the preview follow.
+    EXPECT_NEAR(frames[i].lens.focal_length, c.focal_length, 1e-12);
+  }
+  // Close focus: the field narrows by V(10 m) / V(0.6 m), about 9 % for this 50 mm lens.
+  EXPECT_LT(tan_half[0], 0.93 * tan_half[1]);
+  EXPECT_GT(tan_half[0], 0.88 * tan_half[1]);
+}
+
 }  // namespace

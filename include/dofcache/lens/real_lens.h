@@ -160,6 +160,10 @@ struct MountedLens {
   // The front principal plane's distance in front of the sensor: where the equivalent thin lens
   // sits.
   double principal_offset() const;
+  // How far the lens is from a perspective projection at the film's corner: |V tan(theta) / r - 1|
+  // for the chief ray's object-space angle theta from the corner at r, V the image distance
+  // (0.015 for the shipped 28 mm; a fisheye's is large, infinite from 90 degrees on).
+  double corner_distortion() const;
 };
 
 // Mounts `system` (read from `source`) focused at `focus_distance` from the sensor with `fstop`

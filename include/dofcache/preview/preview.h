@@ -112,6 +112,17 @@ inline constexpr const char* kShapedPreviewNotice =
     "vignetting stop, the colour bands and the tilted plane, pixel by pixel); the layered "
     "methods, their occlusion fix and the transmission profile are left out";
 
+// What a front end says when the preview draws a real lens (lens/real_lens.h): as its thick-lens
+// equivalent, whose circle of confusion the traced bokeh follows (tests/render/
+// real_lens_render_test.cpp), through the pinhole projection from its front principal plane.
+inline constexpr const char* kRealLensPreviewNotice =
+    "the preview draws the real lens as its thick-lens equivalent (round bokeh of its circle of "
+    "confusion, a perspective projection); the cat's eyes, distortion and aberrations of its "
+    "traced render are left out";
+// Beyond this corner distortion (lens::MountedLens::corner_distortion) a real lens is not drawn
+// by the preview's perspective projection (a fisheye): resolve() refuses it in one line.
+inline constexpr double kMaxPreviewDistortion = 0.1;
+
 // The preview (RGB). If every |CoC| is at most 1 px (zero aperture, or everything at the focus
 // distance) every method returns the input colour unchanged. LayeredOcclusion without revealed
 // layers is Layered. Throws dofcache::Error on mismatched image shapes, or a revealed layer whose
