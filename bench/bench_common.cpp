@@ -522,7 +522,7 @@ image::Image cached_reference(const std::string& key, const std::function<image:
 
 render::RenderSettings camera_settings(const scene::Scene& scene, const scene::Accel& accel,
                                        const scene::Camera& camera, int width, int spp,
-                                       int threads) {
+                                       int threads, const std::string& lens_file) {
   // The benchmarks' base: a plain integrator render (no cache, uniform sampling, the renderer's
   // own cache tuning), which each benchmark varies, resolved as every front end's request is.
   request::RenderRequest q = request::default_request(request::Kind::Image);
@@ -535,6 +535,7 @@ render::RenderSettings camera_settings(const scene::Scene& scene, const scene::A
   q.cache_settings = render::CacheSettings{};
   q.quiet = true;
   q.out.clear();  // the benchmarks write their own files
+  q.lens.real.file = lens_file;
   return request::resolve(q, scene, accel, camera).settings;
 }
 
@@ -544,6 +545,9 @@ image::Image converged_reference(const std::string& scene_name, const scene::Sce
   std::string key = scene_name + "_" + std::to_string(base.width) + "x" +
                     std::to_string(base.height) + "_" + std::to_string(spp) + "spp_" +
                     std::to_string(scene.content_hash % 100000);
+  if (const lens::MountedLens& m = base.real_lens)  // a real lens images another picture
+    key += "_" + std::filesystem::path(m.source).stem().string() + "_f" +
+           std::to_string(static_cast<int>(std::lround(m.lens->fstop() * 100)));
   return cached_reference(key, [&] {
     render::RenderSettings r = base;
     r.spp = spp;

@@ -44,9 +44,10 @@ image::Image cached_reference(const std::string& key, const std::function<image:
 
 // What a user gets for the camera at `width` pixels: the camera's aspect ratio, the scene's lens
 // (or the default one, resolved as the CLI resolves it), default shading, no progress display.
+// With `lens_file`, the real lens of `render --lens-file` (its table's stop, autofocus).
 render::RenderSettings camera_settings(const scene::Scene& scene, const scene::Accel& accel,
                                        const scene::Camera& camera, int width, int spp,
-                                       int threads);
+                                       int threads, const std::string& lens_file = "");
 
 // The converged reference of one scene view: uncached DRT of `base` (size, lens, shading) with
 // `spp` samples and a seed independent of the measured renders, through cached_reference keyed by

@@ -27,6 +27,8 @@
 #include <string>
 #include <vector>
 
+#include <glm/geometric.hpp>
+
 #include "bench_common.h"
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/image/image_io.h"
@@ -49,6 +51,8 @@ struct Options {
   std::vector<std::string> scenes = {"cornell_box.gltf", "color_bars.gltf", "color_spheres.gltf",
                                      "glossy_closeup.glb"};
   std::string results = "cache_render";
+  std::string lens_file;  // a real lens (render --lens-file); empty: the scene's thin lens
+  bool thin_equivalent = false;  // that lens's thin-lens equivalent instead of the traced lens
 };
 
 struct Run {
@@ -73,7 +77,18 @@ SceneSetup load(const std::string& file, const Options& o) {
   s.scene = render::load_scene(bench::scene_path(file));
   s.accel = std::make_unique<scene::Accel>(s.scene);
   const scene::Camera& cam = s.scene.cameras[0];
-  s.base = bench::camera_settings(s.scene, *s.accel, cam, o.width, 16, o.threads);
+  s.base = bench::camera_settings(s.scene, *s.accel, cam, o.width, 16, o.threads, o.lens_file);
+  if (o.thin_equivalent && s.base.real_lens) {
+    // The same picture through the thin lens the cache's reuse rule sees: its field of view, at
+    // the front principal plane (render::ThinLensCamera's real-lens constructor).
+    const lens::MountedLens m = s.base.real_lens;
+    scene::Camera& c = s.scene.cameras[0];
+    c.yfov = static_cast<float>(m.yfov());
+    const glm::vec3 forward = -glm::normalize(glm::vec3(c.camera_to_world[2]));
+    c.camera_to_world[3] += glm::vec4(forward * static_cast<float>(m.principal_offset()), 0.0f);
+    s.base.real_lens = {};
+    s.name += "_thin_" + fs::path(m.source).stem().string();
+  }
   return s;
 }
 
@@ -284,6 +299,12 @@ int main(int argc, char** argv) {
                  "Final-gather rays per shade of the uncached renders only (0: --gather-rays)")
       ->check(bench::in_range(0, 4096));
   bench::add_scene_option(app, o.scenes);
+  app.add_option("--lens-file", o.lens_file,
+                 "Every render through this real lens (render --lens-file; its table's stop, "
+                 "autofocus), the reference too");
+  app.add_flag("--thin-equivalent", o.thin_equivalent,
+               "With --lens-file: through its thin-lens equivalent instead (the same focal length, "
+               "f-number, focus and field of view), for the cache's speed-up side by side");
   bench::parse_command_line(app, argc, argv);
   // Non-default shading and no --results: say so in the name rather than overwrite the results
   // of the default shading.
@@ -295,6 +316,8 @@ int main(int argc, char** argv) {
       o.results += "_light" + std::to_string(o.shading.light_samples);
     if (o.uncached_gather_rays > 0 && o.uncached_gather_rays != o.shading.gather_rays)
       o.results += "_uncachedgather" + std::to_string(o.uncached_gather_rays);
+    if (!o.lens_file.empty())
+      o.results += (o.thin_equivalent ? "_thin_" : "_") + fs::path(o.lens_file).stem().string();
   }
   return bench::run_guarded(app, [&] { return run_bench(o); });
 }

@@ -24,18 +24,6 @@ constexpr double kLambda[3] = {0.65627, 0.58756, 0.48613};
 
 std::string mm(double metres) { return std::to_string(metres * 1e3).substr(0, 8) + " mm"; }
 
-// Snell's law for unit `d` meeting a surface of unit normal `n` (facing the incoming ray) from a
-// medium of index eta_i into one of eta_t; false on total internal reflection.
-bool refract(glm::dvec3& d, const glm::dvec3& n, double eta_i, double eta_t) {
-  const double eta = eta_i / eta_t;
-  const double cos_i = -glm::dot(n, d);
-  const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
-  if (sin2_t >= 1.0) return false;
-  const double cos_t = std::sqrt(1.0 - sin2_t);
-  d = glm::normalize(eta * d + (eta * cos_i - cos_t) * n);
-  return true;
-}
-
 // Where a ray crosses the axis plane y = 0 of its meridional section (its x reaches 0) and where it
 // reaches height h: the z of each, for the cardinal points.
 double z_at_x(const LensRay& r, double x) {
@@ -54,6 +42,7 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
     throw Error("the focus distance must be positive");
   if (!(settings.fstop >= 0.0) || !std::isfinite(settings.fstop))
     throw Error("the f-number must be positive");
+  tabulate();
   z_from_rear_.assign(surfaces_.size(), 0.0);
   for (std::size_t k = surfaces_.size() - 1; k-- > 0;)
     z_from_rear_[k] = z_from_rear_[k + 1] + surfaces_[k].thickness;
@@ -83,6 +72,7 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
   film_distance_ = 0.0;
   for (int i = 0; i < 8 && std::abs(fstop_ / target - 1.0) > 1e-4; ++i) {
     surfaces_[stop_].aperture_diameter *= fstop_ / target;
+    tabulate();
     cardinal_ = compute_cardinal();
     fstop_ = cardinal_.focal_length / cardinal_.entrance_pupil_diameter;
   }
@@ -92,65 +82,81 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
   if (!settings.exposure_follows_lens) normalisation_ = 0.0;  // per radius, below
 }
 
-double RealLens::ior(std::size_t k, int band) const {
-  const LensSurface& s = surfaces_[k];
-  if (band < 0 || band > 2 || s.abbe <= 0.0 || s.ior == 1.0) return s.ior;
-  // Cauchy's n = A + B / lambda^2 through n_d, with n_F - n_C = (n_d - 1) / V_d.
-  const double b = (s.ior - 1.0) / s.abbe /
-                   (1.0 / (kLambda[2] * kLambda[2]) - 1.0 / (kLambda[0] * kLambda[0]));
-  return s.ior + b * (1.0 / (kLambda[band] * kLambda[band]) - 1.0 / (kLambda[1] * kLambda[1]));
+void RealLens::tabulate() {
+  const std::size_t count = surfaces_.size();
+  inv_radius_.assign(count, 0.0);
+  half_aperture2_.assign(count, 0.0);
+  for (std::size_t k = 0; k < count; ++k) {
+    const LensSurface& s = surfaces_[k];
+    if (s.radius != 0.0) inv_radius_[k] = 1.0 / std::abs(s.radius);
+    half_aperture2_[k] = 0.25 * s.aperture_diameter * s.aperture_diameter;
+  }
+  for (int band = -1; band < 3; ++band) {
+    std::vector<double>& n = ior_[band + 1];
+    n.assign(count + 1, 1.0);  // n[0]: the scene's air
+    for (std::size_t k = 0; k < count; ++k) {
+      const LensSurface& s = surfaces_[k];
+      n[k + 1] = s.ior;
+      if (band < 0 || s.abbe <= 0.0 || s.ior == 1.0) continue;
+      // Cauchy's n = A + B / lambda^2 through n_d, with n_F - n_C = (n_d - 1) / V_d.
+      const double b = (s.ior - 1.0) / s.abbe /
+                       (1.0 / (kLambda[2] * kLambda[2]) - 1.0 / (kLambda[0] * kLambda[0]));
+      n[k + 1] += b * (1.0 / (kLambda[band] * kLambda[band]) - 1.0 / (kLambda[1] * kLambda[1]));
+    }
+    // A camera ray crosses surface k from the medium after it into the one before it.
+    std::vector<double>& eta = eta_from_film_[band + 1];
+    eta.resize(count);
+    for (std::size_t k = 0; k < count; ++k) eta[k] = n[k + 1] / n[k];
+  }
 }
 
-bool RealLens::intersect(std::size_t k, LensRay& ray, glm::dvec3& normal) const {
+bool RealLens::cross(std::size_t k, glm::dvec3& o, glm::dvec3& d, double eta, bool clip) const {
   const LensSurface& s = surfaces_[k];
   const double zk = z_of(k);
-  double t;
+  glm::dvec3 n;
   if (s.radius == 0.0) {
-    if (ray.direction.z == 0.0) return false;
-    t = (zk - ray.origin.z) / ray.direction.z;
-    normal = {0.0, 0.0, 1.0};
+    const double t = (zk - o.z) / d.z;
+    if (!(t > 0.0)) return false;
+    o += t * d;
+    n = {0.0, 0.0, d.z > 0.0 ? -1.0 : 1.0};
   } else {
     // The sphere's centre lies on the axis at z_k - R (positive R: towards the film). Of its two
     // crossings the surface is the one on the vertex's side of the centre.
-    const glm::dvec3 c{0.0, 0.0, zk - s.radius};
-    const glm::dvec3 oc = ray.origin - c;
-    const double b = glm::dot(oc, ray.direction);
+    const glm::dvec3 oc{o.x, o.y, o.z - (zk - s.radius)};
+    const double b = glm::dot(oc, d);
     const double disc = b * b - (glm::dot(oc, oc) - s.radius * s.radius);
     if (disc < 0.0) return false;
     const double root = std::sqrt(disc);
-    const bool closer = (ray.direction.z > 0.0) == (s.radius < 0.0);
-    t = closer ? -b - root : -b + root;
-    normal = glm::normalize(ray.origin + t * ray.direction - c);
+    const double t = (d.z > 0.0) == (s.radius < 0.0) ? -b - root : -b + root;
+    if (!(t > 0.0)) return false;
+    o += t * d;
+    n = (oc + t * d) * inv_radius_[k];  // unit; either sign
+    if (glm::dot(n, d) > 0.0) n = -n;
   }
-  if (!(t > 0.0)) return false;
-  ray.origin += t * ray.direction;
-  if (glm::dot(normal, ray.direction) > 0.0) normal = -normal;
+  if (clip && o.x * o.x + o.y * o.y > half_aperture2_[k]) return false;
+  if (s.stop) return true;
+  // Snell's law with eta = eta_i / eta_t. Refracting a unit vector about a unit normal keeps it
+  // unit to rounding: the traces normalise once at the end.
+  const double cos_i = -glm::dot(n, d);
+  const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
+  if (sin2_t >= 1.0) return false;  // total internal reflection
+  d = eta * d + (eta * cos_i - std::sqrt(1.0 - sin2_t)) * n;
   return true;
 }
 
 bool RealLens::trace_from_film(LensRay& ray, int band, bool clip) const {
-  for (std::size_t k = surfaces_.size(); k-- > 0;) {
-    glm::dvec3 n;
-    if (!intersect(k, ray, n)) return false;
-    const double r2 = ray.origin.x * ray.origin.x + ray.origin.y * ray.origin.y;
-    const double half = 0.5 * surfaces_[k].aperture_diameter;
-    if (clip && r2 > half * half) return false;
-    if (surfaces_[k].stop) continue;
-    if (!refract(ray.direction, n, ior(k, band), k == 0 ? 1.0 : ior(k - 1, band))) return false;
-  }
+  const double* eta = eta_from_film_[band < 0 || band > 2 ? 0 : band + 1].data();
+  for (std::size_t k = surfaces_.size(); k-- > 0;)
+    if (!cross(k, ray.origin, ray.direction, eta[k], clip)) return false;
+  ray.direction = glm::normalize(ray.direction);
   return true;
 }
 
 bool RealLens::trace_from_scene(LensRay& ray, int band, bool clip) const {
-  for (std::size_t k = 0; k < surfaces_.size(); ++k) {
-    glm::dvec3 n;
-    if (!intersect(k, ray, n)) return false;
-    const double r2 = ray.origin.x * ray.origin.x + ray.origin.y * ray.origin.y;
-    const double half = 0.5 * surfaces_[k].aperture_diameter;
-    if (clip && r2 > half * half) return false;
-    if (surfaces_[k].stop) continue;
-    if (!refract(ray.direction, n, k == 0 ? 1.0 : ior(k - 1, band), ior(k, band))) return false;
-  }
+  const double* n = ior_[band < 0 || band > 2 ? 0 : band + 1].data();
+  for (std::size_t k = 0; k < surfaces_.size(); ++k)
+    if (!cross(k, ray.origin, ray.direction, n[k] / n[k + 1], clip)) return false;
+  ray.direction = glm::normalize(ray.direction);
   return true;
 }
 
@@ -190,20 +196,17 @@ CardinalPoints RealLens::compute_cardinal() const {
   const double a = 1e-4;
   auto through = [&](bool towards_scene) {
     LensRay r{{0.0, 0.0, z_of(stop_)}, glm::normalize(glm::dvec3{a, 0.0, towards_scene ? 1 : -1})};
+    const double* n = ior_[0].data();
+    bool passed = true;
     if (towards_scene) {
-      for (std::size_t k = stop_; k-- > 0;) {
-        glm::dvec3 n;
-        if (!intersect(k, r, n) ||
-            !refract(r.direction, n, ior(k, -1), k == 0 ? 1.0 : ior(k - 1, -1)))
-          throw Error("a paraxial chief ray does not pass the lens");
-      }
+      for (std::size_t k = stop_; k-- > 0 && passed;)
+        passed = cross(k, r.origin, r.direction, n[k + 1] / n[k], false);
     } else {
-      for (std::size_t k = stop_ + 1; k < surfaces_.size(); ++k) {
-        glm::dvec3 n;
-        if (!intersect(k, r, n) || !refract(r.direction, n, ior(k - 1, -1), ior(k, -1)))
-          throw Error("a paraxial chief ray does not pass the lens");
-      }
+      for (std::size_t k = stop_ + 1; k < surfaces_.size() && passed; ++k)
+        passed = cross(k, r.origin, r.direction, n[k] / n[k + 1], false);
     }
+    if (!passed) throw Error("a paraxial chief ray does not pass the lens");
+    r.direction = glm::normalize(r.direction);
     return r;
   };
   const LensRay front = through(true), rear = through(false);
@@ -273,6 +276,7 @@ double RealLens::raw_weight(const LensRay& from_film, double area) const {
 }
 
 void RealLens::build_pupil_table() {
+  pupil_bins_per_metre_ = kPupilBins / settings_.film_radius;
   const double rear_half = 0.5 * surfaces_.back().aperture_diameter * 1.5;
   const double z_rear = z_of(surfaces_.size() - 1);
   tbb::parallel_for(0, kPupilBins, [&](int i) {
@@ -314,14 +318,15 @@ void RealLens::build_pupil_table() {
 RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const {
   Sample s;
   s.ray.origin = {film.x, film.y, 0.0};
-  const double r = std::hypot(film.x, film.y);
-  const double t = r / settings_.film_radius * kPupilBins;
+  const double r = std::sqrt(film.x * film.x + film.y * film.y);
+  const double t = r * pupil_bins_per_metre_;
   const int i = std::min(static_cast<int>(t), kPupilBins - 1);
   const PupilBin& bin = pupil_[i];
   if (!(bin.throughput > 0.0)) return s;
   glm::dvec2 q = bin.lo + u * (bin.hi - bin.lo);
   if (r > 0.0) {  // the bins hold film points on +x: turn to this one's angle
-    const double c = film.x / r, sn = film.y / r;
+    const double inv = 1.0 / r;
+    const double c = film.x * inv, sn = film.y * inv;
     q = {q.x * c - q.y * sn, q.x * sn + q.y * c};
   }
   const double area = (bin.hi.x - bin.lo.x) * (bin.hi.y - bin.lo.y);
@@ -347,11 +352,10 @@ double RealLens::field_angle(double height) const {
   const double z_rear = z_of(surfaces_.size() - 1);
   auto stop_x = [&](double x) {
     LensRay r{{height, 0.0, 0.0}, glm::normalize(glm::dvec3{x - height, 0.0, z_rear})};
-    for (std::size_t k = surfaces_.size(); k-- > static_cast<std::size_t>(stop_) + 1;) {
-      glm::dvec3 n;
-      if (!intersect(k, r, n) || !refract(r.direction, n, ior(k, -1), ior(k - 1, -1)))
+    const double* n = ior_[0].data();
+    for (std::size_t k = surfaces_.size(); k-- > static_cast<std::size_t>(stop_) + 1;)
+      if (!cross(k, r.origin, r.direction, n[k + 1] / n[k], false))
         return std::numeric_limits<double>::quiet_NaN();
-    }
     const double t = (z_of(stop_) - r.origin.z) / r.direction.z;
     return r.origin.x + t * r.direction.x;
   };

@@ -93,9 +93,13 @@ class RealLens {
     glm::dvec2 lo{0.0}, hi{0.0};  // bounds on the rear vertex plane, film point on +x
     double throughput = 0;       // mean weight before normalisation
   };
-  double ior(std::size_t k, int band) const;  // of the medium after surface k
+  void tabulate();  // the per-surface numbers the traces read, after any change of a surface
   double z_of(std::size_t k) const { return film_distance_ + z_from_rear_[k]; }
-  bool intersect(std::size_t k, LensRay& ray, glm::dvec3& normal) const;
+  // Crosses surface k: the intersection, the clear aperture (if `clip`) and Snell's law with
+  // eta = n_incident / n_transmitted (a stop only clips); false where the ray misses, is clipped
+  // or reflects totally.
+  bool cross(std::size_t k, glm::dvec3& origin, glm::dvec3& direction, double eta,
+             bool clip) const;
   // On-axis bundle from infinity: the radius of the widest parallel ray that passes.
   double marginal_height() const;
   CardinalPoints compute_cardinal() const;
@@ -108,6 +112,10 @@ class RealLens {
 
   std::vector<LensSurface> surfaces_;
   std::vector<double> z_from_rear_;  // each surface's vertex, relative to the rear vertex
+  std::vector<double> inv_radius_, half_aperture2_;  // 1 / |R| (0: flat), (aperture / 2)^2
+  std::array<std::vector<double>, 4> ior_;  // [band + 1][k + 1]: after surface k; [.][0]: air
+  std::array<std::vector<double>, 4> eta_from_film_;  // [band + 1][k]: ior_[k + 1] / ior_[k]
+  double pupil_bins_per_metre_ = 0;
   int stop_ = -1;
   RealLensSettings settings_;
   double film_distance_ = 0, length_ = 0, fstop_ = 0, widest_fstop_ = 0;
