@@ -219,6 +219,16 @@ TEST(RealLens, AbsurdSettingsAreOneLineErrors) {
   EXPECT_NE(message({4.0, 0.1}).find("cannot focus"), std::string::npos);
   EXPECT_NE(message({4.0, -1.0}).find("focus distance"), std::string::npos);
   EXPECT_THROW(RealLens(LensSystem::parse("50 5 1.5 20\n-50 0 1 20\n", "no stop"), {}), Error);
+  // A diverging lens forms no real image.
+  const LensSystem diverging = LensSystem::parse("0 1 0 10\n-50 5 1.5 20\n50 0 1 20\n", "neg");
+  EXPECT_LT(diverging.effective_focal_length(), 0.0);
+  try {
+    RealLens lens(diverging, {});
+    ADD_FAILURE() << "a diverging lens was mounted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("does not form a real image"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace
