@@ -13,11 +13,9 @@
 #include <vector>
 
 #include "bench_common.h"
-#include "dofcache/core/stopwatch.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/render/camera.h"
 #include "dofcache/render/renderer.h"
-#include "dofcache/render/sampler.h"
 #include "dofcache/render/setup.h"
 #include "dofcache/scene/accel.h"
 
@@ -39,26 +37,6 @@ struct Shape {
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
-}
-
-// Seconds to generate `count` camera rays over the film, one thread, through `camera`. The sum
-// of directions keeps the compiler from dropping the work.
-double ray_generation_seconds(const render::ThinLensCamera& camera, int count, float* sink) {
-  const bool chromatic = camera.lens().aperture.chromatic();
-  const render::Sobol2D film(1), lens(2);
-  const Stopwatch clock;
-  float sum = 0.0f;
-  const int w = camera.width(), h = camera.height();
-  for (int i = 0; i < count; ++i) {
-    const glm::vec2 f = film(static_cast<std::uint32_t>(i));
-    // The renderer's call: a weighted lens ray, a colour band with chromatic aberration.
-    const render::LensSample s = camera.lens_ray({f.x * w, f.y * h},
-                                                 lens(static_cast<std::uint32_t>(i)),
-                                                 chromatic ? i % 3 : -1);
-    sum += s.ray.direction.x + s.ray.origin.y + s.weight;
-  }
-  *sink += sum;
-  return clock.seconds();
 }
 
 // A 64x64 aperture image (a six-pointed star, written to the temporary directory).
@@ -106,8 +84,9 @@ int run(const Options& o) {
     for (std::size_t k = 0; k < shapes.size(); ++k) {
       render::RenderSettings s = base;
       s.lens.aperture = shapes[k].shape;
-      generate[k].push_back(
-          ray_generation_seconds(render::make_camera(camera, s), o.rays, &sink));
+      generate[k].push_back(bench::time_camera_rays(render::make_camera(camera, s), o.rays,
+                                                    s.lens.aperture.chromatic(), &sink)
+                                .seconds);
       rendered[k].push_back(render::render(scene, accel, camera, s).stats.seconds);
     }
 
@@ -143,9 +122,7 @@ int main(int argc, char** argv) {
                "aperture_bench"};
   bench::add_common_options(app, o.width, o.threads, o.results);
   bench::add_count_option(app, "--spp", o.spp, "Lens samples per pixel of the renders");
-  app.add_option("--rays", o.rays, "Camera rays generated per measurement")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 30));
+  bench::add_rays_option(app, o.rays);
   bench::add_count_option(app, "--rounds", o.rounds, "Interleaved rounds (the median is kept)");
   bench::parse_command_line(app, argc, argv);
   return bench::run_guarded(app, [&] { return run(o); });

@@ -1,6 +1,8 @@
 #include "bench_common.h"
 
 #include "dofcache/cache/radiance_cache.h"
+#include "dofcache/core/stopwatch.h"
+#include "dofcache/render/sampler.h"
 #include "dofcache/request/resolve.h"
 
 #include <benchmark/benchmark.h>
@@ -334,6 +336,33 @@ CLI::Option* add_count_option(CLI::App& app, const std::string& name, int& value
 
 std::string scene_path(const std::string& file) {
   return std::string(DOFCACHE_SOURCE_DIR) + "/scenes/" + file;
+}
+
+CLI::Option* add_rays_option(CLI::App& app, int& rays) {
+  return app.add_option("--rays", rays, "Camera rays generated per measurement")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 30));
+}
+
+RayTiming time_camera_rays(const render::ThinLensCamera& camera, int count, bool banded,
+                           float* sink) {
+  const render::Sobol2D film(1), lens(2);
+  const Stopwatch clock;
+  float sum = 0.0f;
+  int passed = 0;
+  const int w = camera.width(), h = camera.height();
+  for (int i = 0; i < count; ++i) {
+    const glm::vec2 f = film(static_cast<std::uint32_t>(i));
+    const render::LensSample s = camera.lens_ray(
+        {f.x * w, f.y * h}, lens(static_cast<std::uint32_t>(i)), banded ? i % 3 : -1);
+    sum += s.ray.direction.x + s.ray.origin.y + s.weight;
+    passed += s.weight > 0.0f;
+  }
+  RayTiming t;
+  t.seconds = clock.seconds();
+  t.passed = static_cast<double>(passed) / count;
+  *sink += sum;
+  return t;
 }
 
 CLI::Option* add_scene_option(CLI::App& app, std::vector<std::string>& scenes) {

@@ -85,6 +85,19 @@ CLI::Option* add_results_option(CLI::App& app, std::string& results);
 CLI::Option* add_count_option(CLI::App& app, const std::string& name, int& value,
                               const std::string& help, int minimum = 1);
 
+// --rays N: camera rays generated per measurement of a ray-generation benchmark.
+CLI::Option* add_rays_option(CLI::App& app, int& rays);
+
+// Camera-ray generation as the renderer calls it (Sobol film and lens points, a weighted lens ray,
+// a colour band per ray when `banded`): `count` rays over the film through `camera` on this
+// thread. The directions' sum goes to *sink so the work is not dropped.
+struct RayTiming {
+  double seconds = 0;
+  double passed = 0;  // the share of rays with weight > 0
+};
+RayTiming time_camera_rays(const render::ThinLensCamera& camera, int count, bool banded,
+                           float* sink);
+
 // --scene FILE, repeatable: a file in the source tree's scenes/ directory; `scenes` holds the
 // default list, which the given files replace.
 CLI::Option* add_scene_option(CLI::App& app, std::vector<std::string>& scenes);

@@ -12,10 +12,8 @@
 #include <vector>
 
 #include "bench_common.h"
-#include "dofcache/core/stopwatch.h"
 #include "dofcache/lens/real_lens.h"
 #include "dofcache/render/camera.h"
-#include "dofcache/render/sampler.h"
 
 using namespace dofcache;
 
@@ -32,27 +30,6 @@ struct Case {
   render::ThinLensCamera real, thin;
   int elements = 0;
 };
-
-// Seconds to generate `count` camera rays over the film through `camera`, and the share that
-// carry light (weight > 0). The sum keeps the compiler from dropping the work.
-double generate(const render::ThinLensCamera& camera, int count, double* passed, float* sink) {
-  const render::Sobol2D film(1), lens(2);
-  const Stopwatch clock;
-  float sum = 0.0f;
-  int n = 0;
-  const int w = camera.width(), h = camera.height();
-  for (int i = 0; i < count; ++i) {
-    const glm::vec2 f = film(static_cast<std::uint32_t>(i));
-    const render::LensSample s =
-        camera.lens_ray({f.x * w, f.y * h}, lens(static_cast<std::uint32_t>(i)));
-    sum += s.ray.direction.x + s.ray.origin.y + s.weight;
-    n += s.weight > 0.0f;
-  }
-  const double seconds = clock.seconds();
-  *sink += sum;
-  *passed = static_cast<double>(n) / count;
-  return seconds;
-}
 
 int run(const Options& o) {
   const int width = o.width, height = o.width * 3 / 4;
@@ -77,10 +54,11 @@ int run(const Options& o) {
   float sink = 0.0f;
   for (int round = 0; round < o.rounds; ++round)
     for (std::size_t k = 0; k < cases.size(); ++k) {
-      double p = 0.0, unused = 0.0;
-      real_s[k] = std::min(real_s[k], generate(cases[k].real, o.rays, &p, &sink));
-      thin_s[k] = std::min(thin_s[k], generate(cases[k].thin, o.rays, &unused, &sink));
-      pass[k] = p;
+      const bench::RayTiming real = bench::time_camera_rays(cases[k].real, o.rays, false, &sink);
+      real_s[k] = std::min(real_s[k], real.seconds);
+      pass[k] = real.passed;
+      thin_s[k] =
+          std::min(thin_s[k], bench::time_camera_rays(cases[k].thin, o.rays, false, &sink).seconds);
     }
   bench::Table table({"lens", "elements", "thin [ns/ray]", "real [ns/ray]", "real / thin",
                       "rays passed", "real per passed ray / thin"});
@@ -110,9 +88,7 @@ int main(int argc, char** argv) {
   CLI::App app{"What a real lens's camera ray costs against its thin-lens equivalent's.",
                "real_lens_bench"};
   bench::add_common_options(app, o.width, o.threads, o.results);
-  app.add_option("--rays", o.rays, "Camera rays generated per measurement")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 30));
+  bench::add_rays_option(app, o.rays);
   bench::add_count_option(app, "--rounds", o.rounds, "Interleaved rounds (the fastest is kept)");
   bench::parse_command_line(app, argc, argv);
   return bench::run_guarded(app, [&] { return run(o); });
