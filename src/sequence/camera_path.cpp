@@ -80,11 +80,17 @@ PathSample CameraPath::at(double time) const {
 std::pair<int, int> path_frame_range(const CameraPath& path, double fps) {
   if (!(fps > 0.0) || !std::isfinite(fps)) throw Error("frame rate must be a positive number");
   // A hair of tolerance so that keys at exact frame times (in floating point) count.
-  auto first = static_cast<int>(std::ceil(path.start_time * fps - 1e-6));
-  auto last = static_cast<int>(std::floor(path.end_time * fps + 1e-6));
-  first = std::max(first, 0);
-  last = std::max(last, first);
-  return {first, last};
+  const double first = std::max(std::ceil(path.start_time * fps - 1e-6), 0.0);
+  const double last = std::max(std::floor(path.end_time * fps + 1e-6), first);
+  // Checked before the conversion: a frame number beyond int is undefined behaviour (found by
+  // fuzzing). The same bound as a --frames range's nine digits.
+  constexpr double kLastFrame = 999999999.0;
+  if (!(last <= kLastFrame))
+    throw Error(path.source + ": the path's last key is at frame " +
+                std::to_string(path.end_time * fps).substr(0, 16) + " at " +
+                std::to_string(fps).substr(0, 8) + " fps, beyond frame 999999999, the last a "
+                "sequence numbers");
+  return {static_cast<int>(first), static_cast<int>(last)};
 }
 
 std::vector<FrameSpec> plan_frames(const scene::Scene& scene, const scene::Accel& accel,

@@ -533,6 +533,22 @@ TEST(KeepEvery, KeyframesFromTheFirstPlusTheLast) {
   EXPECT_THROW(keep_every({}, 0), Error);
 }
 
+// A path whose last key lies beyond the frame numbers a sequence counts is one clean error, not a
+// conversion out of int's range (found by fuzzing the keyframe reader).
+TEST(KeyframePath, FrameRangeBeyondTheLastFrameNumberIsAnError) {
+  const std::string keys = R"({"dofcache_camera_path": 1, "keys": [
+      {"time": 0, "position": [0, 0, 3]}, {"time": 133333333.5, "position": [1, 1, 3]}]})";
+  const CameraPath p = parse_keyframe_path(keys, "far.json", base_camera());
+  try {
+    path_frame_range(p, 24.0);
+    ADD_FAILURE() << "a 3.2e9-frame path was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("beyond frame 999999999"), std::string::npos) << e.what();
+  }
+  // The same path at 1 fps ends at frame 133333333 (its key at 133333333.5 s): within the bound.
+  EXPECT_EQ(path_frame_range(p, 1.0), std::make_pair(0, 133333333));
+}
+
 // A real lens on a path with a rack focus: each frame mounts it focused at its own distance, and
 // its field of view breathes as a unit-focusing lens's does: the film moves back to focus close,
 // so the same film sees a narrower field, tan(yfov / 2) = (h / 2) / V with the image distance V
