@@ -1,6 +1,7 @@
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/sequence/sequence_request.h"
 
+#include <algorithm>
 #include <tuple>
 
 #include <fmt/format.h>
@@ -76,6 +77,18 @@ std::string describe_start(const PreparedSequence& p) {
                                             "on each side into {}",
                                             s.temporal_window, s.temporal_output)
                               : "; each frame denoised");
+  if (const lens::MountedLens& m = p.frames.front().real_lens) {
+    // Per frame: each is mounted at its own focus, so its field of view breathes.
+    double lo = 1e30, hi = 0.0;
+    for (const FrameSpec& f : p.frames) {
+      lo = std::min(lo, f.real_lens.yfov()), hi = std::max(hi, f.real_lens.yfov());
+    }
+    const double deg = 180.0 / 3.14159265358979323846;
+    text += fmt::format("lens     {} ({:.1f} mm f/{:.3g}), focused per frame; vertical field of "
+                        "view {:.2f}-{:.2f} degrees\n",
+                        m.source, m.lens->cardinal().focal_length * 1000.0, m.lens->fstop(),
+                        lo * deg, hi * deg);
+  }
   if (p.frames.front().autofocus)
     text += "notice   no focus distance given: autofocus on the image centre, per frame\n";
   return text;
@@ -116,12 +129,17 @@ nlohmann::json frame_camera_json(const FrameSpec& spec) {
 }  // namespace
 
 nlohmann::json frame_stats_json(const FrameReport& f) {
+  // A real lens: mounted for this frame's focus (its field of view breathes with it).
+  const nlohmann::json real =
+      f.spec.real_lens ? lens::real_lens_json(f.spec.real_lens) : nlohmann::json(nullptr);
   if (f.skipped)
     return {{"frame", f.frame}, {"skipped", true}, {"output", f.path},
-            {"camera", frame_camera_json(f.spec)}, {"lens", lens::lens_json(f.spec.lens)}};
+            {"camera", frame_camera_json(f.spec)}, {"lens", lens::lens_json(f.spec.lens)},
+            {"real_lens", real}};
   const cache::FrameCacheStats& c = f.cache;
   return {{"frame", f.frame}, {"skipped", false}, {"output", f.path},
           {"camera", frame_camera_json(f.spec)}, {"lens", lens::lens_json(f.spec.lens)},
+          {"real_lens", real},
           {"seconds", f.seconds()}, {"render_seconds", f.render_seconds},
           {"cache_seconds", f.cache_seconds}, {"write_seconds", f.write_seconds},
           {"denoise_seconds", f.denoise_seconds},

@@ -126,6 +126,28 @@ void SequenceCli::killed_run_resumes(const std::string& extra, int kill_after) {
     EXPECT_EQ(fs::exists(dir_ / "cut" / name), fs::exists(dir_ / "full" / name)) << name;
 }
 
+// A real lens along the focus pull: described once with the range its field of view breathes
+// over, and each frame's statistics record the lens mounted for that frame's focus.
+TEST_F(SequenceCli, RealLensBreathesAlongTheFocusPull) {
+  dofcache::testing::CliResult r =
+      run("sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
+          "paths/cornell_focus_pull.json --frames 0-47 --frame-step 47 --lens-file " + kScenes +
+          "lenses/double_gauss_50mm.lens -o '" + at("rl/f##.png") + "' --stats-json " +
+          at("rl.json") + kQuick);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("double_gauss_50mm.lens (50.4 mm f/2.02), focused per frame"),
+            std::string::npos) << r.out;
+  const nlohmann::json stats = nlohmann::json::parse(slurp(dir_ / "rl.json"));
+  ASSERT_EQ(stats["per_frame"].size(), 2u);
+  const nlohmann::json& a = stats["per_frame"][0]["real_lens"];
+  const nlohmann::json& b = stats["per_frame"][1]["real_lens"];
+  ASSERT_TRUE(a.is_object() && b.is_object()) << stats.dump();
+  // The pull racks the focus: the lens moves, and the same film sees another field.
+  EXPECT_NE(a["focus_distance_from_sensor"], b["focus_distance_from_sensor"]);
+  EXPECT_NE(a["film_distance"], b["film_distance"]);
+  EXPECT_NE(a["field_of_view"][1], b["field_of_view"][1]);
+}
+
 TEST_F(SequenceCli, KilledRunResumesToTheSameFrames) { killed_run_resumes("", 2); }
 
 // With a small journal ratio the checkpoint is rewritten every few frames: the kill lands around
