@@ -15,7 +15,6 @@
 namespace dofcache::lens {
 namespace {
 
-constexpr double kInfinity = 1e29;  // focus distances from here on are infinity
 constexpr int kBoundsGrid = 48;     // per axis, the exit-pupil search over the rear element
 constexpr int kThroughputGrid = 64;  // per axis, the mean weight of one radial bin
 
@@ -62,9 +61,8 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
   if (fstop_ > 1000.0) throw Error("an f-number above 1000");
   if (settings.exposure_follows_lens) {
     // A camera's exposure: the film centre's throughput wide open and focused at infinity.
-    focus(kInfinity);
-    build_pupil_table();
-    normalisation_ = pupil_[0].throughput;
+    focus(kInfiniteFocus);
+    normalisation_ = pupil_bin(0).throughput;
   }
   // The pupil scales with the stop paraxially; the marginal ray's aberrations need a few rounds.
   const double target = fstop_;
@@ -92,8 +90,7 @@ void RealLens::tabulate() {
     half_aperture2_[k] = 0.25 * s.aperture_diameter * s.aperture_diameter;
   }
   for (int band = -1; band < 3; ++band) {
-    std::vector<double>& n = ior_[band + 1];
-    n.assign(count + 1, 1.0);  // n[0]: the scene's air
+    std::vector<double> n(count + 1, 1.0);  // n[k + 1]: after surface k; n[0]: the scene's air
     for (std::size_t k = 0; k < count; ++k) {
       const LensSurface& s = surfaces_[k];
       n[k + 1] = s.ior;
@@ -104,9 +101,14 @@ void RealLens::tabulate() {
       n[k + 1] += b * (1.0 / (kLambda[band] * kLambda[band]) - 1.0 / (kLambda[1] * kLambda[1]));
     }
     // A camera ray crosses surface k from the medium after it into the one before it.
-    std::vector<double>& eta = eta_from_film_[band + 1];
-    eta.resize(count);
-    for (std::size_t k = 0; k < count; ++k) eta[k] = n[k + 1] / n[k];
+    std::vector<double>& from_film = eta_from_film_[band + 1];
+    std::vector<double>& from_scene = eta_from_scene_[band + 1];
+    from_film.resize(count);
+    from_scene.resize(count);
+    for (std::size_t k = 0; k < count; ++k) {
+      from_film[k] = n[k + 1] / n[k];
+      from_scene[k] = n[k] / n[k + 1];
+    }
   }
 }
 
@@ -144,20 +146,28 @@ bool RealLens::cross(std::size_t k, glm::dvec3& o, glm::dvec3& d, double eta, bo
   return true;
 }
 
-bool RealLens::trace_from_film(LensRay& ray, int band, bool clip) const {
-  const double* eta = eta_from_film_[band < 0 || band > 2 ? 0 : band + 1].data();
-  for (std::size_t k = surfaces_.size(); k-- > 0;)
-    if (!cross(k, ray.origin, ray.direction, eta[k], clip)) return false;
+bool RealLens::trace_span(LensRay& ray, std::size_t first, std::size_t last, bool towards_scene,
+                          int band, bool clip) const {
+  const std::size_t b = band < 0 || band > 2 ? 0 : band + 1;
+  if (towards_scene) {
+    const double* eta = eta_from_film_[b].data();
+    for (std::size_t k = last; k-- > first;)
+      if (!cross(k, ray.origin, ray.direction, eta[k], clip)) return false;
+  } else {
+    const double* eta = eta_from_scene_[b].data();
+    for (std::size_t k = first; k < last; ++k)
+      if (!cross(k, ray.origin, ray.direction, eta[k], clip)) return false;
+  }
   ray.direction = glm::normalize(ray.direction);
   return true;
 }
 
+bool RealLens::trace_from_film(LensRay& ray, int band, bool clip) const {
+  return trace_span(ray, 0, surfaces_.size(), true, band, clip);
+}
+
 bool RealLens::trace_from_scene(LensRay& ray, int band, bool clip) const {
-  const double* n = ior_[band < 0 || band > 2 ? 0 : band + 1].data();
-  for (std::size_t k = 0; k < surfaces_.size(); ++k)
-    if (!cross(k, ray.origin, ray.direction, n[k] / n[k + 1], clip)) return false;
-  ray.direction = glm::normalize(ray.direction);
-  return true;
+  return trace_span(ray, 0, surfaces_.size(), false, band, clip);
 }
 
 double RealLens::marginal_height() const {
@@ -194,19 +204,12 @@ CardinalPoints RealLens::compute_cardinal() const {
   // scene (its extension meets the axis at the entrance pupil) and through the rear group to the
   // film (the exit pupil). The pupil magnification is the ratio of its slopes.
   const double a = 1e-4;
+  const std::size_t stop = static_cast<std::size_t>(stop_);
   auto through = [&](bool towards_scene) {
-    LensRay r{{0.0, 0.0, z_of(stop_)}, glm::normalize(glm::dvec3{a, 0.0, towards_scene ? 1 : -1})};
-    const double* n = ior_[0].data();
-    bool passed = true;
-    if (towards_scene) {
-      for (std::size_t k = stop_; k-- > 0 && passed;)
-        passed = cross(k, r.origin, r.direction, n[k + 1] / n[k], false);
-    } else {
-      for (std::size_t k = stop_ + 1; k < surfaces_.size() && passed; ++k)
-        passed = cross(k, r.origin, r.direction, n[k] / n[k + 1], false);
-    }
+    LensRay r{{0.0, 0.0, z_of(stop)}, glm::normalize(glm::dvec3{a, 0.0, towards_scene ? 1 : -1})};
+    const bool passed = towards_scene ? trace_span(r, 0, stop, true, -1, false)
+                                      : trace_span(r, stop + 1, surfaces_.size(), false, -1, false);
     if (!passed) throw Error("a paraxial chief ray does not pass the lens");
-    r.direction = glm::normalize(r.direction);
     return r;
   };
   const LensRay front = through(true), rear = through(false);
@@ -225,7 +228,7 @@ double RealLens::best_focus_z(double distance) const {
   for (int i = 0; i < kFan; ++i) {
     const double h = (i + 0.5) / kFan * front_half;
     LensRay r;
-    if (distance >= kInfinity) {
+    if (distance >= kInfiniteFocus) {
       r = {{0.0, h, z_of(0) + 1.0}, {0.0, 0.0, -1.0}};
     } else {
       r.origin = {0.0, 0.0, distance};
@@ -249,7 +252,7 @@ void RealLens::focus(double distance) {
   const double zh = cardinal_.front_principal_z - film_distance_;   // from the rear vertex
   const double zh2 = cardinal_.rear_principal_z - film_distance_;
   double b = f;
-  if (distance < kInfinity) {
+  if (distance < kInfiniteFocus) {
     const double t = distance - zh + zh2;
     if (!(t > 4.0 * f) || distance <= length_)
       throw Error("the lens cannot focus at " + std::to_string(distance).substr(0, 8) +
@@ -277,42 +280,43 @@ double RealLens::raw_weight(const LensRay& from_film, double area) const {
 
 void RealLens::build_pupil_table() {
   pupil_bins_per_metre_ = kPupilBins / settings_.film_radius;
+  tbb::parallel_for(0, kPupilBins, [&](int i) { pupil_[i] = pupil_bin(i); });
+}
+
+RealLens::PupilBin RealLens::pupil_bin(int i) const {
   const double rear_half = 0.5 * surfaces_.back().aperture_diameter * 1.5;
   const double z_rear = z_of(surfaces_.size() - 1);
-  tbb::parallel_for(0, kPupilBins, [&](int i) {
-    PupilBin bin;
-    const double r0 = settings_.film_radius * i / kPupilBins;
-    const double r1 = settings_.film_radius * (i + 1) / kPupilBins;
-    glm::dvec2 lo{std::numeric_limits<double>::max()}, hi{-std::numeric_limits<double>::max()};
-    const double cell = 2.0 * rear_half / kBoundsGrid;
-    for (double x : {r0, 0.5 * (r0 + r1), r1})
-      for (int gy = 0; gy <= kBoundsGrid; ++gy)
-        for (int gx = 0; gx <= kBoundsGrid; ++gx) {
-          const glm::dvec2 q{-rear_half + gx * cell, -rear_half + gy * cell};
-          LensRay r{{x, 0.0, 0.0}, glm::normalize(glm::dvec3{q.x - x, q.y, z_rear})};
-          if (!trace_from_film(r)) continue;
-          lo = glm::min(lo, q);
-          hi = glm::max(hi, q);
-        }
-    if (lo.x <= hi.x) {
-      // One cell of margin: the grid can miss a sliver of the pupil.
-      bin.lo = glm::max(lo - cell, glm::dvec2{-rear_half});
-      bin.hi = glm::min(hi + cell, glm::dvec2{rear_half});
-      const double area = (bin.hi.x - bin.lo.x) * (bin.hi.y - bin.lo.y);
-      const double x = 0.5 * (r0 + r1) * (i == 0 ? 0.0 : 1.0);  // bin 0: the centre itself
-      double sum = 0.0;
-      for (int gy = 0; gy < kThroughputGrid; ++gy)
-        for (int gx = 0; gx < kThroughputGrid; ++gx) {
-          const glm::dvec2 q = bin.lo + (glm::dvec2{gx + 0.5, gy + 0.5} / double(kThroughputGrid)) *
-                                            (bin.hi - bin.lo);
-          LensRay r{{x, 0.0, 0.0}, glm::normalize(glm::dvec3{q.x - x, q.y, z_rear})};
-          const double w = raw_weight(r, area);
-          if (trace_from_film(r)) sum += w;
-        }
-      bin.throughput = sum / (kThroughputGrid * kThroughputGrid);
+  PupilBin bin;
+  const double r0 = settings_.film_radius * i / kPupilBins;
+  const double r1 = settings_.film_radius * (i + 1) / kPupilBins;
+  glm::dvec2 lo{std::numeric_limits<double>::max()}, hi{-std::numeric_limits<double>::max()};
+  const double cell = 2.0 * rear_half / kBoundsGrid;
+  for (double x : {r0, 0.5 * (r0 + r1), r1})
+    for (int gy = 0; gy <= kBoundsGrid; ++gy)
+      for (int gx = 0; gx <= kBoundsGrid; ++gx) {
+        const glm::dvec2 q{-rear_half + gx * cell, -rear_half + gy * cell};
+        LensRay r{{x, 0.0, 0.0}, glm::normalize(glm::dvec3{q.x - x, q.y, z_rear})};
+        if (!trace_from_film(r)) continue;
+        lo = glm::min(lo, q);
+        hi = glm::max(hi, q);
+      }
+  if (!(lo.x <= hi.x)) return bin;  // no light at this distance from the centre
+  // One cell of margin: the grid can miss a sliver of the pupil.
+  bin.lo = glm::max(lo - cell, glm::dvec2{-rear_half});
+  bin.hi = glm::min(hi + cell, glm::dvec2{rear_half});
+  const double area = (bin.hi.x - bin.lo.x) * (bin.hi.y - bin.lo.y);
+  const double x = 0.5 * (r0 + r1) * (i == 0 ? 0.0 : 1.0);  // bin 0: the centre itself
+  double sum = 0.0;
+  for (int gy = 0; gy < kThroughputGrid; ++gy)
+    for (int gx = 0; gx < kThroughputGrid; ++gx) {
+      const glm::dvec2 q = bin.lo + (glm::dvec2{gx + 0.5, gy + 0.5} / double(kThroughputGrid)) *
+                                        (bin.hi - bin.lo);
+      LensRay r{{x, 0.0, 0.0}, glm::normalize(glm::dvec3{q.x - x, q.y, z_rear})};
+      const double w = raw_weight(r, area);
+      if (trace_from_film(r)) sum += w;
     }
-    pupil_[i] = bin;
-  });
+  bin.throughput = sum / (kThroughputGrid * kThroughputGrid);
+  return bin;
 }
 
 RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const {
@@ -352,10 +356,8 @@ double RealLens::field_angle(double height) const {
   const double z_rear = z_of(surfaces_.size() - 1);
   auto stop_x = [&](double x) {
     LensRay r{{height, 0.0, 0.0}, glm::normalize(glm::dvec3{x - height, 0.0, z_rear})};
-    const double* n = ior_[0].data();
-    for (std::size_t k = surfaces_.size(); k-- > static_cast<std::size_t>(stop_) + 1;)
-      if (!cross(k, r.origin, r.direction, n[k + 1] / n[k], false))
-        return std::numeric_limits<double>::quiet_NaN();
+    if (!trace_span(r, static_cast<std::size_t>(stop_) + 1, surfaces_.size(), true, -1, false))
+      return std::numeric_limits<double>::quiet_NaN();
     const double t = (z_of(stop_) - r.origin.z) / r.direction.z;
     return r.origin.x + t * r.direction.x;
   };
@@ -432,12 +434,12 @@ ThinLens MountedLens::equivalent() const {
   return ThinLens(c.focal_length, lens->fstop(), focus);
 }
 
-double MountedLens::yfov() const {
-  const ThinLens t = equivalent();
-  return 2.0 * std::atan(0.5 * film_size.y / t.film_distance());
-}
+double MountedLens::yfov() const { return field_of_view().y; }
 
-double MountedLens::principal_offset() const { return lens->cardinal().front_principal_z; }
+glm::dvec2 MountedLens::field_of_view() const {
+  const double v = equivalent().film_distance();
+  return {2.0 * std::atan(0.5 * film_size.x / v), 2.0 * std::atan(0.5 * film_size.y / v)};
+}
 
 double MountedLens::corner_distortion() const {
   const double r = 0.5 * std::hypot(film_size.x, film_size.y);

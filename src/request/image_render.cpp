@@ -144,8 +144,8 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
     text += fmt::format("camera  '{}', lens {} ({:.1f} mm f/{:.3g}), focus {} from the sensor{}\n",
                         camera.name, m.source, real.cardinal().focal_length * 1000.0,
                         real.fstop(),
-                        real.focus_distance() >= 1e29 ? std::string("at infinity")
-                                                      : fmt::format("{:.3g} m", real.focus_distance()),
+                        real.focused_at_infinity() ? std::string("at infinity")
+                                                   : fmt::format("{:.3g} m", real.focus_distance()),
                         autofocus);
     return text;
   }

@@ -1,9 +1,10 @@
 #include "dofcache/request/resolve.h"
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 
+#include <fmt/format.h>
+#include <glm/trigonometric.hpp>
 #include <nlohmann/json.hpp>
 
 #include "dofcache/cache/radiance_cache.h"
@@ -34,30 +35,20 @@ std::string cache_rule(const RenderRequest& q, bool* uses_cache) {
                      : mode_name(q.mode) + " shades each pixel once";
 }
 
-std::string fixed(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
-
 // One choice line for a mounted real lens: what the table and the sensor decided, and what of the
 // request's lens they replace.
 std::string real_lens_choice(const lens::MountedLens& m, const render::LensOverrides& asked) {
   const lens::RealLens& l = *m.lens;
-  const double deg = 180.0 / 3.14159265358979323846;
-  const double yfov = m.yfov() * deg;
-  const double xfov = 2.0 * std::atan(std::tan(0.5 * m.yfov()) * m.film_size.x / m.film_size.y) * deg;
-  std::string line = "lens: " + std::filesystem::path(m.source).filename().string() +
-                     ", effective focal length " + fixed(l.cardinal().focal_length * 1e3, 2) +
-                     " mm, f/" + fixed(l.fstop(), 2) +
-                     (asked.fstop ? "" : " (the table's stop)") + ", focused at " +
-                     (l.focus_distance() >= 1e29 ? std::string("infinity")
-                                                 : fixed(l.focus_distance(), 3) + " m") +
-                     " from the sensor; field of view " + fixed(xfov, 2) + " x " +
-                     fixed(yfov, 2) + " degrees on " + fixed(m.film_size.x * 1e3, 1) + " x " +
-                     fixed(m.film_size.y * 1e3, 1) + " mm of the sensor (the camera's yfov";
-  line += asked.focal_length ? " and --focal-length are ignored)" : " is ignored)";
-  return line;
+  const glm::dvec2 fov = glm::degrees(m.field_of_view());
+  return fmt::format(
+      "lens: {}, effective focal length {:.2f} mm, f/{:.2f}{}, focused at {} from the sensor; "
+      "field of view {:.2f} x {:.2f} degrees on {:.1f} x {:.1f} mm of the sensor (the camera's "
+      "yfov{} ignored)",
+      std::filesystem::path(m.source).filename().string(), l.cardinal().focal_length * 1e3,
+      l.fstop(), asked.fstop ? "" : " (the table's stop)",
+      l.focused_at_infinity() ? std::string("infinity") : fmt::format("{:.3f} m", l.focus_distance()),
+      fov.x, fov.y, m.film_size.x * 1e3, m.film_size.y * 1e3,
+      asked.focal_length ? " and --focal-length are" : " is");
 }
 
 }  // namespace
@@ -163,7 +154,7 @@ ResolvedRequest resolve(const RenderRequest& request, const scene::Scene& scene,
       throw Error("the preview draws a perspective projection and " +
                   std::filesystem::path(s.real_lens.source).filename().string() +
                   " is far from one (" +
-                  (std::isfinite(distortion) ? fixed(100.0 * distortion, 0) + " %"
+                  (std::isfinite(distortion) ? fmt::format("{:.0f} %", 100.0 * distortion)
                                              : std::string("90 degrees or more")) +
                   " at the frame's corner: a fisheye); render it with --mode drt");
   }

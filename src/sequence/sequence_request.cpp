@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include <fmt/format.h>
+#include <glm/trigonometric.hpp>
 
 #include "dofcache/core/error.h"
 #include "dofcache/lens/lens_json.h"
@@ -79,15 +80,13 @@ std::string describe_start(const PreparedSequence& p) {
                               : "; each frame denoised");
   if (const lens::MountedLens& m = p.frames.front().real_lens) {
     // Per frame: each is mounted at its own focus, so its field of view breathes.
-    double lo = 1e30, hi = 0.0;
-    for (const FrameSpec& f : p.frames) {
-      lo = std::min(lo, f.real_lens.yfov()), hi = std::max(hi, f.real_lens.yfov());
-    }
-    const double deg = 180.0 / 3.14159265358979323846;
+    const auto [lo, hi] = std::minmax_element(
+        p.frames.begin(), p.frames.end(),
+        [](const FrameSpec& a, const FrameSpec& b) { return a.real_lens.yfov() < b.real_lens.yfov(); });
     text += fmt::format("lens     {} ({:.1f} mm f/{:.3g}), focused per frame; vertical field of "
                         "view {:.2f}-{:.2f} degrees\n",
                         m.source, m.lens->cardinal().focal_length * 1000.0, m.lens->fstop(),
-                        lo * deg, hi * deg);
+                        glm::degrees(lo->real_lens.yfov()), glm::degrees(hi->real_lens.yfov()));
   }
   if (p.frames.front().autofocus)
     text += "notice   no focus distance given: autofocus on the image centre, per frame\n";

@@ -90,7 +90,7 @@ double rms_spot(const RealLens& lens, double distance, int* passed = nullptr) {
       const glm::dvec3 target{half * (2.0 * (i + 0.5) / n - 1.0), half * (2.0 * (j + 0.5) / n - 1.0),
                               z_front};
       LensRay r;
-      r.origin = distance >= 1e29 ? glm::dvec3{target.x, target.y, z_front + 1.0}
+      r.origin = distance >= kInfiniteFocus ? glm::dvec3{target.x, target.y, z_front + 1.0}
                                   : glm::dvec3{0.0, 0.0, distance};
       r.direction = glm::normalize(target - r.origin);
       if (!lens.trace_from_scene(r)) continue;

@@ -11,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include <glm/trigonometric.hpp>
 #include <nlohmann/json.hpp>
 
 #include "dofcache/lens/real_lens.h"
@@ -44,16 +45,15 @@ inline nlohmann::json lens_json(const ThinLens& lens) {
 // the field of view and the part of the sensor used. Metres and degrees.
 inline nlohmann::json real_lens_json(const MountedLens& m) {
   const RealLens& l = *m.lens;
-  const double deg = 180.0 / 3.14159265358979323846;
-  const double yfov = m.yfov();
-  const double xfov = 2.0 * std::atan(std::tan(0.5 * yfov) * m.film_size.x / m.film_size.y);
+  const glm::dvec2 fov = glm::degrees(m.field_of_view());
   return {{"lens_file", m.source},
           {"effective_focal_length", l.cardinal().focal_length},
           {"fstop", l.fstop()},
-          {"focus_distance_from_sensor",
-           l.focus_distance() >= 1e29 ? nlohmann::json("infinity") : nlohmann::json(l.focus_distance())},
+          {"focus_distance_from_sensor", l.focused_at_infinity()
+                                             ? nlohmann::json("infinity")
+                                             : nlohmann::json(l.focus_distance())},
           {"film_distance", l.film_distance()},
-          {"field_of_view", {xfov * deg, yfov * deg}},
+          {"field_of_view", {fov.x, fov.y}},
           {"film_size", {m.film_size.x, m.film_size.y}}};
 }
 

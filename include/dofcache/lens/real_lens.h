@@ -43,9 +43,12 @@ struct CardinalPoints {
   double exit_pupil_z = 0, exit_pupil_diameter = 0;
 };
 
+// Focus distances from here on are infinity (the lens focuses parallel rays).
+constexpr double kInfiniteFocus = 1e29;
+
 struct RealLensSettings {
   double fstop = 0;              // 0: the table's own stop
-  double focus_distance = 1e30;  // metres from the film plane to the plane in focus (>= 1e29: infinity)
+  double focus_distance = 1e30;  // metres from the film plane to the plane in focus (>= kInfiniteFocus: infinity)
   double film_radius = 0.0216;   // metres: the largest distance from the film centre rays start at
   bool exposure_follows_lens = false;
 };
@@ -76,6 +79,7 @@ class RealLens {
   double fstop() const { return fstop_; }
   double widest_fstop() const { return widest_fstop_; }
   double focus_distance() const { return settings_.focus_distance; }
+  bool focused_at_infinity() const { return settings_.focus_distance >= kInfiniteFocus; }
   bool exposure_follows_lens() const { return settings_.exposure_follows_lens; }
   double length() const { return length_; }  // front vertex to rear vertex
   // The object-space angle (radians) of the chief ray, through the stop's centre, from the film
@@ -100,21 +104,29 @@ class RealLens {
   // or reflects totally.
   bool cross(std::size_t k, glm::dvec3& origin, glm::dvec3& direction, double eta,
              bool clip) const;
+  // Crosses surfaces [first, last) towards the scene (first the one nearest the film), or towards
+  // the film (first the front-most), in `band`; the direction is normalised once at the end.
+  bool trace_span(LensRay& ray, std::size_t first, std::size_t last, bool towards_scene, int band,
+                  bool clip) const;
   // On-axis bundle from infinity: the radius of the widest parallel ray that passes.
   double marginal_height() const;
   CardinalPoints compute_cardinal() const;
-  // Where an on-axis point at `distance` (lens space z; >= 1e29 infinity) focuses best (the RMS
+  // Where an on-axis point at `distance` (lens space z; >= kInfiniteFocus: infinity) focuses best (the RMS
   // spot of a traced fan is smallest), as a z in lens space.
   double best_focus_z(double distance) const;
   void focus(double distance_from_film);
   void build_pupil_table();
+  // Radial bin i of the exit-pupil table: its bounds and mean throughput at the film and stop of
+  // the moment.
+  PupilBin pupil_bin(int i) const;
   double raw_weight(const LensRay& from_film, double area) const;
 
   std::vector<LensSurface> surfaces_;
   std::vector<double> z_from_rear_;  // each surface's vertex, relative to the rear vertex
   std::vector<double> inv_radius_, half_aperture2_;  // 1 / |R| (0: flat), (aperture / 2)^2
-  std::array<std::vector<double>, 4> ior_;  // [band + 1][k + 1]: after surface k; [.][0]: air
-  std::array<std::vector<double>, 4> eta_from_film_;  // [band + 1][k]: ior_[k + 1] / ior_[k]
+  // [band + 1][k]: n_incident / n_transmitted at surface k for a ray from the film (the index
+  // after the surface over the one before it) and from the scene (its inverse).
+  std::array<std::vector<double>, 4> eta_from_film_, eta_from_scene_;
   double pupil_bins_per_metre_ = 0;
   int stop_ = -1;
   RealLensSettings settings_;
@@ -165,9 +177,12 @@ struct MountedLens {
   // The paraxial vertical field of view: the film's height over the image distance behind the
   // rear principal plane.
   double yfov() const;
+  // The paraxial fields of view across and up the film (radians): yfov() and the film's width
+  // over the same image distance.
+  glm::dvec2 field_of_view() const;
   // The front principal plane's distance in front of the sensor: where the equivalent thin lens
-  // sits.
-  double principal_offset() const;
+  // sits (read per lens ray).
+  double principal_offset() const { return lens->cardinal().front_principal_z; }
   // How far the lens is from a perspective projection at the film's corner: |V tan(theta) / r - 1|
   // for the chief ray's object-space angle theta from the corner at r, V the image distance
   // (0.015 for the shipped 28 mm; a fisheye's is large, infinite from 90 degrees on).
