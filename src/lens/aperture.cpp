@@ -133,6 +133,7 @@ ApertureChoices ApertureChoices::of(const ApertureShape& s) {
 // expected time, where a binary search's mispredicted branches cost more than the ray).
 struct Aperture::ImageTables {
   int w = 0, h = 0;
+  float peak = 0;  // the largest pixel's share of the total (row share x column share)
   std::vector<float> row_cdf, column_cdf;
   std::vector<int> row_guide, column_guide;
 };
@@ -183,6 +184,9 @@ std::shared_ptr<const Aperture::ImageTables> build_image_tables(const std::strin
       t->column_cdf[o + x] = total > 0.0 ? static_cast<float>(cols[o + x] / total)
                                          : static_cast<float>(x) / w;
     build_guide(&t->column_cdf[o], w, &t->column_guide[static_cast<std::size_t>(y) * w]);
+    const float row_share = t->row_cdf[y + 1] - t->row_cdf[y];
+    for (int x = 0; x < w; ++x)
+      t->peak = std::max(t->peak, row_share * (t->column_cdf[o + x + 1] - t->column_cdf[o + x]));
   }
   return t;
 }
@@ -267,15 +271,15 @@ glm::vec2 Aperture::sample_image(glm::vec2 u) const {
 }
 
 float Aperture::transmission_at(glm::vec2 p) const {
+  // A pixel's grey level is proportional to its share of the total: its row's share times its
+  // share of the row.
   const ImageTables& t = *image_;
   const int x = static_cast<int>(std::floor((p.x + 1.0f) * 0.5f * t.w));
   const int y = static_cast<int>(std::floor((1.0f - p.y) * 0.5f * t.h));
   if (x < 0 || y < 0 || x >= t.w || y >= t.h) return 0.0f;
   const std::size_t o = static_cast<std::size_t>(y) * (t.w + 1);
-  return t.column_cdf[o + x + 1] - t.column_cdf[o + x] > 0.0f &&
-                 t.row_cdf[y + 1] - t.row_cdf[y] > 0.0f
-             ? 1.0f
-             : 0.0f;
+  const float share = (t.row_cdf[y + 1] - t.row_cdf[y]) * (t.column_cdf[o + x + 1] - t.column_cdf[o + x]);
+  return share > 0.0f ? std::min(1.0f, share / t.peak) : 0.0f;
 }
 
 double Aperture::rim(double angle) const {
@@ -292,6 +296,24 @@ bool Aperture::contains(glm::vec2 p) const {
   if (image_)
     return transmission_at(glm::vec2(static_cast<float>(x), static_cast<float>(y))) > 0.0f;
   return std::hypot(x, y) <= polygon_rim(std::atan2(y, x));
+}
+
+double Aperture::pass(glm::vec2 p) const {
+  const double x = p.x / squeeze_.x, y = p.y / squeeze_.y;
+  const double r = std::sqrt(x * x + y * y);
+  double t = 1.0, rho = r;
+  if (image_) {
+    t = transmission_at(glm::vec2(static_cast<float>(x), static_cast<float>(y)));
+    rho = std::min(1.0, r);  // as sample() gives it
+  } else if (shape_.blades != 0) {
+    const double rim = polygon_rim(std::atan2(y, x));
+    if (r > rim) return 0.0;
+    rho = r / rim;
+  } else if (r > 1.0) {
+    return 0.0;
+  }
+  if (shape_.weighted()) t *= shape_.transmission(rho) * (1.0 - 0.5 * shape_.profile_strength);
+  return t;
 }
 
 glm::vec2 Aperture::sample(glm::vec2 u, float* rho) const {

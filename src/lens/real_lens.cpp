@@ -41,6 +41,11 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
     throw Error("the focus distance must be positive");
   if (!(settings.fstop >= 0.0) || !std::isfinite(settings.fstop))
     throw Error("the f-number must be positive");
+  const ApertureShape& shape = settings.stop_shape;
+  if (shape.vignetting() || shape.chromatic() || shape.tilted() || shape.shifted())
+    throw Error("a real lens's vignetting, chromatic aberration, tilt and shift come from its "
+                "prescription; its stop takes blades, rotation, roundness, an anamorphic ratio, a "
+                "profile or an aperture image");
   tabulate();
   z_from_rear_.assign(surfaces_.size(), 0.0);
   for (std::size_t k = surfaces_.size() - 1; k-- > 0;)
@@ -75,6 +80,10 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
     fstop_ = cardinal_.focal_length / cardinal_.entrance_pupil_diameter;
   }
   focus(settings.focus_distance);
+  // The shape after the exposure's normalisation: a camera's is the lens wide open, its blades
+  // drawn back.
+  stop_radius_ = 0.5 * surfaces_[stop_].aperture_diameter;
+  if (!(shape == ApertureShape{})) stop_aperture_.emplace(shape);  // validates; reads an image
   build_pupil_table();
   if (!(pupil_[0].throughput > 0.0)) throw Error("no ray through the lens reaches the film centre");
   if (!settings.exposure_follows_lens) normalisation_ = 0.0;  // per radius, below
@@ -278,6 +287,16 @@ double RealLens::raw_weight(const LensRay& from_film, double area) const {
   return c * c * c * c * area / (z * z);
 }
 
+bool RealLens::trace_through_stop(LensRay& ray, int band, double& pass) const {
+  pass = 1.0;
+  if (!stop_aperture_) return trace_from_film(ray, band);
+  const std::size_t stop = static_cast<std::size_t>(stop_);
+  if (!trace_span(ray, stop, surfaces_.size(), true, band, true)) return false;  // to the stop
+  pass = stop_aperture_->pass(glm::vec2(static_cast<float>(ray.origin.x / stop_radius_),
+                                        static_cast<float>(ray.origin.y / stop_radius_)));
+  return pass > 0.0 && trace_span(ray, 0, stop, true, band, true);
+}
+
 void RealLens::build_pupil_table() {
   pupil_bins_per_metre_ = kPupilBins / settings_.film_radius;
   tbb::parallel_for(0, kPupilBins, [&](int i) { pupil_[i] = pupil_bin(i); });
@@ -313,7 +332,8 @@ RealLens::PupilBin RealLens::pupil_bin(int i) const {
                                         (bin.hi - bin.lo);
       LensRay r{{x, 0.0, 0.0}, glm::normalize(glm::dvec3{q.x - x, q.y, z_rear})};
       const double w = raw_weight(r, area);
-      if (trace_from_film(r)) sum += w;
+      double pass = 1.0;
+      if (trace_through_stop(r, -1, pass)) sum += w * pass;
     }
   bin.throughput = sum / (kThroughputGrid * kThroughputGrid);
   return bin;
@@ -335,8 +355,9 @@ RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const
   }
   const double area = (bin.hi.x - bin.lo.x) * (bin.hi.y - bin.lo.y);
   s.ray.direction = glm::normalize(glm::dvec3{q.x - film.x, q.y - film.y, z_of(surfaces_.size() - 1)});
-  const double w = raw_weight(s.ray, area);
-  if (!trace_from_film(s.ray, band)) return s;
+  double w = raw_weight(s.ray, area), pass = 1.0;
+  if (!trace_through_stop(s.ray, band, pass)) return s;
+  w *= pass;
   double norm = normalisation_;
   if (norm == 0.0) {
     // The mean throughput at this distance from the centre: linear between the bins' centres (bin 0
@@ -431,7 +452,9 @@ ThinLens MountedLens::equivalent() const {
   // Infinity stays finite for the thin-lens law (the circle of confusion differs by less than
   // f / 1e7 of the aperture).
   const double focus = std::min(lens->focus_distance(), 1e7) - c.front_principal_z;
-  return ThinLens(c.focal_length, lens->fstop(), focus);
+  ThinLens thin(c.focal_length, lens->fstop(), focus);
+  thin.aperture = lens->stop_shape();
+  return thin;
 }
 
 double MountedLens::yfov() const { return field_of_view().y; }
@@ -458,7 +481,7 @@ std::shared_ptr<const LensSystem> read_lens_file(const std::string& path) {
 
 MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const std::string& source,
                        double fstop, double focus_distance, const Sensor& sensor, int width,
-                       int height, bool exposure_follows_lens) {
+                       int height, bool exposure_follows_lens, const ApertureShape& stop) {
   sensor.validate();
   if (width < 1 || height < 1) throw Error("the image must have at least one pixel");
   MountedLens m;
@@ -469,7 +492,8 @@ MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const st
   settings.focus_distance = focus_distance;
   settings.film_radius = 0.5 * std::hypot(m.film_size.x, m.film_size.y) * (1.0 + 1e-9);
   settings.exposure_follows_lens = exposure_follows_lens;
-  // Keyed by the prescription's numbers and the settings.
+  settings.stop_shape = stop;
+  // Keyed by the prescription's numbers and the settings (an aperture image by its version).
   static core::SharedCache<RealLens> mounted;
   std::ostringstream key;
   key.precision(17);
@@ -477,7 +501,10 @@ MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const st
     key << s.radius << ' ' << s.thickness << ' ' << s.ior << ' ' << s.aperture_diameter << ' '
         << s.abbe << ' ' << s.stop << '\n';
   key << fstop << ' ' << focus_distance << ' ' << settings.film_radius << ' '
-      << exposure_follows_lens;
+      << exposure_follows_lens << '\n' << stop.blades << ' ' << stop.rotation_deg << ' '
+      << stop.roundness << ' ' << stop.anamorphic_ratio << ' '
+      << aperture_profile_name(stop.profile) << ' ' << stop.profile_strength << ' '
+      << (stop.image.empty() ? "" : core::file_version_key(stop.image).value_or(stop.image));
   m.lens = mounted.get(key.str(), [&] { return std::make_shared<const RealLens>(*system, settings); });
   return m;
 }

@@ -39,10 +39,11 @@ double centre_depth(const scene::Scene& scene, const scene::Accel& accel,
 ResolvedLens mount_real_lens(const scene::Scene& scene, const scene::Accel& accel,
                              const scene::Camera& camera, const LensOverrides& overrides,
                              int width, int height) {
-  if (!overrides.aperture.over(camera.lens.aperture).shape().plain())
-    throw Error("--lens-file: a real lens's stop is round; its blades, shape, stop, chromatic "
-                "aberration, tilt and shift come from the prescription, not from the aperture "
-                "options");
+  const lens::ApertureShape stop = overrides.aperture.over(camera.lens.aperture).shape();
+  if (stop.vignetting() || stop.chromatic() || stop.tilted() || stop.shifted())
+    throw Error("--lens-file: a real lens's vignetting, chromatic aberration, tilt and shift come "
+                "from its prescription; its stop takes --aperture-blades, -rotation, -roundness, "
+                "--anamorphic-ratio, --aperture-profile and --aperture-image");
   if (width < 1 || height < 1) throw Error("a real lens needs the image's size");
   ResolvedLens r;
   const auto system = lens::read_lens_file(overrides.real.file);
@@ -59,7 +60,7 @@ ResolvedLens mount_real_lens(const scene::Scene& scene, const scene::Accel& acce
     r.focus_from_scene = true;
   }
   r.mounted = lens::mount_lens(system, overrides.real.file, fstop, focus, overrides.real.sensor, width,
-                               height, overrides.real.exposure_follows_lens);
+                               height, overrides.real.exposure_follows_lens, stop);
   r.lens = r.mounted.equivalent();
   return r;
 }

@@ -147,12 +147,13 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
                         real.focused_at_infinity() ? std::string("at infinity")
                                                    : fmt::format("{:.3g} m", real.focus_distance()),
                         autofocus);
-    return text;
+  } else {
+    text += fmt::format("camera  '{}', lens {:.0f} mm f/{:.3g}, focus {:.3g} m (aperture "
+                        "{:.3g} mm){}\n",
+                        camera.name, l.focal_length * 1000.0, l.fstop, l.focus_distance,
+                        l.aperture_diameter() * 1000.0, autofocus);
   }
-  text += fmt::format("camera  '{}', lens {:.0f} mm f/{:.3g}, focus {:.3g} m (aperture "
-                       "{:.3g} mm){}\n",
-                       camera.name, l.focal_length * 1000.0, l.fstop, l.focus_distance,
-                       l.aperture_diameter() * 1000.0, autofocus);
+  // A real lens's equivalent carries its stop's shape (lens/real_lens.h).
   const lens::ApertureShape& a = l.aperture;
   if (a.plain()) return text;
   text += "        aperture ";

@@ -281,6 +281,16 @@ TEST_F(Cli, RealLensFromAPrescriptionFile) {
   const auto parts = dofcache::image::read_multipart_exr(out);
   ASSERT_FALSE(parts.empty());
   EXPECT_EQ(parts[0].attributes.count("real_lens.effective_focal_length"), 1u);
+  // Its stop takes blades (their bokeh: tests/render/real_lens_render_test.cpp); the statistics'
+  // lens, the thick-lens equivalent the cache and the preview use, has them too.
+  testing::CliResult bladed = run("render" + gauss + " --fstop 4 --aperture-blades 6 "
+                                  "--aperture-rotation 15 --out " + out + " --stats-json " +
+                                  stats + small);
+  ASSERT_EQ(bladed.exit_code, 0) << bladed.err;
+  const nlohmann::json jb = nlohmann::json::parse(std::ifstream(stats));
+  EXPECT_EQ(jb["lens"]["aperture_blades"], 6) << jb["lens"];
+  EXPECT_EQ(jb["lens"]["aperture_rotation"], 15.0) << jb["lens"];
+  EXPECT_NEAR(jb["lens"]["focal_length"].get<double>(), 0.0504, 0.0002) << jb["lens"];
   // The request it prints keeps the file and the sensor.
   testing::CliResult req = run("render" + gauss + " --sensor-size 0.024,0.016 --sensor-fit "
                                "vertical --print-request");
@@ -302,8 +312,10 @@ TEST_F(Cli, RealLensFromAPrescriptionFile) {
                         "wider than the lens's widest, f/2.0");
   expect_one_line_error(run("render" + gauss + " --focus-distance 0.1 --out " + out + small),
                         "cannot focus at 0.1");
-  expect_one_line_error(run("render" + gauss + " --aperture-blades 6 --out " + out + small),
-                        "a real lens's stop is round");
+  expect_one_line_error(run("render" + gauss + " --lens-tilt 2,0 --out " + out + small),
+                        "tilt and shift come from its prescription");
+  expect_one_line_error(run("render" + gauss + " --vignetting-stop 0.01,0.02 --out " + out + small),
+                        "vignetting, chromatic aberration");
   expect_one_line_error(run("render --lens-file " + (dir_ / "none.lens").string() + " --out " +
                             out + small),
                         "cannot read the lens file");

@@ -149,7 +149,9 @@ TEST(RenderFilter, AFireflyDoesNotSpread) {
   const Image out = denoise::render_filter(r.color, r.guides());
   for (int dy = -3; dy <= 3; ++dy)
     for (int dx = -3; dx <= 3; ++dx)
-      if (dx || dy) EXPECT_LT(out.at(fx + dx, fy + dy, 0), 1.3f) << dx << "," << dy;
+      if (dx || dy) {
+        EXPECT_LT(out.at(fx + dx, fy + dy, 0), 1.3f) << dx << "," << dy;
+      }
   EXPECT_LT(out.at(fx, fy, 0), 5.0f);
 }
 
@@ -165,7 +167,9 @@ TEST(RenderFilter, ASpotTheNoiseMissesJoinsItsSurroundingsButAShadowEdgeStays) {
   EXPECT_LT(out.at(sx, sy, 0), 2.0f);
   for (int dy = -2; dy <= 2; ++dy)
     for (int dx = -2; dx <= 2; ++dx)
-      if (dx || dy) EXPECT_LT(out.at(sx + dx, sy + dy, 0), 1.2f) << dx << "," << dy;
+      if (dx || dy) {
+        EXPECT_LT(out.at(sx + dx, sy + dy, 0), 1.2f) << dx << "," << dy;
+      }
   EXPECT_NEAR(column_mean(out, kW / 2 - 1), 1.0, 0.02);
   EXPECT_NEAR(column_mean(out, kW / 2), 3.0, 0.02);
 }

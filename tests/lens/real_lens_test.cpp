@@ -24,6 +24,15 @@ LensSystem shipped(const std::string& name) {
   return LensSystem::read(std::string(DOFCACHE_SOURCE_DIR) + "/scenes/lenses/" + name + ".lens");
 }
 
+// Settings as the tests vary them (a round stop).
+RealLensSettings at(double fstop, double focus, double film_radius = 0.0216,
+                    bool exposure_follows_lens = false) {
+  RealLensSettings s;
+  s.fstop = fstop, s.focus_distance = focus, s.film_radius = film_radius;
+  s.exposure_follows_lens = exposure_follows_lens;
+  return s;
+}
+
 struct Published {
   const char* name;
   double focal_length;   // metres (the source's 100 mm design, scaled as the file says)
@@ -67,7 +76,7 @@ TEST(RealLens, FieldOfViewAtInfinityMatchesThePublishedField) {
   }
   // The fisheye: its published 155.9 degree field is where light stops reaching the film. The
   // transcribed clear apertures end the light at 153.4 degrees (1.6 % short), hence 2 %.
-  const RealLens fisheye(shipped("fisheye_10mm"), {0.0, 1e30, 0.02});
+  const RealLens fisheye(shipped("fisheye_10mm"), at(0.0, 1e30, 0.02));
   double last = 0.0;
   for (double h = 0.0; h < 0.02; h += 5e-5) {
     int passed = 0;
@@ -115,7 +124,7 @@ TEST(RealLens, FocusingByTracingImagesTheFocusDistanceSharply) {
       const LensSystem system = shipped(name);
       const RealLens wide_open(system, {});
       const double fstop = std::max(4.0, wide_open.widest_fstop());
-      const RealLens lens(system, {fstop, distance});
+      const RealLens lens(system, at(fstop, distance));
       int passed = 0;
       EXPECT_LT(rms_spot(lens, distance, &passed), 0.019e-3);
       EXPECT_GT(passed, 100);
@@ -125,7 +134,7 @@ TEST(RealLens, FocusingByTracingImagesTheFocusDistanceSharply) {
 
 TEST(RealLens, TracedBokehMatchesTheThickLensPrediction) {
   // The double Gauss at f/2.8 focused at 2 m; points on the axis from 1 m to 20 m from the film.
-  const RealLens lens(shipped("double_gauss_50mm"), {2.8, 2.0});
+  const RealLens lens(shipped("double_gauss_50mm"), at(2.8, 2.0));
   const CardinalPoints& c = lens.cardinal();
   // Thick lens: object distance from the front principal plane, image from the rear one. The film
   // sits at the image of the focus distance (traced best focus differs from it by the residual
@@ -149,7 +158,7 @@ TEST(RealLens, TracedBokehMatchesTheThickLensPrediction) {
 }
 
 TEST(RealLens, SamplesSeeAUniformSceneAtItsRadianceAcrossTheFilm) {
-  const RealLens lens(shipped("double_gauss_50mm"), {2.8, 3.0, 0.0216});
+  const RealLens lens(shipped("double_gauss_50mm"), at(2.8, 3.0));
   for (double r : {0.0, 0.008, 0.015, 0.0205}) {
     SCOPED_TRACE(r);
     double sum = 0.0;
@@ -177,13 +186,21 @@ TEST(RealLens, ExposureFollowingTheLensDarkensWithTheStopAndTowardsTheCorners) {
     return sum / (n * n);
   };
   const LensSystem system = shipped("double_gauss_50mm");
-  const RealLens open(system, {0.0, 1e30, 0.0216, true});
-  const RealLens f4(system, {2.0 * open.widest_fstop(), 1e30, 0.0216, true});
+  const RealLens open(system, at(0.0, 1e30, 0.0216, true));
+  const RealLens f4(system, at(2.0 * open.widest_fstop(), 1e30, 0.0216, true));
   EXPECT_NEAR(mean_weight(open, 0.0), 1.0, 0.02);
   // Two stops down: a quarter of the light (the pupil's area).
   EXPECT_NEAR(mean_weight(f4, 0.0), 0.25, 0.01);
   // Wide open, the corner gets less (cos^4 and the lens's vignetting).
   EXPECT_LT(mean_weight(open, 0.02), 0.8);
+  // Six straight blades inscribed in the f/4 stop pass the hexagon's share of its disc,
+  // 3 sin(60 deg) / pi; a rim-weighted profile of strength 1 (T = rho^2) half of that.
+  RealLensSettings bladed = at(2.0 * open.widest_fstop(), 1e30, 0.0216, true);
+  bladed.stop_shape.blades = 6;
+  const double hexagon = 3.0 * std::sin(60.0 * kDeg) / (4.0 * std::atan(1.0));
+  EXPECT_NEAR(mean_weight(RealLens(system, bladed), 0.0), 0.25 * hexagon, 0.01);
+  bladed.stop_shape.profile = ApertureProfile::Rim;
+  EXPECT_NEAR(mean_weight(RealLens(system, bladed), 0.0), 0.125 * hexagon, 0.006);
 }
 
 TEST(RealLens, DispersionGivesAThinLensItsClassicalColourFocusShift) {
@@ -215,10 +232,17 @@ TEST(RealLens, AbsurdSettingsAreOneLineErrors) {
     }
     return "";
   };
-  EXPECT_NE(message({1.0, 1e30}).find("wider than the lens's widest"), std::string::npos);
-  EXPECT_NE(message({4.0, 0.1}).find("cannot focus"), std::string::npos);
-  EXPECT_NE(message({4.0, -1.0}).find("focus distance"), std::string::npos);
+  EXPECT_NE(message(at(1.0, 1e30)).find("wider than the lens's widest"), std::string::npos);
+  EXPECT_NE(message(at(4.0, 0.1)).find("cannot focus"), std::string::npos);
+  EXPECT_NE(message(at(4.0, -1.0)).find("focus distance"), std::string::npos);
   EXPECT_THROW(RealLens(LensSystem::parse("50 5 1.5 20\n-50 0 1 20\n", "no stop"), {}), Error);
+  // The lens's own vignetting, colour and geometry are its prescription's, not the stop's.
+  RealLensSettings tilted = at(4.0, 3.0);
+  tilted.stop_shape.tilt_x_deg = 2.0;
+  EXPECT_NE(message(tilted).find("come from its prescription"), std::string::npos);
+  RealLensSettings bad_blades = at(4.0, 3.0);
+  bad_blades.stop_shape.blades = 2;
+  EXPECT_NE(message(bad_blades).find("aperture blades"), std::string::npos);
   // A diverging lens forms no real image.
   const LensSystem diverging = LensSystem::parse("0 1 0 10\n-50 5 1.5 20\n50 0 1 20\n", "neg");
   EXPECT_LT(diverging.effective_focal_length(), 0.0);

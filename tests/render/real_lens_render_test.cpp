@@ -7,10 +7,13 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "dofcache/lens/real_lens.h"
 #include "dofcache/render/renderer.h"
+#include "dofcache/image/image_io.h"
 #include "lamp_bokeh.h"
+#include "scratch_dir.h"
 
 namespace dofcache::render {
 namespace {
@@ -18,12 +21,12 @@ namespace {
 constexpr int kSize = 96;
 
 lens::MountedLens double_gauss(double fstop, double focus, bool exposure = false,
-                               double sensor = 0.008) {
+                               double sensor = 0.008, const lens::ApertureShape& stop = {}) {
   const std::string path = std::string(DOFCACHE_SOURCE_DIR) + "/scenes/lenses/double_gauss_50mm.lens";
   lens::Sensor s;
   s.width = s.height = sensor;  // a small square sensor: large bokeh in few pixels
   return lens::mount_lens(lens::read_lens_file(path), path, fstop, focus, s, kSize, kSize,
-                          exposure);
+                          exposure, stop);
 }
 
 image::Image render_through(const lens::MountedLens& m, const scene::Scene& s, int spp) {
@@ -53,6 +56,82 @@ TEST(RealLensRender, LampBokehHasTheThickLensCircleOfConfusion) {
     EXPECT_NEAR(b.cx, 0.0, 0.25);
     EXPECT_NEAR(b.cy, 0.0, 0.25);
     for (int k : {1, 2, 3}) EXPECT_LT(std::abs(b.order[k]), 0.03) << k;  // round, centred
+  }
+}
+
+// The lamps of the test above through a shaped stop, wide open, focused at 1 m from the sensor:
+// 0.5 m in front of the focus, 6 m behind.
+struct LampAt {
+  double distance, coc;  // metres from the sensor; the equivalent's circle of confusion, pixels
+  testing::BokehMoments bokeh;
+};
+std::vector<LampAt> lamp_bokeh(const lens::ApertureShape& stop, int spp) {
+  const lens::MountedLens m = double_gauss(0.0, 1.0, false, 0.006, stop);
+  const lens::LensImaging imaging{m.equivalent(), m.yfov(), kSize};
+  std::vector<LampAt> out;
+  for (double distance : {0.5, 6.0}) {
+    const double depth = distance - m.principal_offset();
+    const double side = 2.5 * imaging.pixel_footprint(depth);
+    const scene::Scene s =
+        testing::lamp_scene({0.0f, 0.0f, -static_cast<float>(distance)}, side, 0.5f);
+    out.push_back({distance, imaging.coc_radius_pixels(depth),
+                   testing::bokeh_moments(render_through(m, s, spp), 1)});
+  }
+  return out;
+}
+
+constexpr double kLampPolar = (2.5 * 2.5 + 1.0) / 6.0;  // the lamp's square and the pixel's box
+
+TEST(RealLensRender, BladedStopGivesItsPolygonUprightBehindTheFocusAndTurnedInFront) {
+  // Five blades, a corner straight up: behind the focus the bokeh is upright (the exit pupil is
+  // the stop's upright image), in front of it turned by 180 degrees, as through a thin lens.
+  constexpr int kBlades = 5;
+  for (const LampAt& lamp : lamp_bokeh({kBlades, 90.0, 0.0, 1.0, {}}, 1024)) {
+    SCOPED_TRACE(lamp.distance);
+    const testing::BokehMoments& b = lamp.bokeh;
+    EXPECT_EQ(b.corners(), kBlades);
+    const double expected = lamp.distance > 1.0 ? 90.0 : 270.0;
+    EXPECT_NEAR(std::remainder(b.corner_deg(kBlades) - expected, 360.0 / kBlades), 0.0, 3.0)
+        << b.corner_deg(kBlades);
+    // A regular N-gon of circumradius R: polar moment R^2 (1 + 2 cos^2(pi / N)) / 6. The stop's
+    // polygon is inscribed in the round stop, so R is the equivalent's circle of confusion.
+    const double c = std::cos(M_PI / kBlades);
+    const double radius = std::sqrt((b.polar - kLampPolar) * 6.0 / (1.0 + 2.0 * c * c));
+    EXPECT_NEAR(radius, lamp.coc, 0.05 * lamp.coc);
+  }
+}
+
+TEST(RealLensRender, AnamorphicStopGivesAnOvalTwiceAsTallAsWide) {
+  for (const LampAt& lamp : lamp_bokeh({0, 0.0, 0.0, 2.0, {}}, 1024)) {
+    SCOPED_TRACE(lamp.distance);
+    // An ellipse's second moment along an axis is a quarter of that semi-axis squared.
+    const double extra = (2.5 * 2.5 + 1.0) / 12.0;
+    const double tall = std::sqrt(4.0 * (lamp.bokeh.yy - extra));
+    const double wide = std::sqrt(4.0 * (lamp.bokeh.xx - extra));
+    EXPECT_NEAR(tall / wide, 2.0, 0.06 * 2.0);
+    EXPECT_NEAR(tall, lamp.coc, 0.05 * lamp.coc);
+  }
+}
+
+class RealLensImageStop : public testing::ScratchDirTest {};
+
+TEST_F(RealLensImageStop, ApertureImageTransmitsItsGreyLevels) {
+  // The stop's right half passes everything, its left half a quarter. The bokeh is the disc with
+  // that transmission, upright behind the focus: its centroid lies (1 - 1/4) / (1 + 1/4) of a
+  // half-disc's, 4 R / (3 pi), to the right; in front of the focus as far to the left.
+  image::Image half(64, 64, 3, 0.25f);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 32; x < 64; ++x)
+      for (int c = 0; c < 3; ++c) half.at(x, y, c) = 1.0f;
+  const std::string path = (dir_ / "half.exr").string();
+  image::write_image(path, half);
+  lens::ApertureShape stop;
+  stop.image = path;
+  for (const LampAt& lamp : lamp_bokeh(stop, 512)) {
+    SCOPED_TRACE(lamp.distance);
+    const double offset = 0.75 / 1.25 * 4.0 * lamp.coc / (3.0 * M_PI);
+    EXPECT_NEAR(lamp.bokeh.cx, lamp.distance > 1.0 ? offset : -offset, 0.05 * offset);
+    EXPECT_NEAR(lamp.bokeh.cy, 0.0, 0.25);
   }
 }
 
@@ -94,6 +173,12 @@ TEST(RealLensRender, UniformLightFillsTheFrameAtItsRadianceOrTheStopsShare) {
   const image::Image camera = render_through(f4, s, 64);
   EXPECT_NEAR(patch_mean(camera, 48, 48), share, 0.03 * share);
   EXPECT_LT(patch_mean(camera, 6, 6), 0.9 * share);
+  // A shaped stop (six blades, a rim-weighted profile) passes less light than the round one;
+  // normalised per distance from the centre, it still images the light at its radiance.
+  const lens::ApertureShape shaped(6, 10.0, 0.0, 1.0, {}, 0.0, 0.0, lens::ApertureProfile::Rim, 1.0);
+  const image::Image bladed = render_through(double_gauss(4.0, 3.0, false, 0.036, shaped), s, 64);
+  for (auto [x, y] : {std::pair{48, 48}, std::pair{6, 6}, std::pair{89, 89}})
+    EXPECT_NEAR(patch_mean(bladed, x, y), 1.0, 0.03) << x << "," << y;
 }
 
 }  // namespace

@@ -191,6 +191,11 @@ class Aperture {
   // counter-clockwise).
   double rim(double angle) const;  // blades and ovals (an aperture image's rim is not traced)
   bool contains(glm::vec2 p) const;
+  // The share of light the aperture passes at p (in sample()'s units and orientation): 0 outside
+  // its shape, 1 inside (an aperture image: its grey level over its brightest), times the
+  // profile's T(rho) as a filter would pass it (not divided by its mean). A real lens's stop
+  // weighs its traced rays by it (lens/real_lens.h).
+  double pass(glm::vec2 p) const;
   const ApertureShape& shape() const { return shape_; }
   // The aperture image's sampling tables (opaque: aperture.cpp), read once per file and shared
   // by every Aperture (and camera) that names it.
@@ -207,7 +212,8 @@ class Aperture {
   std::vector<float> area_cdf_;
   std::shared_ptr<const ImageTables> image_;
   glm::vec2 sample_image(glm::vec2 u) const;
-  float transmission_at(glm::vec2 p) const;  // unsqueezed, in the round aperture's units
+  // The image's grey level over its brightest at p, unsqueezed, in the round aperture's units.
+  float transmission_at(glm::vec2 p) const;
 };
 
 }  // namespace dofcache::lens

@@ -7,6 +7,10 @@
 // front element as the camera ray; the lens turns the image over, so a camera maps the scene's
 // right and up to the film's -x and -y.
 //
+// A shaped stop (blades, an anamorphic oval, an aperture image, a transmission profile) weighs
+// each ray by what it passes where the ray crosses the stop (Aperture::pass); the exit-pupil
+// bounds stay the round stop's, which contain every shape's.
+//
 // Sampling (as pbrt-v4's realistic camera): for a film point, a point is chosen uniformly on the
 // bounds of the exit pupil as seen from that distance from the film centre (precomputed in
 // radial bins), the ray towards it is traced, and a ray that an element stops weighs 0. The
@@ -17,6 +21,7 @@
 // with the f-stop and with the lens's own vignetting, as a camera's does).
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,6 +56,10 @@ struct RealLensSettings {
   double focus_distance = 1e30;  // metres from the film plane to the plane in focus (>= kInfiniteFocus: infinity)
   double film_radius = 0.0216;   // metres: the largest distance from the film centre rays start at
   bool exposure_follows_lens = false;
+  // The stop's shape: blades, rotation, roundness, an anamorphic ratio, a profile or an aperture
+  // image, inscribed in the round stop the f-number sets (lens/aperture.h; x right and y up as
+  // the camera sees). Vignetting, chromatic aberration, tilt and shift are the prescription's.
+  ApertureShape stop_shape;
 };
 
 class RealLens {
@@ -82,6 +91,7 @@ class RealLens {
   bool focused_at_infinity() const { return settings_.focus_distance >= kInfiniteFocus; }
   bool exposure_follows_lens() const { return settings_.exposure_follows_lens; }
   double length() const { return length_; }  // front vertex to rear vertex
+  const ApertureShape& stop_shape() const { return settings_.stop_shape; }
   // The object-space angle (radians) of the chief ray, through the stop's centre, from the film
   // point at distance `height` from the centre.
   double field_angle(double height) const;
@@ -120,6 +130,9 @@ class RealLens {
   // the moment.
   PupilBin pupil_bin(int i) const;
   double raw_weight(const LensRay& from_film, double area) const;
+  // trace_from_film with the stop's shape: `pass` the share the stop passes where the ray
+  // crosses it (1 for a round stop); false where the ray is stopped.
+  bool trace_through_stop(LensRay& ray, int band, double& pass) const;
 
   std::vector<LensSurface> surfaces_;
   std::vector<double> z_from_rear_;  // each surface's vertex, relative to the rear vertex
@@ -134,6 +147,8 @@ class RealLens {
   double normalisation_ = 1;  // the centre's throughput at the widest stop (exposure follows)
   CardinalPoints cardinal_;
   std::array<PupilBin, kPupilBins> pupil_{};
+  std::optional<Aperture> stop_aperture_;  // a shaped stop; none: round
+  double stop_radius_ = 0;                 // the round stop's, metres
 };
 
 // The sensor a real lens images onto, and which part of it an image of another aspect ratio uses:
@@ -195,7 +210,7 @@ struct MountedLens {
 // does not rebuild its exit-pupil table. Throws dofcache::Error (RealLens's errors).
 MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const std::string& source,
                        double fstop, double focus_distance, const Sensor& sensor, int width,
-                       int height, bool exposure_follows_lens);
+                       int height, bool exposure_follows_lens, const ApertureShape& stop = {});
 
 // LensSystem::read, kept per path, size and modification time (as aperture images are).
 std::shared_ptr<const LensSystem> read_lens_file(const std::string& path);

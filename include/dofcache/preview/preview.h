@@ -116,9 +116,9 @@ inline constexpr const char* kShapedPreviewNotice =
 // equivalent, whose circle of confusion the traced bokeh follows (tests/render/
 // real_lens_render_test.cpp), through the pinhole projection from its front principal plane.
 inline constexpr const char* kRealLensPreviewNotice =
-    "the preview draws the real lens as its thick-lens equivalent (round bokeh of its circle of "
-    "confusion, a perspective projection); the cat's eyes, distortion and aberrations of its "
-    "traced render are left out";
+    "the preview draws the real lens as its thick-lens equivalent (the bokeh of its circle of "
+    "confusion in its stop's shape, a perspective projection); the cat's eyes, distortion and "
+    "aberrations of its traced render are left out";
 // Beyond this corner distortion (lens::MountedLens::corner_distortion) a real lens is not drawn
 // by the preview's perspective projection (a fisheye): resolve() refuses it in one line.
 inline constexpr double kMaxPreviewDistortion = 0.1;
