@@ -8,6 +8,7 @@
 #include "dofcache/cache/radiance_cache.h"
 #include "dofcache/cache/sample_radius.h"
 #include "dofcache/core/error.h"
+#include "dofcache/lens/shipped_lenses.h"
 
 namespace dofcache::cli {
 namespace {
@@ -144,9 +145,13 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
 }
 
 void add_real_lens_options(CLI::App* cmd, render::LensOverrides& lens) {
+  std::string shipped;
+  for (const lens::ShippedLens& l : lens::shipped_lenses())
+    shipped += (shipped.empty() ? "" : ", ") + std::string(l.name);
   cmd->add_option("--lens-file", lens.real.file,
                   "A real lens: its prescription table (millimetres, front element first, as "
-                  "pbrt-v4's; scenes/lenses/ has four), traced element by element. The lens and "
+                  "pbrt-v4's), or a shipped lens's name (" + shipped + ": scenes/lenses/), "
+                  "traced element by element. The lens and "
                   "the sensor then set the field of view (the camera's yfov and --focal-length are "
                   "ignored), --focus-distance is measured from the sensor and focuses by tracing, "
                   "--fstop sets its stop (default: the table's)");

@@ -81,6 +81,7 @@ Runner add_view_command(CLI::App& app) {
       ->check(CLI::Range(0, 65535));
   cmd->add_flag("--open", o->open, "Also open the address in the browser ($BROWSER or xdg-open)");
   add_lens_options(cmd, r.lens, "the camera's extras.lens");
+  add_real_lens_options(cmd, r.lens);  // the page lists the shipped lenses too
   add_seed_and_threads(cmd, r, "Random seed of the inputs and the reference");
   add_shading_options(cmd, r);
   add_environment_options(cmd, r.environment);

@@ -11,6 +11,7 @@
 
 #include "dofcache/core/error.h"
 #include "dofcache/core/shared_cache.h"
+#include "dofcache/lens/shipped_lenses.h"
 
 namespace dofcache::lens {
 namespace {
@@ -474,9 +475,21 @@ double MountedLens::corner_distortion() const {
 std::shared_ptr<const LensSystem> read_lens_file(const std::string& path) {
   static core::SharedCache<LensSystem> read;
   auto load = [&] { return std::make_shared<const LensSystem>(LensSystem::read(path)); };
-  const auto key = core::file_version_key(path);
-  if (!key) return load();  // LensSystem::read gives the one-line error
-  return read.get(*key, load);
+  if (const auto key = core::file_version_key(path)) return read.get(*key, load);
+  // No such file: a shipped lens by its name, else LensSystem::read's one-line error with the
+  // names that would have been found.
+  if (const ShippedLens* shipped = find_shipped_lens(path))
+    return read.get("shipped\n" + std::string(shipped->name), [&] {
+      return std::make_shared<const LensSystem>(
+          LensSystem::parse(std::string(shipped->table), std::string(shipped->name) + ".lens"));
+    });
+  std::string names;
+  for (const ShippedLens& l : shipped_lenses()) names += (names.empty() ? "" : ", ") + std::string(l.name);
+  try {
+    return load();
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " (nor is it a shipped lens: " + names + ")");
+  }
 }
 
 MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const std::string& source,

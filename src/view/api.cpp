@@ -13,6 +13,7 @@
 
 #include "dofcache/core/error.h"
 #include "dofcache/lens/lens_json.h"
+#include "dofcache/lens/shipped_lenses.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/view/page.h"
 #include "dofcache/view/server.h"
@@ -47,6 +48,7 @@ using preview::layer_composite_name;
 // The lens, the preview method and composite, as GET and POST /api/lens answer.
 json lens_and_method_json(const ViewStatus& s) {
   json j = lens_json(s.lens);
+  j["lens_file"] = s.real_lens ? json(s.real_lens.source) : json(nullptr);
   j["method"] = preview::preview_method_name(s.method);
   j["composite"] = layer_composite_name(s.composite);
   return j;
@@ -72,7 +74,9 @@ json choices_json() {
   for (const std::string& n : preview::layer_composite_names())
     composites.push_back(
         {{"name", n}, {"label", preview::layer_composite_label(preview::parse_layer_composite(n))}});
-  return {{"methods", methods}, {"composites", composites}};
+  json lenses = json::array();
+  for (const lens::ShippedLens& l : lens::shipped_lenses()) lenses.push_back(l.name);
+  return {{"methods", methods}, {"composites", composites}, {"lenses", lenses}};
 }
 
 json status_json(const ViewStatus& s) {
@@ -80,6 +84,7 @@ json status_json(const ViewStatus& s) {
           {"choices", choices_json()},
           {"height", s.height},
           {"lens", lens_json(s.lens)},
+          {"real_lens", s.real_lens ? lens::real_lens_json(s.real_lens) : json(nullptr)},
           {"method", preview::preview_method_name(s.method)},
           {"composite", layer_composite_name(s.composite)},
           {"lens_version", s.lens_version},
@@ -267,14 +272,20 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
   // (aperture_blades, aperture_rotation, aperture_roundness, anamorphic_ratio, vignetting_stop,
   // axial_ca, lateral_ca, aperture_profile, aperture_profile_strength, lens_tilt, lens_shift,
   // aperture_image: lens/aperture.h; a null vignetting_stop or aperture_image removes it),
-  // method and composite.
+  // method and composite; lens_file (a shipped lens's name or a prescription file; null: the
+  // thin lens) is applied first, the other values then to the lens it mounts.
   if (post && path == "/api/lens") {
     const json body = body_object(req);
     check_keys(body, {"focal_length", "fstop", "focus_distance", "aperture_blades",
                       "aperture_rotation", "aperture_roundness", "anamorphic_ratio",
                       "vignetting_stop", "axial_ca", "lateral_ca", "aperture_profile",
                       "aperture_profile_strength", "lens_tilt", "lens_shift", "aperture_image",
-                      "method", "composite"});
+                      "method", "composite", "lens_file"});
+    if (auto it = body.find("lens_file"); it != body.end()) {
+      if (!it->is_null() && !it->is_string())
+        throw Error("'lens_file' must be a shipped lens's name, a lens file or null");
+      session_.set_real_lens(it->is_null() ? std::string() : it->get<std::string>());
+    }
     lens::ThinLens lens = session_.lens();
     if (auto v = optional_number(body, "focal_length")) lens.focal_length = *v;
     if (auto v = optional_number(body, "fstop")) lens.fstop = *v;
@@ -386,7 +397,11 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
   if (post && path == "/api/keyframe") {
     if (keyframes_.empty() || !append_keyframe_)
       return error(409, "no keyframe file: start dofcache view with --keyframes FILE");
-    const lens::ThinLens lens = session_.lens();
+    // Through a real lens the key's focus counts from the sensor, as `sequence --lens-file`
+    // reads it.
+    const ViewStatus status = session_.status();
+    lens::ThinLens lens = status.lens;
+    if (status.real_lens) lens.focus_distance += status.real_lens.principal_offset();
     const int keys = append_keyframe_(keyframes_, session_.camera(), lens,
                                       "keys from dofcache view of " + scene_name_);
     return json_response({{"keys", keys}, {"file", keyframes_}, {"lens", lens_json(lens)}});

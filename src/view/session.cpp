@@ -90,7 +90,8 @@ struct SavedInputs {
 };
 
 struct ViewSession::State {
-  lens::ThinLens lens;
+  lens::ThinLens lens;       // a real lens's thick-lens equivalent
+  lens::MountedLens real;    // empty: the thin lens
   preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
   preview::LayerComposite composite = preview::LayerComposite::Over;
   scene::Camera camera;               // moved by move_camera
@@ -135,6 +136,8 @@ ViewSession::ViewSession(scene::Scene scene, const render::LensOverrides& lens,
   resolved_ = request::resolve(q, *scene_, render_->accel, render_->camera);
   state_->lens = resolved_.settings.lens;
   state_->lens.validate();
+  state_->real = resolved_.settings.real_lens;
+  real_choices_ = q.lens.real;
   width_ = resolved_.settings.width;
   height_ = resolved_.settings.height;
   options_ = resolved_.preview_options;
@@ -221,6 +224,7 @@ bool ViewSession::render_inputs(InputStage stage, std::uint64_t camera_version) 
     std::lock_guard<std::mutex> lock(mutex_);
     if (state_->stop || state_->camera_version != camera_version) return false;
     s.lens = state_->lens;  // the occlusion fix's layers are planned for the lens of the moment
+    s.real_lens = state_->real;  // its pinhole is seen from the principal plane, its field
     camera = state_->camera;
   }
   const preview::PreviewMethod method =
@@ -252,6 +256,7 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
   int spp = 0;
   std::uint64_t pass = 0, lens_version = 0;
   lens::ThinLens lens;
+  lens::MountedLens real;
   scene::Camera camera;
   for (;;) {
     {
@@ -266,6 +271,7 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
       if (state_->lens_version != lens_version) {  // (re)start for the current lens
         lens_version = state_->lens_version;
         lens = state_->lens;
+        real = state_->real;
         spp = 0;
         sum = image::Image();
         state_->reference.reset();
@@ -278,6 +284,7 @@ void ViewSession::refine_reference(std::uint64_t camera_version) {
     render::RenderSettings s = resolved_.settings;
     s.seed = reference_pass_seed(settings_.request.seed, ++pass);
     s.lens = lens;
+    s.real_lens = real;
     s.progress = Progress::Display::Never;
     s.cache.frame = static_cast<std::uint32_t>(pass);
     const auto t0 = clock::now();
@@ -316,6 +323,7 @@ ViewStatus ViewSession::status() const {
   s.width = width_;
   s.height = height_;
   s.lens = st.lens;
+  s.real_lens = st.real;
   s.method = st.method;
   s.composite = st.composite;
   s.lens_version = st.lens_version;
@@ -349,7 +357,10 @@ scene::Camera ViewSession::move_camera(double yaw, double pitch, double dolly) {
   State& st = *state_;
   const glm::dmat4 m(st.camera.camera_to_world);
   const glm::dvec3 position(m[3]), forward = -glm::normalize(glm::dvec3(m[2]));
-  const double distance = st.lens.focus_distance;
+  // The point in focus, from the camera node (a real lens's sensor: its equivalent's focus
+  // distance counts from the front principal plane).
+  const double offset = st.real ? st.real.principal_offset() : 0.0;
+  const double distance = st.lens.focus_distance + offset;
   const glm::dvec3 pivot = position + forward * distance;
   // Yaw about the world's up (+Y) through the pivot, pitch about the camera's right axis; the
   // camera keeps looking at the pivot and its distance, then moves `dolly` along its new axis.
@@ -363,7 +374,15 @@ scene::Camera ViewSession::move_camera(double yaw, double pitch, double dolly) {
   // A dolly stops short of the pivot (keeping a tenth of the distance): the focus stays ahead.
   const double step = std::min(dolly, 0.9 * distance);
   moved[3] += glm::dvec4(new_forward * step, 0.0);
-  if (step != 0.0) st.lens.focus_distance = distance - step;  // the pivot stays in focus
+  if (step != 0.0) {  // the pivot stays in focus
+    lens::ThinLens focused = st.lens;
+    focused.focus_distance = distance - step - offset;
+    if (st.real) {
+      st.real = remount(focused);  // may refuse (too close): nothing has changed yet
+      focused = st.real.equivalent();
+    }
+    st.lens = focused;
+  }
   scene::Camera camera = st.camera;
   camera.camera_to_world = glm::mat4(moved);
   place_camera(camera);
@@ -391,16 +410,67 @@ lens::ThinLens ViewSession::lens() const {
   return state_->lens;
 }
 
-void ViewSession::set_lens(const lens::ThinLens& lens) {
-  lens.validate();
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    State& st = *state_;
-    if (st.lens == lens) return;
-    st.lens = lens;
-    ++st.lens_version;
+lens::MountedLens ViewSession::remount(const lens::ThinLens& lens) const {
+  const lens::MountedLens& real = state_->real;
+  return lens::mount_lens(lens::read_lens_file(real.source), real.source, lens.fstop,
+                          lens.focus_distance + real.principal_offset(), real_choices_.sensor,
+                          width_, height_, real_choices_.exposure_follows_lens, lens.aperture);
+}
+
+void ViewSession::apply_lens(const lens::ThinLens& lens, const lens::MountedLens& real) {
+  State& st = *state_;
+  // A real lens's pinhole sits at its front principal plane with its paraxial field of view:
+  // where either moves, the inputs are seen from elsewhere.
+  const bool moved =
+      static_cast<bool>(real) != static_cast<bool>(st.real) ||
+      (real && (real.yfov() != st.real.yfov() ||
+                real.principal_offset() != st.real.principal_offset()));
+  if (st.lens == lens && real.lens == st.real.lens) return;
+  st.lens = lens;
+  st.real = real;
+  ++st.lens_version;
+  if (moved) {
+    ++st.camera_version;
+    st.stage = InputStage::None;
   }
   changed_.notify_all();
+}
+
+lens::ThinLens ViewSession::set_lens(const lens::ThinLens& lens) {
+  lens.validate();
+  std::lock_guard<std::mutex> lock(mutex_);
+  State& st = *state_;
+  if (st.lens == lens) return lens;
+  if (!st.real) {
+    apply_lens(lens, {});
+    return lens;
+  }
+  const lens::MountedLens real = remount(lens);  // refuses before anything changes
+  apply_lens(real.equivalent(), real);
+  return st.lens;
+}
+
+lens::ThinLens ViewSession::set_real_lens(const std::string& file) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  State& st = *state_;
+  const double from_sensor = st.lens.focus_distance + (st.real ? st.real.principal_offset() : 0.0);
+  if (file.empty()) {
+    if (!st.real) return st.lens;
+    lens::ThinLens thin = st.lens;  // the equivalent's focal length, f-number and stop
+    thin.focus_distance = from_sensor;
+    thin.validate();
+    apply_lens(thin, {});
+    return thin;
+  }
+  const auto system = lens::read_lens_file(file);
+  auto mount = [&](double fstop) {
+    return lens::mount_lens(system, file, fstop, from_sensor, real_choices_.sensor, width_, height_,
+                            real_choices_.exposure_follows_lens, st.lens.aperture);
+  };
+  lens::MountedLens real = mount(0.0);  // wide open: the lens's widest
+  if (st.lens.fstop > real.lens->fstop()) real = mount(st.lens.fstop);
+  apply_lens(real.equivalent(), real);
+  return st.lens;
 }
 
 void ViewSession::set_method(preview::PreviewMethod method) {
@@ -434,8 +504,7 @@ lens::ThinLens ViewSession::focus_at(int x, int y) {
                 std::to_string(y) + ")");
   lens::ThinLens lens = this->lens();
   lens.focus_distance = d;
-  set_lens(lens);  // validate() refuses a surface nearer than the focal length
-  return lens;
+  return set_lens(lens);  // refuses a surface nearer than the lens can focus
 }
 
 lens::ThinLens ViewSession::focus_plane_at(const int (&pixels)[3][2]) {
@@ -465,8 +534,7 @@ lens::ThinLens ViewSession::focus_plane_at(const int (&pixels)[3][2]) {
   lens.focus_distance = f.focus_distance;
   lens.aperture.tilt_x_deg = f.tilt_x_deg;
   lens.aperture.tilt_y_deg = f.tilt_y_deg;
-  set_lens(lens);  // validates first, so an unusable plane changes nothing
-  return lens;
+  return set_lens(lens);  // validates first, so an unusable plane changes nothing
 }
 
 std::optional<ViewImage> ViewSession::preview() {

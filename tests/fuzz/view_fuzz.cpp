@@ -140,6 +140,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
 
   // Each input starts from the same camera, lens, method and composite.
   sessions->ready.set_camera(sessions->initial_camera);
+  sessions->ready.set_real_lens("");
   sessions->ready.set_lens(sessions->initial_lens);
   sessions->ready.set_method(preview::PreviewMethod::LayeredOcclusion);
   sessions->ready.set_composite(preview::LayerComposite::Over);

@@ -1,5 +1,6 @@
 // The request handling of `dofcache view` without the HTTP transport (view::ViewApi), over a
 // session that was never started (nothing is rendered): what the fuzz target drives.
+#include <algorithm>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -121,6 +122,33 @@ TEST_F(ViewApiTest, LensRouteSetsTheAperturesShape) {
   ASSERT_EQ(tilt.status, 200) << tilt.body;
   EXPECT_EQ(json::parse(tilt.body).at("lens_tilt"), json({3.0, 0.0}));
   EXPECT_EQ(request("POST", "/api/lens", R"({"lens_tilt": [90, 0]})").status, 400);
+}
+
+// A shipped lens by name through the lens route: its prescription sets the focal length, the
+// status lists the shipped lenses, and null goes back to the thin lens.
+TEST_F(ViewApiTest, LensRouteMountsAShippedLensAndLeavesIt) {
+  const json lenses = json::parse(request("GET", "/api/status").body).at("choices").at("lenses");
+  EXPECT_NE(std::find(lenses.begin(), lenses.end(), json("double_gauss_50mm")), lenses.end())
+      << lenses;
+  const ApiResponse set = request("POST", "/api/lens", R"({"lens_file": "double_gauss_50mm"})");
+  ASSERT_EQ(set.status, 200) << set.body;
+  const json lens = json::parse(set.body);
+  EXPECT_EQ(lens.at("lens_file"), "double_gauss_50mm");
+  EXPECT_NEAR(lens.at("focal_length").get<double>(), 0.0504, 0.0002);
+  EXPECT_NEAR(lens.at("fstop").get<double>(), 2.02, 0.01);  // f/2 is wider than its widest
+  const json status = json::parse(request("GET", "/api/status").body);
+  EXPECT_NEAR(status.at("real_lens").at("field_of_view").at(1).get<double>(), 26.5, 1.0)
+      << status.at("real_lens");  // 24 mm of film behind about 50 mm
+  EXPECT_EQ(request("POST", "/api/lens", R"({"fstop": 1.4})").status, 400);
+  const ApiResponse bad = request("POST", "/api/lens", R"({"lens_file": "no_such_lens"})");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_NE(error_of(bad).find("nor is it a shipped lens"), std::string::npos) << bad.body;
+  EXPECT_EQ(request("POST", "/api/lens", R"({"lens_file": 3})").status, 400);
+  const ApiResponse back = request("POST", "/api/lens", R"({"lens_file": null})");
+  ASSERT_EQ(back.status, 200) << back.body;
+  EXPECT_TRUE(json::parse(back.body).at("lens_file").is_null());
+  EXPECT_FALSE(session.status().real_lens);
+  EXPECT_NEAR(session.lens().focal_length, 0.0504, 0.0002);  // the lens it looked through
 }
 
 // Before the first inputs: images are 503, pixels 400, both with a message.

@@ -212,7 +212,8 @@ MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const st
                        double fstop, double focus_distance, const Sensor& sensor, int width,
                        int height, bool exposure_follows_lens, const ApertureShape& stop = {});
 
-// LensSystem::read, kept per path, size and modification time (as aperture images are).
+// LensSystem::read, kept per path, size and modification time (as aperture images are); where no
+// file `path` exists, the shipped lens it names (lens/shipped_lenses.h).
 std::shared_ptr<const LensSystem> read_lens_file(const std::string& path);
 
 }  // namespace dofcache::lens

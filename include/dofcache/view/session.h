@@ -31,6 +31,7 @@
 
 #include "dofcache/image/image.h"
 #include "dofcache/image/metrics.h"
+#include "dofcache/lens/real_lens.h"
 #include "dofcache/lens/thin_lens.h"
 #include "dofcache/preview/options.h"
 #include "dofcache/preview/preview.h"
@@ -69,7 +70,8 @@ const char* input_stage_name(InputStage stage);
 
 struct ViewStatus {
   int width = 0, height = 0;
-  lens::ThinLens lens;
+  lens::ThinLens lens;  // a real lens's thick-lens equivalent (what the preview draws)
+  lens::MountedLens real_lens;  // empty: the thin lens
   preview::PreviewMethod method = preview::PreviewMethod::LayeredOcclusion;
   preview::LayerComposite composite = preview::LayerComposite::Over;  // layered methods
   std::uint64_t lens_version = 0;     // raised by every lens change (the reference restarts)
@@ -125,8 +127,18 @@ class ViewSession {
   ViewStatus status() const;
   lens::ThinLens lens() const;
 
-  // Validates and applies a lens; restarts the reference if it changed.
-  void set_lens(const lens::ThinLens& lens);
+  // Validates and applies a lens; restarts the reference if it changed. Through a real lens its
+  // f-number, its focus distance (from the equivalent's front principal plane, where the pinhole
+  // inputs are seen from) and its stop's shape mount the lens again (its focal length is the
+  // prescription's); where that moves the principal plane or the field of view (the lens
+  // breathes), the inputs are rendered again too. Returns the lens applied.
+  lens::ThinLens set_lens(const lens::ThinLens& lens);
+  // Looks through the real lens `file` (a prescription file or a shipped lens's name: lens/
+  // shipped_lenses.h), or the thin lens again (empty), keeping the focus distance from the
+  // sensor, the f-number where the lens reaches it (else its widest) and the stop's shape. The
+  // inputs are rendered again and the reference restarts. Throws dofcache::Error (one line) for
+  // an unreadable table or a lens that cannot focus there, changing nothing.
+  lens::ThinLens set_real_lens(const std::string& file);
   scene::Camera camera() const;  // the camera looked through now
   // Orbits the camera about the point in focus on its axis (`yaw` radians about the world's +Y,
   // `pitch` about the camera's right axis), then moves it `dolly` metres along its axis (at most
@@ -167,6 +179,12 @@ class ViewSession {
   bool render_inputs(InputStage stage, std::uint64_t camera_version);
   void refine_reference(std::uint64_t camera_version);  // returns when the camera moves
   void place_camera(const scene::Camera& camera);        // under mutex_
+  // The real lens of the moment mounted again for `lens` (its f-number, focus and stop), under
+  // mutex_ (a mount reuses a kept lens, else builds its pupil table: a fraction of a second).
+  lens::MountedLens remount(const lens::ThinLens& lens) const;
+  // Applies `lens` (and `real`, empty for the thin lens), under mutex_: the reference restarts,
+  // and the inputs too where the pinhole's position or field of view changed.
+  void apply_lens(const lens::ThinLens& lens, const lens::MountedLens& real);
 
   std::unique_ptr<scene::Scene> scene_;
   struct Render;
@@ -175,6 +193,7 @@ class ViewSession {
   std::unique_ptr<cache::PersistentCache> persistent_;
   ViewSettings settings_;
   request::ResolvedRequest resolved_;  // the reference's request (spp: one pass)
+  lens::RealLensChoices real_choices_;  // the sensor and exposure a real lens is mounted with
   int width_ = 0, height_ = 0;
   preview::PreviewOptions options_;
 

@@ -243,6 +243,27 @@ async function main() {
     check(keys.length === 2 && keys[1].fstop === lens.fstop && keys[1].frame === 24,
           "Append keyframe writes the lens as keys of " + keyframes);
 
+    // A shipped lens from the menu: its prescription sets the focal length (the field is
+    // disabled), the field of view is shown, and the inputs are seen again through it.
+    const inputsThin = await page.evaluate(() => window.dofcacheView.drawnInputsVersion);
+    const lensChanges = await page.evaluate(() => window.dofcacheView.changes);
+    await page.select("#lens", "double_gauss_50mm");
+    await waitForChange(page, lensChanges);
+    const real = await page.evaluate(() => window.dofcacheView.lens);
+    check(real.lens_file === "double_gauss_50mm" && Math.abs(real.focal_length - 0.0504) < 2e-4,
+          `the lens menu mounts the double Gauss (${(real.focal_length * 1000).toFixed(1)} mm)`);
+    check(await page.$eval("#focal", (el) => el.disabled), "its focal length field is disabled");
+    await page.waitForFunction((v) => window.dofcacheView.drawnInputsVersion > v &&
+                               document.getElementById("fov").textContent.includes(" x "),
+                               {timeout: 120000}, inputsThin);
+    check(true, "the inputs are drawn through it, field of view " +
+          (await page.$eval("#fov", (el) => el.textContent)) + " degrees");
+    const thinChanges = await page.evaluate(() => window.dofcacheView.changes);
+    await page.select("#lens", "");
+    await waitForChange(page, thinChanges);
+    check((await page.evaluate(() => window.dofcacheView.lens)).lens_file === null &&
+          !(await page.$eval("#focal", (el) => el.disabled)), "the thin lens again");
+
     // Back to the occlusion-fixed preview focused on the near object, wide open, for the
     // screenshot in docs/view.md.
     await page.$eval("#fstop", (el) => { el.value = 300; el.dispatchEvent(new Event("change")); });
