@@ -8,9 +8,10 @@
 namespace dofcache::cache {
 
 double sample_radius_pixels(const lens::LensImaging& imaging, double depth, double min_factor) {
-  // eq. (4.2), CoC in pixels; a shaped aperture's bokeh reaches its inradius in every direction
-  // (1 for the round one), so a sample is never reused beyond what the blur hides.
-  return std::max(imaging.coc_radius_pixels(depth) * imaging.lens.aperture.inner_scale(),
+  // eq. (4.2), CoC in pixels; a shaped aperture's bokeh reaches its polygon's inradius (1 for the
+  // round one) along its larger axis, and the lookup's anisotropic footprint shortens the smaller
+  // (anisotropic_footprint), so a sample is never reused beyond what the blur hides.
+  return std::max(imaging.coc_radius_pixels(depth) * imaging.lens.aperture.footprint_scale(),
                   min_factor);
 }
 

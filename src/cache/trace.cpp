@@ -1,6 +1,9 @@
 #include "dofcache/cache/trace.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <iterator>
 #include <memory>
 
 #include "dofcache/core/error.h"
@@ -9,7 +12,7 @@ namespace dofcache::cache {
 namespace {
 
 constexpr char kMagic[8] = {'D', 'O', 'F', 'C', 'T', 'R', 'C', '\0'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: the anisotropic footprint (1 is read too)
 enum class Tag : std::uint32_t { End = 0, Lookups = 1, Inserts = 2 };
 constexpr std::size_t kLookupBytes = 24, kInsertBytes = 44;
 
@@ -83,6 +86,11 @@ TraceWriter::TraceWriter(const std::string& path, const LookupOptions& options) 
   put(&buf, static_cast<std::int32_t>(options.min_samples));
   put(&buf, static_cast<std::uint32_t>(options.reject_in_front ? 1 : 0));
   put(&buf, options.front_tolerance);
+  put(&buf, options.footprint_squeeze);
+  put3(&buf, options.footprint_axis);
+  put3(&buf, options.camera_position);
+  put3(&buf, options.camera_forward);
+  put(&buf, options.floor_per_depth);
   write(buf.data(), buf.size());
 }
 
@@ -156,14 +164,34 @@ CacheTrace read_trace(const std::string& path) {
   in.read(magic, 8);
   if (std::memcmp(magic, kMagic, 8) != 0) throw Error("cache trace " + path + ": not a trace");
   auto version = in.get<std::uint32_t>();
-  if (version != kVersion)
+  if (version != 1 && version != kVersion)
     throw Error("cache trace " + path + ": version " + std::to_string(version) +
-                " not supported (expected " + std::to_string(kVersion) + ")");
+                " not supported (expected 1 or " + std::to_string(kVersion) + ")");
   CacheTrace trace;
   trace.options.max_normal_angle_deg = in.get<float>();
   trace.options.min_samples = in.get<std::int32_t>();
   trace.options.reject_in_front = in.get<std::uint32_t>() != 0;
   trace.options.front_tolerance = in.get<float>();
+  if (version >= 2) {
+    LookupOptions& o = trace.options;
+    auto get3 = [&] {
+      const float x = in.get<float>(), y = in.get<float>(), z = in.get<float>();
+      return glm::vec3(x, y, z);
+    };
+    o.footprint_squeeze = in.get<float>();
+    o.footprint_axis = get3();
+    o.camera_position = get3();
+    o.camera_forward = get3();
+    o.floor_per_depth = in.get<float>();
+    const float values[] = {o.footprint_axis.x, o.footprint_axis.y, o.footprint_axis.z,
+                            o.camera_position.x, o.camera_position.y, o.camera_position.z,
+                            o.camera_forward.x, o.camera_forward.y, o.camera_forward.z,
+                            o.floor_per_depth};
+    if (!(o.footprint_squeeze > 0.0f && o.footprint_squeeze <= 1.0f) ||
+        !std::all_of(std::begin(values), std::end(values), [](float v) { return std::isfinite(v); }) ||
+        !(o.floor_per_depth >= 0.0f))
+      throw Error("cache trace " + path + ": its footprint is not a squeeze in (0, 1] with finite axes");
+  }
 
   TracePass pass;
   bool open = false;

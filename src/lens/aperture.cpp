@@ -74,13 +74,16 @@ const char* aperture_profile_name(ApertureProfile profile) {
   }
 }
 
-double ApertureShape::inner_scale() const {
+double ApertureShape::footprint_scale() const {
   // An aperture image's inradius is not known without reading it: half the round aperture's, a
   // footprint within most bokeh images (docs/lens.md).
-  if (!image.empty()) return 0.5 * std::min(anamorphic_ratio, 1.0 / anamorphic_ratio);
-  const double polygon =
-      blades == 0 ? 1.0 : (1.0 - roundness) * std::cos(kPi / blades) + roundness;
-  return polygon * std::min(anamorphic_ratio, 1.0 / anamorphic_ratio);
+  if (!image.empty()) return 0.5;
+  return blades == 0 ? 1.0 : (1.0 - roundness) * std::cos(kPi / blades) + roundness;
+}
+
+double ApertureShape::inner_scale() const {
+  const glm::dvec2 squeeze = footprint_squeeze();
+  return footprint_scale() * std::min(squeeze.x, squeeze.y);
 }
 
 std::optional<int> blade_count(double value) {

@@ -51,6 +51,7 @@ struct Context {
   Shader shader;
   Shader sample_shader;  // for cache samples: more light and gather samples
   Shader direct_shader;  // for hits too few lens rays would reuse (CacheSettings::direct_below)
+  cache::LookupOptions lookup;  // frame_lookup: the cache's lookup for this camera
   // Adaptive lens sampling: each pixel's sample count (null: settings.spp everywhere), and the
   // pilot's luminance moments to fill (null: none kept). A pixel is written by its own tile only.
   const std::uint32_t* pixel_samples = nullptr;
@@ -116,9 +117,9 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
   // One lookup in kTimedLookupEvery is timed: reading the clock costs a good part of a lookup.
   const bool timed = work.lookups % kTimedLookupEvery == 0;
   auto t0 = timed ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point{};
-  bool hit = cs.cache->lookup(x, p.n, cs.lookup, &r);
+  bool hit = cs.cache->lookup(x, p.n, c.lookup, &r);
   if (!hit && cs.insert) {
-    hit = work.buffer.lookup(x, p.n, cs.lookup, &r);
+    hit = work.buffer.lookup(x, p.n, c.lookup, &r);
     work.tile_hits += hit;
   } else {
     work.hits += hit;
@@ -156,7 +157,9 @@ bool shaded_directly(const Context& c, glm::vec3 x) {
   if (cs.direct_below <= 0.0f) return false;
   const double r =
       cache::sample_radius_pixels(c.camera.imaging(), c.camera.depth(x), cs.radius.min_factor);
-  return c.settings.spp * M_PI * r * r < cs.direct_below;
+  // An anamorphic footprint is an oval: its smaller semi-axis is squeezed down to the floor.
+  const double squeeze = c.lookup.footprint_squeeze;
+  return c.settings.spp * M_PI * r * std::max(r * squeeze, cs.radius.min_factor) < cs.direct_below;
 }
 
 // The albedo the denoiser demodulates by: what the diffuse lobe reflects.
@@ -482,14 +485,16 @@ ShadingSettings cache_sample_shading(const ShadingSettings& per_ray, int sample_
 namespace {
 Context make_context(const scene::Scene& scene, const scene::Accel& accel,
                      const scene::Camera& camera, const RenderSettings& settings) {
+  const ThinLensCamera cam = make_camera(camera, settings);
   return Context{scene,
                  accel,
                  settings,
-                 make_camera(camera, settings),
+                 cam,
                  Shader(scene, accel, settings.shading),
                  Shader(scene, accel,
                         cache_sample_shading(settings.shading, effective_sample_quality(settings))),
-                 Shader(scene, accel, direct_shading(settings))};
+                 Shader(scene, accel, direct_shading(settings)),
+                 frame_lookup(settings, cam)};
 }
 }  // namespace
 
@@ -582,6 +587,21 @@ void RenderSettings::validate() const {
                   (visibility_only ? "visibility-only" : "pinhole") + " renders");
     }
   }
+}
+
+cache::LookupOptions frame_lookup(const RenderSettings& settings, const ThinLensCamera& camera) {
+  cache::LookupOptions o = settings.cache.lookup;
+  const glm::dvec2 squeeze = settings.lens.aperture.footprint_squeeze();
+  if (squeeze.x == 1.0 && squeeze.y == 1.0) return o;
+  // The oval's smaller axis lies along the image's x where the bokeh is taller than wide.
+  o.footprint_squeeze = static_cast<float>(std::min(squeeze.x, squeeze.y));
+  o.footprint_axis = squeeze.x < squeeze.y ? camera.right() : camera.up();
+  o.camera_position = camera.position();
+  o.camera_forward = camera.forward();
+  // min_factor pixel footprints (eq. (4.1)), which grow linearly with depth.
+  o.floor_per_depth = static_cast<float>(settings.cache.radius.min_factor *
+                                         camera.imaging().pixel_footprint(1.0));
+  return o;
 }
 
 ThinLensCamera make_camera(const scene::Camera& camera, const RenderSettings& settings) {

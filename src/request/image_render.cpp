@@ -229,7 +229,8 @@ ImageResult render_image(const ResolvedRequest& r, const scene::Scene& scene,
     s.cache.cache = radiance_cache.get();
     std::unique_ptr<cache::TraceWriter> trace;
     if (!q.cache_trace.empty()) {
-      trace = std::make_unique<cache::TraceWriter>(q.cache_trace, s.cache.lookup);
+      trace = std::make_unique<cache::TraceWriter>(
+          q.cache_trace, render::frame_lookup(s, render::make_camera(camera, s)));
       s.cache.trace = trace.get();
     }
     result.render = render::render(scene, accel, camera, s);

@@ -22,6 +22,11 @@ CacheTrace small_trace() {
   t.options.min_samples = 3;
   t.options.reject_in_front = false;
   t.options.front_tolerance = 0.125f;
+  t.options.footprint_squeeze = 0.5f;
+  t.options.footprint_axis = {0.0f, 1.0f, 0.0f};
+  t.options.camera_position = {1.0f, 2.0f, 3.0f};
+  t.options.camera_forward = {0.0f, 0.0f, -1.0f};
+  t.options.floor_per_depth = 0.001f;
   for (int p = 0; p < 3; ++p) {
     TracePass pass;
     for (int i = 0; i < 5 + p; ++i)
@@ -50,6 +55,11 @@ TEST(Trace, RoundTrip) {
   EXPECT_EQ(r.options.min_samples, 3);
   EXPECT_FALSE(r.options.reject_in_front);
   EXPECT_EQ(r.options.front_tolerance, 0.125f);
+  EXPECT_EQ(r.options.footprint_squeeze, 0.5f);
+  EXPECT_EQ(r.options.footprint_axis, glm::vec3(0.0f, 1.0f, 0.0f));
+  EXPECT_EQ(r.options.camera_position, glm::vec3(1.0f, 2.0f, 3.0f));
+  EXPECT_EQ(r.options.camera_forward, glm::vec3(0.0f, 0.0f, -1.0f));
+  EXPECT_EQ(r.options.floor_per_depth, 0.001f);
   ASSERT_EQ(r.passes.size(), t.passes.size());
   EXPECT_EQ(r.lookup_count(), t.lookup_count());
   EXPECT_EQ(r.insert_count(), t.insert_count());
@@ -63,11 +73,11 @@ TEST(Trace, RoundTrip) {
       EXPECT_EQ(std::memcmp(&r.passes[p].inserts[i], &t.passes[p].inserts[i], sizeof(CacheSample)),
                 0);
   }
-  // Header 28 bytes; records: 4 lookup (8 + 24 n), 4 insert (8 + 44 n; the last one empty),
+  // Header 72 bytes; records: 4 lookup (8 + 24 n), 4 insert (8 + 44 n; the last one empty),
   // end 8.
   std::ifstream f(path, std::ios::binary | std::ios::ate);
   EXPECT_EQ(static_cast<std::size_t>(f.tellg()),
-            28 + 4 * 8 + 24 * t.lookup_count() + 4 * 8 + 44 * t.insert_count() + 8);
+            72 + 4 * 8 + 24 * t.lookup_count() + 4 * 8 + 44 * t.insert_count() + 8);
   std::remove(path.c_str());
 }
 
@@ -87,6 +97,33 @@ TEST(Trace, StreamingWriterMatchesWriteTrace) {
   EXPECT_EQ(ra.insert_count(), rb.insert_count());
   std::remove(a.c_str());
   std::remove(b.c_str());
+}
+
+// A version-1 trace (before the anisotropic footprint) is read with a round one.
+TEST(Trace, VersionOneIsReadWithARoundFootprint) {
+  const std::string path = temp_path("v1.dctrace");
+  {
+    std::ofstream f(path, std::ios::binary);
+    auto put = [&](const auto& v) { f.write(reinterpret_cast<const char*>(&v), sizeof v); };
+    f.write("DOFCTRC", 8);
+    put(std::uint32_t{1});
+    put(20.0f), put(std::int32_t{2}), put(std::uint32_t{1}), put(0.05f);
+    put(std::uint32_t{1}), put(std::uint32_t{1});  // one lookup
+    for (float v : {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 1.0f}) put(v);
+    put(std::uint32_t{0}), put(std::uint32_t{0});
+  }
+  const CacheTrace r = read_trace(path);
+  EXPECT_EQ(r.options.max_normal_angle_deg, 20.0f);
+  EXPECT_EQ(r.options.min_samples, 2);
+  EXPECT_FALSE(r.options.anisotropic());
+  EXPECT_EQ(r.lookup_count(), 1u);
+  std::remove(path.c_str());
+  // A footprint that is no squeeze is refused.
+  CacheTrace bad = small_trace();
+  bad.options.footprint_squeeze = 2.0f;
+  write_trace(path, bad);
+  EXPECT_THROW(read_trace(path), Error);
+  std::remove(path.c_str());
 }
 
 TEST(Trace, BadFilesThrow) {

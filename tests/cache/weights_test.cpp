@@ -40,6 +40,32 @@ TEST(Weights, RejectsBeyondTheRadius) {
   EXPECT_GT(test.weight({0.90f, 0.0f, 0.0f}, 1.0f, {0.0f, s, c}), 0.0f);
 }
 
+// An anamorphic oval's footprint: along the squeezed axis (x here) the reach is squeeze r or the
+// in-focus floor, whichever is larger; across it the sphere's.
+TEST(Weights, AnisotropicFootprintReachesSqueezeTimesTheRadiusAlongItsAxis) {
+  LookupOptions o;
+  o.footprint_squeeze = 0.5f;
+  o.footprint_axis = {1.0f, 0.0f, 0.0f};
+  o.camera_position = {0.0f, 0.0f, 4.0f};  // the query 4 m in front of the camera
+  o.camera_forward = {0.0f, 0.0f, -1.0f};
+  const SampleTest test(kP, kN, o);
+  // 0.25 along x with r = 1: the offset counts 1 / 0.5 = 2 times, eps = 0.5, w = (1 - 0.5)^2.
+  EXPECT_NEAR(test.weight({0.25f, 0.0f, 0.0f}, 1.0f, kN), 0.25f, 1e-6f);
+  EXPECT_EQ(test.weight({0.55f, 0.0f, 0.0f}, 1.0f, kN), 0.0f);  // beyond 0.5 along x
+  EXPECT_NEAR(test.weight({0.0f, 0.9f, 0.0f}, 1.0f, kN), 0.01f, 1e-6f);  // y: (1 - 0.9)^2
+  // (0.3, 0.3): sqrt(0.09 + 0.09 + 3 x 0.09) = 0.6708.
+  EXPECT_NEAR(test.weight({0.3f, 0.3f, 0.0f}, 1.0f, kN), std::pow(1.0f - 0.67082f, 2.0f), 1e-5f);
+  // A floor of 0.2 per metre of depth: 0.8 at the query, so along x the reach is 0.8.
+  o.floor_per_depth = 0.2f;
+  const SampleTest floored(kP, kN, o);
+  // 0.4 along x counts 1 / 0.8 = 1.25 times: eps = 0.5.
+  EXPECT_NEAR(floored.weight({0.4f, 0.0f, 0.0f}, 1.0f, kN), 0.25f, 1e-6f);
+  EXPECT_EQ(floored.weight({0.85f, 0.0f, 0.0f}, 1.0f, kN), 0.0f);
+  // A round footprint is the paper's sphere.
+  EXPECT_NEAR(SampleTest(kP, kN, LookupOptions{}).weight({0.25f, 0.0f, 0.0f}, 1.0f, kN), 0.5625f,
+              1e-6f);
+}
+
 TEST(Weights, RejectsNormalsBeyondTheAngle) {
   LookupOptions opt;  // 25 degrees
   SampleTest test(kP, kN, opt);

@@ -164,6 +164,11 @@ TEST(Aperture, AnamorphicRatioSqueezesTheWidth) {
   EXPECT_NEAR(ApertureShape({0, 0.0, 0.0, 2.0, {}}).inner_scale(), 0.5, 1e-12);
   EXPECT_NEAR(ApertureShape({0, 0.0, 0.0, 0.5, {}}).inner_scale(), 0.5, 1e-12);  // wide ovals
   EXPECT_NEAR(ApertureShape({6, 0.0, 0.0, 2.0, {}}).inner_scale(), 0.5 * std::cos(kPi / 6), 1e-12);
+  // The cache's oval footprint: the larger semi-axis (the polygon's inradius) and the squeeze.
+  EXPECT_NEAR(ApertureShape({6, 0.0, 0.0, 2.0, {}}).footprint_scale(), std::cos(kPi / 6), 1e-12);
+  EXPECT_EQ(ApertureShape({0, 0.0, 0.0, 2.0, {}}).footprint_squeeze(), glm::dvec2(0.5, 1.0));
+  EXPECT_EQ(ApertureShape({0, 0.0, 0.0, 0.25, {}}).footprint_squeeze(), glm::dvec2(1.0, 0.25));
+  EXPECT_EQ(ApertureShape{}.footprint_squeeze(), glm::dvec2(1.0, 1.0));
   const Aperture wide(ApertureShape{0, 0.0, 0.0, 0.5, {}});
   EXPECT_NEAR(wide.rim(0.0), 1.0, 1e-6);
   EXPECT_NEAR(wide.rim(kPi / 2), 0.5, 1e-6);

@@ -42,6 +42,17 @@ struct LookupOptions {
   // spheres, so it does not cost reuse on concave curved surfaces.
   bool reject_in_front = true;
   float front_tolerance = 0.05f;  // fraction of the sample radius
+  // An anisotropic footprint: an anamorphic aperture's bokeh is an oval (lens/aperture.h), so a
+  // sample's radius r is the oval's larger semi-axis and along the smaller, the frame camera's
+  // unit axis `footprint_axis`, it reaches max(footprint_squeeze r, the in-focus floor), the floor
+  // being floor_per_depth times the query's depth along camera_forward from camera_position
+  // (min_factor pixel footprints: a sample in focus is round). Squeeze 1 (the default): the
+  // paper's sphere. Set per frame by the renderer from its camera, not by a request.
+  float footprint_squeeze = 1.0f;
+  glm::vec3 footprint_axis{1.0f, 0.0f, 0.0f};
+  glm::vec3 camera_position{0.0f}, camera_forward{0.0f, 0.0f, -1.0f};
+  float floor_per_depth = 0.0f;
+  bool anisotropic() const { return footprint_squeeze < 1.0f; }
 };
 
 struct LookupResult {

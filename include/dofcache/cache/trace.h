@@ -1,11 +1,13 @@
 #pragma once
 // Cache traces: the lookups and inserts of a render, recorded so that cache backends can be
-// replayed and compared without the renderer (bench/cache_replay_bench.cpp). Format, version 1,
+// replayed and compared without the renderer (bench/cache_replay_bench.cpp). Format, version 2,
 // little-endian (docs/cache.md):
 //
-//   header   char magic[8] = "DOFCTRC\0", u32 version = 1,
+//   header   char magic[8] = "DOFCTRC\0", u32 version = 2,
 //            LookupOptions: f32 max_normal_angle_deg, i32 min_samples, u32 reject_in_front,
-//            f32 front_tolerance
+//            f32 front_tolerance, f32 footprint_squeeze, f32 footprint_axis[3],
+//            f32 camera_position[3], f32 camera_forward[3], f32 floor_per_depth
+//            (version 1 ends after front_tolerance: a round footprint)
 //   records  u32 tag, u32 count, then count items:
 //            tag 1 (lookups): f32 position[3], f32 normal[3]                       (24 bytes each)
 //            tag 2 (inserts): f32 position[3], normal[3], value[3], radius, u32 frame (44 bytes)

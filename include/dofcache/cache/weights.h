@@ -51,14 +51,21 @@ class SampleTest {
       : p_(p),
         n_(n),
         min_dot_(min_normal_dot(options.max_normal_angle_deg)),
-        front_limit_(options.reject_in_front ? -2.0f * options.front_tolerance : -INFINITY) {}
+        front_limit_(options.reject_in_front ? -2.0f * options.front_tolerance : -INFINITY),
+        anisotropic_(options.anisotropic()),
+        squeeze_(options.footprint_squeeze),
+        axis_(options.footprint_axis),
+        floor_(options.floor_per_depth *
+               std::max(0.0f, glm::dot(p - options.camera_position, options.camera_forward))) {}
 
   glm::vec3 position() const { return p_; }
 
   // w_i > 0 if the sample is accepted, 0 if rejected. Accepted means, in this order (cheapest
   // and most selective first): ||p - p_i|| < r_i; n . n_i >= cos(max angle); not in front of the
   // query point; eps_i < 1 (eq. (4.3)). The first test is implied by the last in exact arithmetic;
-  // stating it keeps the spatial structures' conservative bounds valid under rounding.
+  // stating it keeps the spatial structures' conservative bounds valid under rounding. An
+  // anisotropic footprint (LookupOptions) lengthens the offset in eq. (4.3) along the squeezed
+  // axes, so what it accepts lies inside the sphere the structures search.
   float weight(glm::vec3 p_i, float r_i, glm::vec3 n_i) const {
     glm::vec3 d = p_ - p_i;
     float d2 = glm::dot(d, d);
@@ -67,6 +74,13 @@ class SampleTest {
     if (!(c >= min_dot_)) return 0.0f;
     // (p - p_i) . (n + n_i) / 2 < -tolerance * r_i, both sides doubled.
     if (glm::dot(d, n_ + n_i) < front_limit_ * r_i) return 0.0f;
+    if (anisotropic_) {  // the offset along the squeezed axis counts r_i / reach times
+      const float reach = std::max(squeeze_ * r_i, floor_);
+      if (reach < r_i) {
+        const float a = glm::dot(d, axis_);
+        d2 += a * a * ((r_i * r_i) / (reach * reach) - 1.0f);
+      }
+    }
     float eps = std::sqrt(d2) / (r_i * c);  // eq. (4.3)
     if (!(eps < 1.0f)) return 0.0f;
     return sample_weight(eps);  // eq. (4.4)
@@ -76,6 +90,10 @@ class SampleTest {
   glm::vec3 p_, n_;
   float min_dot_;
   float front_limit_;
+  bool anisotropic_;
+  float squeeze_;
+  glm::vec3 axis_;
+  float floor_;  // the in-focus reach at the query's depth
 };
 
 // Collects accepted samples and sums them in increasing id: result = sum w_i v_i / sum w_i.

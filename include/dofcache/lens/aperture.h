@@ -51,6 +51,7 @@
 // and through the hinge line at J = F / sin(tilt) from the lens: in camera space (x right, y up,
 // z forward) it is z / P - y sin(tilt_x) / F - x sin(tilt_y) / F = 1. The aperture stays
 // perpendicular to the axis (a thin-lens approximation).
+#include <algorithm>
 #include <memory>
 #include <optional>
 #include <string>
@@ -121,8 +122,15 @@ struct ApertureShape {
   // Band b's (0 red, 1 green, 2 blue) place between the red (+1/2) and blue (-1/2) ends.
   static double band_position(int band) { return 0.5 * (1 - band); }
   // The shape's nearest rim point: its inradius over the round aperture's radius. A footprint
-  // this large lies within the bokeh in every direction (the radiance cache's reuse radius).
+  // this large lies within the bokeh in every direction.
   double inner_scale() const;
+  // The radiance cache's reuse footprint, an oval within the bokeh: its larger semi-axis over the
+  // round aperture's radius (the polygon's inradius, before the anamorphic squeeze), and the
+  // squeeze along x and y (each at most 1; inner_scale() = footprint_scale() times the smaller).
+  double footprint_scale() const;
+  glm::dvec2 footprint_squeeze() const {
+    return {std::min(1.0, 1.0 / anamorphic_ratio), std::min(1.0, anamorphic_ratio)};
+  }
   // Throws dofcache::Error naming the first absurd value (1-2 or more than kMaxBlades blades,
   // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation, a vignetting
   // stop whose radius or distance is not positive and finite, a lateral chromatic aberration

@@ -90,6 +90,8 @@ class ThinLensCamera {
   const lens::MountedLens& mounted_lens() const { return mounted_; }
   glm::vec3 position() const { return position_; }
   glm::vec3 forward() const { return forward_; }
+  glm::vec3 right() const { return right_; }  // unit, the image's +x in the world
+  glm::vec3 up() const { return up_; }        // unit, the image's +y (up) in the world
   int width() const { return width_; }
   int height() const { return height_; }
   // What a persistent cache's reuse rule needs of this camera.

@@ -221,6 +221,9 @@ struct RenderOutput {
 };
 
 ThinLensCamera make_camera(const scene::Camera& camera, const RenderSettings& settings);
+// The radiance cache's lookup for a frame seen through `camera`: settings.cache.lookup with the
+// anisotropic footprint of an anamorphic aperture (cache::LookupOptions) along the camera's axes.
+cache::LookupOptions frame_lookup(const RenderSettings& settings, const ThinLensCamera& camera);
 
 RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
                     const scene::Camera& camera, const RenderSettings& settings);
