@@ -53,6 +53,8 @@ struct Options {
   std::string results = "cache_render";
   std::string lens_file;  // a real lens (render --lens-file); empty: the scene's thin lens
   bool thin_equivalent = false;  // that lens's thin-lens equivalent instead of the traced lens
+  int blades = 0;                 // the aperture's shape (lens/aperture.h): 0 round
+  double anamorphic_ratio = 1.0;
 };
 
 struct Run {
@@ -70,6 +72,19 @@ struct SceneSetup {
 };
 
 const Options* g_options = nullptr;  // the bench's settings, for run()
+
+// "_blades6", "_anamorphic2", both, or "" for the round aperture.
+std::string shape_suffix(const Options& o) {
+  std::string suffix;
+  if (o.blades != 0) suffix += "_blades" + std::to_string(o.blades);
+  if (o.anamorphic_ratio != 1.0) {
+    std::string q = std::to_string(o.anamorphic_ratio);
+    q.erase(q.find_last_not_of('0') + 1);
+    if (q.back() == '.') q.pop_back();
+    suffix += "_anamorphic" + q;
+  }
+  return suffix;
+}
 
 SceneSetup load(const std::string& file, const Options& o) {
   SceneSetup s;
@@ -89,6 +104,11 @@ SceneSetup load(const std::string& file, const Options& o) {
     s.base.real_lens = {};
     s.name += "_thin_" + fs::path(m.source).stem().string();
   }
+  // A shaped aperture: the cache's footprint follows it (docs/lens.md); its name keys the
+  // reference too.
+  s.base.lens.aperture.blades = o.blades;
+  s.base.lens.aperture.anamorphic_ratio = o.anamorphic_ratio;
+  s.name += shape_suffix(o);
   return s;
 }
 
@@ -305,6 +325,12 @@ int main(int argc, char** argv) {
   app.add_flag("--thin-equivalent", o.thin_equivalent,
                "With --lens-file: through its thin-lens equivalent instead (the same focal length, "
                "f-number, focus and field of view), for the cache's speed-up side by side");
+  app.add_option("--aperture-blades", o.blades,
+                 "Every render through an aperture of this many straight blades (3-16; 0 round)")
+      ->check(CLI::IsMember({0, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16}));
+  app.add_option("--anamorphic-ratio", o.anamorphic_ratio,
+                 "Every render through an anamorphic aperture: the bokeh's height over its width")
+      ->check(bench::in_range(0.01, 100.0));
   bench::parse_command_line(app, argc, argv);
   // Non-default shading and no --results: say so in the name rather than overwrite the results
   // of the default shading.
@@ -318,6 +344,7 @@ int main(int argc, char** argv) {
       o.results += "_uncachedgather" + std::to_string(o.uncached_gather_rays);
     if (!o.lens_file.empty())
       o.results += (o.thin_equivalent ? "_thin_" : "_") + fs::path(o.lens_file).stem().string();
+    o.results += shape_suffix(o);
   }
   return bench::run_guarded(app, [&] { return run_bench(o); });
 }

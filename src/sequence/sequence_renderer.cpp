@@ -176,6 +176,8 @@ std::uint64_t sequence_key(const scene::Scene& scene, const SequenceSettings& se
     const lens::ApertureShape& a = f.lens.aperture;
     if (!a.round())  // a round aperture keeps the keys of runs made before shapes existed
       h.add(a.blades), h.add(a.rotation_deg), h.add(a.roundness), h.add(a.anamorphic_ratio);
+    // Since the cache's footprint follows an oval bokeh, an anamorphic run's samples differ.
+    if (a.anamorphic_ratio != 1.0) h.add(std::string("oval footprint"));
     if (a.vignetting()) h.add(a.stop.radius), h.add(a.stop.distance);
     if (a.chromatic()) h.add(a.axial_ca), h.add(a.lateral_ca);
     if (a.weighted()) h.add(static_cast<int>(a.profile)), h.add(a.profile_strength);
