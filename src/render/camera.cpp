@@ -90,8 +90,9 @@ LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) 
   if (tilted_) p = static_cast<float>(focus_depth(slopes, p));
   glm::vec3 focus_point = position_ + direction_of(slopes) * p;
   const lens::ApertureShape& shape = imaging_.lens.aperture;
-  float rho = 0.0f;
-  glm::vec2 disk = aperture_.sample(lens_u, &rho) * static_cast<float>(imaging_.lens.aperture_radius());
+  float rho = 0.0f;  // asked for only where a profile weighs it (a square root saved per ray)
+  glm::vec2 disk = aperture_.sample(lens_u, shape.weighted() ? &rho : nullptr) *
+                   static_cast<float>(imaging_.lens.aperture_radius());
   LensSample out;
   if (shape.weighted()) out.weight = static_cast<float>(shape.transmission(rho));
   if (shape.vignetting()) {
