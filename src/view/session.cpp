@@ -224,7 +224,7 @@ bool ViewSession::render_inputs(InputStage stage, std::uint64_t camera_version) 
     std::lock_guard<std::mutex> lock(mutex_);
     if (state_->stop || state_->camera_version != camera_version) return false;
     s.lens = state_->lens;  // the occlusion fix's layers are planned for the lens of the moment
-    s.real_lens = state_->real;  // its pinhole is seen from the principal plane, its field
+    s.real_lens = state_->real;  // a real lens: seen from its principal plane, its field of view
     camera = state_->camera;
   }
   const preview::PreviewMethod method =

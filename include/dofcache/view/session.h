@@ -17,8 +17,10 @@
 //                finishes and is discarded) but keeps the radiance cache: every pass is a frame
 //                of a cache::PersistentCache, whose reuse rule keeps the samples that stay
 //                valid for the new lens (or camera), with the radius it allows them.
-// A camera move (move_camera) starts again from 1. Every preview is the post-process rerun on the latest inputs for the current lens
-// (preview::refocus_inputs, preview::render_preview): the inputs do not depend on the lens.
+// A camera move (move_camera), or a real lens whose principal plane or field of view moves as it
+// focuses (set_lens, set_real_lens), starts again from 1. Every preview is the post-process rerun
+// on the latest inputs for the current lens (preview::refocus_inputs, preview::render_preview):
+// the inputs do not depend on a thin lens.
 //
 // Thread safety: every public method may be called from any thread at any time.
 #include <condition_variable>
