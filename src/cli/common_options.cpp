@@ -145,12 +145,10 @@ void add_lens_options(CLI::App* cmd, render::LensOverrides& lens, const std::str
 }
 
 void add_real_lens_options(CLI::App* cmd, render::LensOverrides& lens) {
-  std::string shipped;
-  for (const lens::ShippedLens& l : lens::shipped_lenses())
-    shipped += (shipped.empty() ? "" : ", ") + std::string(l.name);
   cmd->add_option("--lens-file", lens.real.file,
                   "A real lens: its prescription table (millimetres, front element first, as "
-                  "pbrt-v4's), or a shipped lens's name (" + shipped + ": scenes/lenses/), "
+                  "pbrt-v4's), or a shipped lens's name (" + lens::shipped_lens_names() +
+                  ": scenes/lenses/), "
                   "traced element by element. The lens and "
                   "the sensor then set the field of view (the camera's yfov and --focal-length are "
                   "ignored), --focus-distance is measured from the sensor and focuses by tracing, "

@@ -483,12 +483,10 @@ std::shared_ptr<const LensSystem> read_lens_file(const std::string& path) {
       return std::make_shared<const LensSystem>(
           LensSystem::parse(std::string(shipped->table), std::string(shipped->name) + ".lens"));
     });
-  std::string names;
-  for (const ShippedLens& l : shipped_lenses()) names += (names.empty() ? "" : ", ") + std::string(l.name);
   try {
     return load();
   } catch (const Error& e) {
-    throw Error(std::string(e.what()) + " (nor is it a shipped lens: " + names + ")");
+    throw Error(std::string(e.what()) + " (nor is it a shipped lens: " + shipped_lens_names() + ")");
   }
 }
 

@@ -401,7 +401,7 @@ ApiResponse ViewApi::route_or_throw(const ApiRequest& req) {
     // reads it.
     const ViewStatus status = session_.status();
     lens::ThinLens lens = status.lens;
-    if (status.real_lens) lens.focus_distance += status.real_lens.principal_offset();
+    lens.focus_distance = focus_from_camera(status.lens, status.real_lens);
     const int keys = append_keyframe_(keyframes_, session_.camera(), lens,
                                       "keys from dofcache view of " + scene_name_);
     return json_response({{"keys", keys}, {"file", keyframes_}, {"lens", lens_json(lens)}});

@@ -357,10 +357,7 @@ scene::Camera ViewSession::move_camera(double yaw, double pitch, double dolly) {
   State& st = *state_;
   const glm::dmat4 m(st.camera.camera_to_world);
   const glm::dvec3 position(m[3]), forward = -glm::normalize(glm::dvec3(m[2]));
-  // The point in focus, from the camera node (a real lens's sensor: its equivalent's focus
-  // distance counts from the front principal plane).
-  const double offset = st.real ? st.real.principal_offset() : 0.0;
-  const double distance = st.lens.focus_distance + offset;
+  const double distance = focus_from_camera(st.lens, st.real);  // to the point in focus
   const glm::dvec3 pivot = position + forward * distance;
   // Yaw about the world's up (+Y) through the pivot, pitch about the camera's right axis; the
   // camera keeps looking at the pivot and its distance, then moves `dolly` along its new axis.
@@ -376,7 +373,7 @@ scene::Camera ViewSession::move_camera(double yaw, double pitch, double dolly) {
   moved[3] += glm::dvec4(new_forward * step, 0.0);
   if (step != 0.0) {  // the pivot stays in focus
     lens::ThinLens focused = st.lens;
-    focused.focus_distance = distance - step - offset;
+    focused.focus_distance -= step;
     if (st.real) {
       st.real = remount(focused);  // may refuse (too close): nothing has changed yet
       focused = st.real.equivalent();
@@ -410,11 +407,16 @@ lens::ThinLens ViewSession::lens() const {
   return state_->lens;
 }
 
+lens::MountedLens ViewSession::mount(const std::string& file, double fstop, double from_sensor,
+                                     const lens::ApertureShape& stop) const {
+  return lens::mount_lens(lens::read_lens_file(file), file, fstop, from_sensor,
+                          real_choices_.sensor, width_, height_,
+                          real_choices_.exposure_follows_lens, stop);
+}
+
 lens::MountedLens ViewSession::remount(const lens::ThinLens& lens) const {
   const lens::MountedLens& real = state_->real;
-  return lens::mount_lens(lens::read_lens_file(real.source), real.source, lens.fstop,
-                          lens.focus_distance + real.principal_offset(), real_choices_.sensor,
-                          width_, height_, real_choices_.exposure_follows_lens, lens.aperture);
+  return mount(real.source, lens.fstop, focus_from_camera(lens, real), lens.aperture);
 }
 
 void ViewSession::apply_lens(const lens::ThinLens& lens, const lens::MountedLens& real) {
@@ -453,7 +455,7 @@ lens::ThinLens ViewSession::set_lens(const lens::ThinLens& lens) {
 lens::ThinLens ViewSession::set_real_lens(const std::string& file) {
   std::lock_guard<std::mutex> lock(mutex_);
   State& st = *state_;
-  const double from_sensor = st.lens.focus_distance + (st.real ? st.real.principal_offset() : 0.0);
+  const double from_sensor = focus_from_camera(st.lens, st.real);
   if (file.empty()) {
     if (!st.real) return st.lens;
     lens::ThinLens thin = st.lens;  // the equivalent's focal length, f-number and stop
@@ -462,13 +464,9 @@ lens::ThinLens ViewSession::set_real_lens(const std::string& file) {
     apply_lens(thin, {});
     return thin;
   }
-  const auto system = lens::read_lens_file(file);
-  auto mount = [&](double fstop) {
-    return lens::mount_lens(system, file, fstop, from_sensor, real_choices_.sensor, width_, height_,
-                            real_choices_.exposure_follows_lens, st.lens.aperture);
-  };
-  lens::MountedLens real = mount(0.0);  // wide open: the lens's widest
-  if (st.lens.fstop > real.lens->fstop()) real = mount(st.lens.fstop);
+  lens::MountedLens real = mount(file, 0.0, from_sensor, st.lens.aperture);  // wide open
+  if (st.lens.fstop > real.lens->fstop())
+    real = mount(file, st.lens.fstop, from_sensor, st.lens.aperture);
   apply_lens(real.equivalent(), real);
   return st.lens;
 }

@@ -16,6 +16,9 @@ struct ShippedLens {
 // In name order.
 const std::vector<ShippedLens>& shipped_lenses();
 
+// Their names, comma-separated (help texts and errors).
+std::string shipped_lens_names();
+
 // The shipped lens `name` names (with or without ".lens"; a path with a directory names none),
 // or nullptr.
 const ShippedLens* find_shipped_lens(std::string_view name);

@@ -63,6 +63,12 @@ struct ViewSettings {
   void validate() const;  // throws dofcache::Error on absurd values
 };
 
+// The distance in focus from the camera node, which for a real lens is its sensor: `lens` is then
+// its thick-lens equivalent, whose focus distance counts from the front principal plane.
+inline double focus_from_camera(const lens::ThinLens& lens, const lens::MountedLens& real) {
+  return lens.focus_distance + (real ? real.principal_offset() : 0.0);
+}
+
 // The seed of reference pass `pass` (1, 2, ...): each pass its own samples.
 std::uint64_t reference_pass_seed(std::uint64_t seed, std::uint64_t pass);
 
@@ -181,8 +187,13 @@ class ViewSession {
   bool render_inputs(InputStage stage, std::uint64_t camera_version);
   void refine_reference(std::uint64_t camera_version);  // returns when the camera moves
   void place_camera(const scene::Camera& camera);        // under mutex_
+  // The lens table `file` mounted on the session's sensor with `fstop`, focused `from_sensor`
+  // and with `stop` (a mount reuses a kept lens, else builds its pupil table: a fraction of a
+  // second).
+  lens::MountedLens mount(const std::string& file, double fstop, double from_sensor,
+                          const lens::ApertureShape& stop) const;
   // The real lens of the moment mounted again for `lens` (its f-number, focus and stop), under
-  // mutex_ (a mount reuses a kept lens, else builds its pupil table: a fraction of a second).
+  // mutex_.
   lens::MountedLens remount(const lens::ThinLens& lens) const;
   // Applies `lens` (and `real`, empty for the thin lens), under mutex_: the reference restarts,
   // and the inputs too where the pinhole's position or field of view changed.
