@@ -24,6 +24,14 @@ constexpr double kLambda[3] = {0.65627, 0.58756, 0.48613};
 
 std::string mm(double metres) { return std::to_string(metres * 1e3).substr(0, 8) + " mm"; }
 
+// What a real lens's stop may take of the aperture options; the rest is the prescription's.
+void check_stop_shape(const ApertureShape& shape) {
+  if (shape.vignetting() || shape.chromatic() || shape.tilted() || shape.shifted())
+    throw Error("a real lens's vignetting, chromatic aberration, tilt and shift come from its "
+                "prescription; its stop takes blades, rotation, roundness, an anamorphic ratio, a "
+                "profile or an aperture image");
+}
+
 // Where a ray crosses the axis plane y = 0 of its meridional section (its x reaches 0) and where it
 // reaches height h: the z of each, for the cardinal points.
 double z_at_x(const LensRay& r, double x) {
@@ -43,10 +51,7 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
   if (!(settings.fstop >= 0.0) || !std::isfinite(settings.fstop))
     throw Error("the f-number must be positive");
   const ApertureShape& shape = settings.stop_shape;
-  if (shape.vignetting() || shape.chromatic() || shape.tilted() || shape.shifted())
-    throw Error("a real lens's vignetting, chromatic aberration, tilt and shift come from its "
-                "prescription; its stop takes blades, rotation, roundness, an anamorphic ratio, a "
-                "profile or an aperture image");
+  check_stop_shape(shape);
   tabulate();
   z_from_rear_.assign(surfaces_.size(), 0.0);
   for (std::size_t k = surfaces_.size() - 1; k-- > 0;)
@@ -495,6 +500,7 @@ MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const st
                        int height, bool exposure_follows_lens, const ApertureShape& stop) {
   sensor.validate();
   if (width < 1 || height < 1) throw Error("the image must have at least one pixel");
+  check_stop_shape(stop);  // before the kept lenses, whose keys hold only what a stop takes
   MountedLens m;
   m.film_size = sensor.film_size(width, height);
   m.source = source;

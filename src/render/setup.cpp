@@ -39,11 +39,8 @@ double centre_depth(const scene::Scene& scene, const scene::Accel& accel,
 ResolvedLens mount_real_lens(const scene::Scene& scene, const scene::Accel& accel,
                              const scene::Camera& camera, const LensOverrides& overrides,
                              int width, int height) {
+  // mount_lens refuses what a real stop does not take (vignetting, colour, tilt, shift).
   const lens::ApertureShape stop = overrides.aperture.over(camera.lens.aperture).shape();
-  if (stop.vignetting() || stop.chromatic() || stop.tilted() || stop.shifted())
-    throw Error("--lens-file: a real lens's vignetting, chromatic aberration, tilt and shift come "
-                "from its prescription; its stop takes --aperture-blades, -rotation, -roundness, "
-                "--anamorphic-ratio, --aperture-profile and --aperture-image");
   if (width < 1 || height < 1) throw Error("a real lens needs the image's size");
   ResolvedLens r;
   const auto system = lens::read_lens_file(overrides.real.file);

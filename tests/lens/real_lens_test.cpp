@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -240,6 +241,12 @@ TEST(RealLens, AbsurdSettingsAreOneLineErrors) {
   RealLensSettings tilted = at(4.0, 3.0);
   tilted.stop_shape.tilt_x_deg = 2.0;
   EXPECT_NE(message(tilted).find("come from its prescription"), std::string::npos);
+  // Also where the same lens is already mounted (kept lenses are keyed by what a stop takes).
+  const auto table = std::make_shared<const LensSystem>(system);
+  const MountedLens held = mount_lens(table, "double Gauss", 4.0, 3.0, Sensor{}, 64, 48, false);
+  EXPECT_THROW(mount_lens(table, "double Gauss", 4.0, 3.0, Sensor{}, 64, 48, false,
+                          tilted.stop_shape),
+               Error);
   RealLensSettings bad_blades = at(4.0, 3.0);
   bad_blades.stop_shape.blades = 2;
   EXPECT_NE(message(bad_blades).find("aperture blades"), std::string::npos);
