@@ -35,6 +35,13 @@ void ApertureShape::validate() const {
     throw Error("lens: the vignetting stop needs a radius and a distance in front of the "
                 "aperture, both > 0 and finite (metres), got " + std::to_string(stop.radius) +
                 ", " + std::to_string(stop.distance));
+  for (const VignettingStop* rim : {&rims.front, &rims.rear})
+    if (!(*rim == VignettingStop{}) &&
+        !(rim->radius > 0.0 && rim->radius < 1e3 && rim->distance > 0.0 && rim->distance < 1e3))
+      throw Error("lens: a lens rim needs a radius and a distance, both > 0 and finite (metres), "
+                  "got " + std::to_string(rim->radius) + ", " + std::to_string(rim->distance));
+  if (rims.any() && vignetting())
+    throw Error("lens: a vignetting stop and a real lens's rims exclude each other");
   if (!std::isfinite(axial_ca) || !(std::abs(axial_ca) < 1e3))
     throw Error("lens: axial chromatic aberration must be a finite distance in metres, got " +
                 std::to_string(axial_ca));

@@ -422,6 +422,21 @@ bool RealLens::dispersive() const {
                      [](const LensSurface& s) { return s.abbe > 0.0 && s.ior != 1.0; });
 }
 
+bool RealLens::passes_rims(LensRay ray) const {
+  const std::size_t stop = static_cast<std::size_t>(stop_);
+  return trace_span(ray, stop + 1, surfaces_.size(), true, -1, true) &&
+         cross(stop, ray.origin, ray.direction, 1.0, false) &&
+         trace_span(ray, 0, stop, true, -1, true);
+}
+
+std::optional<glm::dvec2> RealLens::stop_point(LensRay ray) const {
+  const std::size_t stop = static_cast<std::size_t>(stop_);
+  if (!trace_span(ray, stop + 1, surfaces_.size(), true, -1, false) ||
+      !cross(stop, ray.origin, ray.direction, 1.0, false))
+    return std::nullopt;
+  return glm::dvec2(ray.origin) / stop_radius_;
+}
+
 glm::dvec2 Sensor::film_size(int width_px, int height_px) const {
   const double aspect = static_cast<double>(width_px) / height_px;
   switch (fit) {
@@ -460,6 +475,7 @@ ThinLens MountedLens::equivalent() const {
   const double focus = std::min(lens->focus_distance(), 1e7) - c.front_principal_z;
   ThinLens thin(c.focal_length, lens->fstop(), focus);
   thin.aperture = lens->stop_shape();
+  thin.aperture.rims = rims_of(rims, thin, !lens->exposure_follows_lens());
   return thin;
 }
 
@@ -497,9 +513,11 @@ std::shared_ptr<const LensSystem> read_lens_file(const std::string& path) {
 
 MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const std::string& source,
                        double fstop, double focus_distance, const Sensor& sensor, int width,
-                       int height, bool exposure_follows_lens, const ApertureShape& stop) {
+                       int height, bool exposure_follows_lens, const ApertureShape& shape) {
   sensor.validate();
   if (width < 1 || height < 1) throw Error("the image must have at least one pixel");
+  ApertureShape stop = shape;
+  stop.rims = {};  // an equivalent's (a lens mounted again): the lens's own, fitted below
   check_stop_shape(stop);  // before the kept lenses, whose keys hold only what a stop takes
   MountedLens m;
   m.film_size = sensor.film_size(width, height);
@@ -523,6 +541,7 @@ MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const st
       << aperture_profile_name(stop.profile) << ' ' << stop.profile_strength << ' '
       << (stop.image.empty() ? "" : core::file_version_key(stop.image).value_or(stop.image));
   m.lens = mounted.get(key.str(), [&] { return std::make_shared<const RealLens>(*system, settings); });
+  m.rims = fit_rims(*m.lens, settings.film_radius);
   return m;
 }
 

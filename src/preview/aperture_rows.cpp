@@ -43,16 +43,26 @@ ApertureRows::ApertureRows(const lens::Aperture& aperture, int rows, int columns
   for (const ApertureSpan& s : spans_) area_ += s.x1 - s.x0;
 }
 
-float ApertureRows::area_share(float x, float y, float r) const {
-  if (area_ <= 0.0 || std::hypot(x, y) + 1.5f <= r) return 1.0f;  // the disc holds [-1, 1]^2
+float ApertureRows::area_share(const render::StopDisc (&stops)[2]) const {
+  // A disc holding [-1, 1]^2 clips nothing.
+  auto clips = [](const render::StopDisc& d) {
+    return d.present() && std::hypot(d.centre.x, d.centre.y) + 1.5f > d.radius;
+  };
+  if (area_ <= 0.0 || (!clips(stops[0]) && !clips(stops[1]))) return 1.0f;
   double inside = 0;
   for (int i = 0; i < rows_; ++i) {
     const float yi = row_centre(i);
-    const float h2 = r * r - (yi - y) * (yi - y);
-    if (h2 <= 0.0f) continue;
-    const float h = std::sqrt(h2);
+    float lo = -2.0f, hi = 2.0f;  // the row's chord through every disc
+    for (const render::StopDisc& d : stops) {
+      if (!d.present()) continue;
+      const float h2 = d.radius * d.radius - (yi - d.centre.y) * (yi - d.centre.y);
+      const float h = std::sqrt(std::max(0.0f, h2));
+      lo = std::max(lo, h2 > 0.0f ? d.centre.x - h : 2.0f);
+      hi = std::min(hi, d.centre.x + h);
+    }
+    if (lo >= hi) continue;
     for (int k = first_[i]; k < first_[i + 1]; ++k)
-      inside += std::max(0.0f, std::min(spans_[k].x1, x + h) - std::max(spans_[k].x0, x - h));
+      inside += std::max(0.0f, std::min(spans_[k].x1, hi) - std::max(spans_[k].x0, lo));
   }
   return static_cast<float>(inside / area_);
 }

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "dofcache/lens/aperture.h"
+#include "dofcache/render/camera.h"
 
 namespace dofcache::preview::detail {
 
@@ -20,9 +21,9 @@ class ApertureRows {
   // The spans of the row nearest height y (aperture units, up), left to right; none outside.
   const ApertureSpan* begin(float y) const { return spans_.data() + first_[row(y)]; }
   const ApertureSpan* end(float y) const { return spans_.data() + first_[row(y) + 1]; }
-  // The share of the aperture's area inside the disc of centre (x, y) and radius r (aperture
-  // units): the light a vignetting stop lets through.
-  float area_share(float x, float y, float r) const;
+  // The share of the aperture's area inside every present disc of `stops` (aperture units): the
+  // light a vignetting stop, or a real lens's rims, let through.
+  float area_share(const render::StopDisc (&stops)[2]) const;
 
  private:
   int row(float y) const {  // an empty sentinel row (index rows_) outside [-1, 1]

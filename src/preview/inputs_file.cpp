@@ -129,6 +129,15 @@ constexpr ApertureReal kApertureReals[] = {
     {"lens_shift_x", [](lens::ApertureShape& a) -> double& { return a.shift_x; }},
     {"lens_shift_y", [](lens::ApertureShape& a) -> double& { return a.shift_y; }},
 };
+// A real lens's rims (lens/lens_rims.h): written where the lens has them, read where present.
+constexpr ApertureReal kRimReals[] = {
+    {"lens_rims_front_radius", [](lens::ApertureShape& a) -> double& { return a.rims.front.radius; }},
+    {"lens_rims_front_distance",
+     [](lens::ApertureShape& a) -> double& { return a.rims.front.distance; }},
+    {"lens_rims_rear_radius", [](lens::ApertureShape& a) -> double& { return a.rims.rear.radius; }},
+    {"lens_rims_rear_distance",
+     [](lens::ApertureShape& a) -> double& { return a.rims.rear.distance; }},
+};
 
 }  // namespace
 
@@ -165,6 +174,10 @@ void save_preview_inputs(const std::string& path, const PreviewInputs& in,
     for (const ApertureReal& r : kApertureReals) a[r.key] = number(r.field(ap));
     a["aperture_profile"] = lens::aperture_profile_name(ap.profile);
     if (!ap.image.empty()) a["aperture_image"] = ap.image;
+    if (ap.rims.any()) {
+      for (const ApertureReal& r : kRimReals) a[r.key] = number(r.field(ap));
+      a["lens_rims_normalised"] = ap.rims.normalised ? "1" : "0";
+    }
   }
   std::vector<image::ExrPart> parts = {{"color", {"R", "G", "B"}, in.color, a},
                                        {"depth", {"Z"}, in.depth, {}},
@@ -211,6 +224,10 @@ SavedPreviewInputs load_preview_inputs(const std::string& path, std::uint64_t ma
       rd.fail(e.what());
     }
     if (color.attributes.count("aperture_image")) ap.image = rd.text(color, "aperture_image");
+    if (color.attributes.count("lens_rims_normalised")) {
+      for (const ApertureReal& r : kRimReals) r.field(ap) = rd.real(color, r.key);
+      ap.rims.normalised = rd.integer(color, "lens_rims_normalised", 0, 1) == 1;
+    }
   }
   try {
     in.imaging.lens.validate();

@@ -19,7 +19,9 @@ RefocusFileResult refocus_file(const RefocusFileRequest& q) {
   lens.focal_length = q.lens.focal_length.value_or(lens.focal_length);
   lens.fstop = q.lens.fstop.value_or(lens.fstop);
   lens.focus_distance = q.lens.focus_distance.value_or(lens.focus_distance);
+  const lens::LensRims rims = lens.aperture.rims;  // a real lens's, not a choice
   lens.aperture = q.lens.aperture.over(lens::ApertureChoices::of(lens.aperture)).shape();
+  if (!lens.aperture.vignetting()) lens.aperture.rims = rims;  // a stop asked for replaces them
   lens.validate();
   r.method = q.method.value_or(saved.coverage.present ? PreviewMethod::LayeredOcclusion
                                                       : PreviewMethod::Layered);

@@ -199,17 +199,20 @@ void scatter_preview(const image::Image& color, const PreviewOptions& options,
 
 namespace {
 // One colour band's splat of a pixel: its bokeh's centre (film pixels), signed scale (pixels per
-// aperture unit, clamped to the largest radius), tilt term and the vignetting stop's disc
-// (aperture units), as render::BokehSpot.
+// aperture unit, clamped to the largest radius), tilt term and the discs of the vignetting stop or
+// of a real lens's rims (aperture units), as render::BokehSpot.
 struct ShapedSplat {
   float cx, cy, scale;
   float tilt_x, tilt_y;
-  float stop_x, stop_y, stop_r;
-  float pass;    // sharp: the share of the aperture's area that the stop lets through
-  float weight;  // per pixel (times the run's density): one over the shape's pixels in the
-                 // image; 0: drawn as a sharp splat
+  render::StopDisc stops[2];
+  float pass = 1.0f;    // sharp: the share of the aperture's area that the stops let through
+  float weight = 0.0f;  // coverage per pixel (times the run's density): one over the shape's
+                        // pixels in the image; 0: drawn as a sharp splat
+  float light = 0.0f;   // light per pixel: the weight, or where the image is normalised for the
+                        // stops, one over the pixels they pass
 
   bool sharp() const { return std::abs(scale) <= 0.5f; }
+  bool stopped() const { return stops[0].present() || stops[1].present(); }
   // How far from its centre the shape reaches (pixels): the aperture within the unit square, a
   // pixel's half, and the tilt's stretch.
   float extent() const {
@@ -219,7 +222,7 @@ struct ShapedSplat {
 };
 
 // The film pixels of a splat's shape (not sharp), row by row: f(y, x0, x1, density) for each run
-// [x0, x1] within the image's columns and rows [row_begin, row_end), the stop's disc cut out if
+// [x0, x1] within the image's columns and rows [row_begin, row_end), cut to the stops' discs if
 // `cut`. `density` is 1 untilted; tilted,
 // the map's Jacobian (scale^2 / (1 + a . tilt)^3) spreads the aperture's uniform rays unevenly,
 // and the run's pixels get (1 + a . tilt)^3 of them. The film offset o (y up) of aperture point
@@ -233,23 +236,29 @@ void for_each_run(const ShapedSplat& s, const ApertureRows& rows, int W, int row
   const float e = s.extent();
   const int y0 = std::max(row_begin, static_cast<int>(std::ceil(s.cy - 0.5f - e)));
   const int y1 = std::min(row_end - 1, static_cast<int>(std::floor(s.cy - 0.5f + e)));
-  const bool stopped = cut && std::isfinite(s.stop_r);
+  const bool stopped = cut && s.stopped();
   for (int y = y0; y <= y1; ++y) {
     const float oy = s.cy - 0.5f - static_cast<float>(y);
     const float d = s.scale - oy * s.tilt_y;  // a = o / (scale - o . tilt), on this row
     const float rs = std::abs(d) + 0.5f, sign = d < 0.0f ? -1.0f : 1.0f;
     const float ay = sign * oy / rs;
-    float chord = 0.0f;
+    float lo = -2.0f, hi = 2.0f;  // the row's chord through the stops' discs
     if (stopped) {
-      const float h2 = s.stop_r * s.stop_r - (ay - s.stop_y) * (ay - s.stop_y);
-      if (h2 < 0.0f) continue;
-      chord = std::sqrt(h2);
+      for (const render::StopDisc& disc : s.stops) {
+        if (!disc.present()) continue;
+        const float h2 = disc.radius * disc.radius - (ay - disc.centre.y) * (ay - disc.centre.y);
+        if (h2 < 0.0f) lo = 2.0f;
+        const float h = std::sqrt(std::max(0.0f, h2));
+        lo = std::max(lo, disc.centre.x - h);
+        hi = std::min(hi, disc.centre.x + h);
+      }
+      if (lo > hi) continue;
     }
     for (const ApertureSpan* span = rows.begin(ay); span != rows.end(ay); ++span) {
       float a0 = span->x0, a1 = span->x1;
       if (stopped) {
-        a0 = std::max(a0, s.stop_x - chord);
-        a1 = std::min(a1, s.stop_x + chord);
+        a0 = std::max(a0, lo);
+        a1 = std::min(a1, hi);
         if (a0 > a1) continue;
       }
       const float o0 = sign * rs * a0 / (1.0f + a0 * s.tilt_x);
@@ -312,18 +321,25 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
               camera.bokeh({x + 0.5f, y + 0.5f}, z, bands == 3 ? b : -1);
           ShapedSplat& s = splats[p * bands + b];
           s = {spot.centre.x, spot.centre.y, std::clamp(spot.scale, -limit, limit),
-               spot.tilt.x, spot.tilt.y, spot.stop_centre.x, spot.stop_centre.y,
-               spot.stop_radius, 1.0f, 0.0f};
+               spot.tilt.x, spot.tilt.y, {spot.stops[0], spot.stops[1]}};
           // Normalised over the part inside the image, as the disk scatter; a shape too small
           // to cover a pixel centre is drawn as a sharp one.
-          double inside = 0;
-          if (!s.sharp())
-            for_each_run(s, rows, W, 0, H, false,
+          auto pixels = [&](bool cut) {
+            double inside = 0;
+            for_each_run(s, rows, W, 0, H, cut,
                          [&](int, int x0, int x1, float j) { inside += (x1 - x0 + 1) * j; });
-          if (inside > 0.0)
-            s.weight = static_cast<float>(1.0 / inside);
-          else if (std::isfinite(s.stop_r))
-            s.pass = rows.area_share(s.stop_x, s.stop_y, s.stop_r);
+            return inside;
+          };
+          const double inside = s.sharp() ? 0.0 : pixels(false);
+          if (inside > 0.0) {
+            s.weight = s.light = static_cast<float>(1.0 / inside);
+            if (spot.normalised && s.stopped()) {
+              const double passed = pixels(true);
+              if (passed > 0.0) s.light = static_cast<float>(1.0 / passed);
+            }
+          } else if (s.stopped() && !spot.normalised) {
+            s.pass = rows.area_share(s.stops);
+          }
         }
       }
   });
@@ -376,7 +392,7 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
             for_each_bilinear(s, W, H, [&](int y, int x, float w) { add(colour, y, x, x, w); });
             continue;
           }
-          if (!std::isfinite(s.stop_r)) {  // colour and alpha over the same runs
+          if (!s.stopped()) {  // colour and alpha over the same runs
             for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
             for_each_run(s, rows, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
               add(colour, y, x0, x1, s.weight * j);
@@ -385,12 +401,13 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
           }
           // The stopped rays bring no light but their share of the coverage: the splats' alphas
           // then tile as the uncut shapes do, and the light a pixel gathers through the cut ones
-          // is its own bundle's share that the stop passes, as in the ray tracer.
+          // is its own bundle's share that the stops pass, as in the ray tracer (normalised: the
+          // whole of it, as a real lens's image divided by what its rims pass).
           for_each_run(s, rows, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
             add(alpha, y, x0, x1, s.weight * j);
           });
           for_each_run(s, rows, W, r0, r1, true, [&](int y, int x0, int x1, float j) {
-            add(colour, y, x0, x1, s.weight * j);
+            add(colour, y, x0, x1, s.light * j);
           });
         }
       },

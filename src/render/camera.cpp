@@ -131,14 +131,25 @@ BokehSpot ThinLensCamera::bokeh(glm::vec2 film, double depth, int band) const {
   if (tilted_)
     out.tilt = glm::vec2(static_cast<float>(r * tilt_sin_.y / imaging_.lens.focal_length),
                          static_cast<float>(r * tilt_sin_.x / imaging_.lens.focal_length));
-  out.stop_radius = std::numeric_limits<float>::infinity();
-  const double d = a.stop.distance;
-  if (a.vignetting() && depth > d) {
-    // The ray from l to the point crosses the stop's plane at l (1 - d / D) + s0 d.
-    const double k = (1.0 - d / depth) * r;
-    out.stop_centre = -s0 * static_cast<float>(d / k);
-    out.stop_radius = static_cast<float>(a.stop.radius / k);
+  // A stop of radius R at distance d in front of the lens: the ray from l to the point crosses
+  // its plane at l (1 - d / D) + s0 d.
+  auto front = [&](const lens::VignettingStop& stop, StopDisc& disc) {
+    if (!(stop.radius > 0.0 && depth > stop.distance)) return;
+    const double k = (1.0 - stop.distance / depth) * r;
+    disc = {-s0 * static_cast<float>(stop.distance / k), static_cast<float>(stop.radius / k)};
+  };
+  front(a.stop, out.stops[0]);
+  front(a.rims.front, out.stops[0]);
+  if (a.rims.rear.radius > 0.0) {
+    // Behind the lens at d, between it and the point's image at V_D (s0 V_D from the axis,
+    // turned over): the ray from l crosses the stop's plane at l (1 - d / V_D) - s0 d.
+    const double f = imaging_.lens.focal_length, d = a.rims.rear.distance;
+    const double v = depth > f ? lens::image_distance(f, depth) : 1e30;
+    const double k = (1.0 - d / v) * r;
+    if (k > 0.0)
+      out.stops[1] = {s0 * static_cast<float>(d / k), static_cast<float>(a.rims.rear.radius / k)};
   }
+  out.normalised = a.rims.normalised;
   return out;
 }
 

@@ -166,6 +166,7 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   if (a.vignetting())
     text += fmt::format(", vignetting stop {:g} mm across at {:g} mm", 2000.0 * a.stop.radius,
                         1000.0 * a.stop.distance);
+  if (a.rims.any()) text += ", the lens's rims (cat's eyes towards the corners)";
   if (a.chromatic())
     text += fmt::format(", chromatic aberration {:g} mm axial, {:g} % lateral",
                         1000.0 * a.axial_ca, 100.0 * a.lateral_ca);

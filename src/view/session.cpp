@@ -459,6 +459,7 @@ lens::ThinLens ViewSession::set_real_lens(const std::string& file) {
   if (file.empty()) {
     if (!st.real) return st.lens;
     lens::ThinLens thin = st.lens;  // the equivalent's focal length, f-number and stop
+    thin.aperture.rims = {};        // the real lens's own
     thin.focus_distance = from_sensor;
     thin.validate();
     apply_lens(thin, {});

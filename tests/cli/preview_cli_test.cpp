@@ -131,6 +131,22 @@ TEST_F(PreviewCli, RefocusRerunsThePostProcessAndWarnsOutsideTheRange) {
   EXPECT_GT(diff, 1e-3 * static_cast<double>(round.data().size()));
 }
 
+TEST_F(PreviewCli, RefocusKeepsARealLensesCatsEyes) {
+  // The inputs of a preview through the traced double Gauss carry its rims (lens/lens_rims.h):
+  // refocused with the same lens, the image is the direct preview's, cat's eyes and all.
+  dofcache::testing::CliResult r =
+      run("render " + kScene + " --lens-file double_gauss_50mm --mode preview --out " +
+          path("direct.exr") + " --save-preview-inputs " + path("real.exr") + kTiny);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run("refocus " + path("real.exr") + " --out " + path("again.exr") + " -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("shaped scatter"), std::string::npos) << r.err;
+  const dofcache::image::Image direct = dofcache::image::read_image(path("direct.exr"));
+  const dofcache::image::Image again = dofcache::image::read_image(path("again.exr"));
+  ASSERT_TRUE(direct.same_shape(again));
+  EXPECT_TRUE(direct.data() == again.data());
+}
+
 TEST_F(PreviewCli, BadRefocusInputIsOneLineAndNoFile) {
   save_inputs();
   std::ofstream(path("garbage.exr")) << "this is not an EXR file";

@@ -283,6 +283,15 @@ TEST_F(SavedInputs, TheLensCharacterRoundTrips) {
   ScenePreview plain = q.preview(q.settings(1.4), PreviewMethod::Layered);
   save_preview_inputs(path, plain.inputs, plain.coverage);
   EXPECT_TRUE(load_preview_inputs(path).inputs.imaging.lens.aperture.plain());
+  // A real lens's equivalent carries its rims (lens/lens_rims.h) instead of a stop.
+  render::RenderSettings rims = q.settings(1.4);
+  rims.lens.aperture.blades = 6;
+  rims.lens.aperture.rims = {{0.03, 0.04}, {0.025, 0.02}, true};
+  ScenePreview cut = q.preview(rims, PreviewMethod::Layered);
+  save_preview_inputs(path, cut.inputs, cut.coverage);
+  loaded = load_preview_inputs(path);
+  EXPECT_TRUE(loaded.inputs.imaging.lens == rims.lens);
+  expect_identical(render_preview(loaded.inputs, PreviewMethod::Layered, {}), cut.image, "rims");
 }
 
 TEST_F(SavedInputs, AnotherLensReslicesAndWarnsOutsideTheRange) {

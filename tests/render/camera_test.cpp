@@ -123,7 +123,7 @@ void expect_bokeh_matches_lens_rays(const lens::ThinLens& lens, int band, float 
       const glm::vec2 o = b.scale * a / (1.0f + glm::dot(a, b.tilt));
       const glm::vec2 predicted = b.centre + glm::vec2(o.x, -o.y);
       EXPECT_LT(glm::distance(predicted, film), tolerance_px) << "depth " << depth << " ray " << i;
-      const float off = glm::distance(a, b.stop_centre) - b.stop_radius;
+      const float off = glm::distance(a, b.stops[0].centre) - b.stops[0].radius;
       if (std::abs(off) > 1e-3f) {  // not on the stop's rim
         EXPECT_EQ(s.weight == 0.0f, off > 0.0f) << "depth " << depth << " ray " << i;
         stopped += s.weight == 0.0f;

@@ -181,5 +181,32 @@ TEST(RealLensRender, UniformLightFillsTheFrameAtItsRadianceOrTheStopsShare) {
     EXPECT_NEAR(patch_mean(bladed, x, y), 1.0, 0.03) << x << "," << y;
 }
 
+TEST(RealLensRender, TheEquivalentsBokehSeesTheFittedRims) {
+  // lens/lens_rims.h: a point at the focus distance seen at film point f (lens space) sees the
+  // stop through the discs of centres slope * f and the fitted radii; the equivalent carries
+  // them as a front and a rear stop, and ThinLensCamera::bokeh must give those discs back.
+  const std::string path = "double_gauss_50mm";
+  constexpr int kW = 300, kH = 200;
+  const lens::MountedLens m = lens::mount_lens(lens::read_lens_file(path), path, 0.0, 3.0,
+                                               lens::Sensor{}, kW, kH, false);
+  ASSERT_TRUE(m.rims.front.present() && m.rims.rear.present());
+  const lens::ThinLens thin = m.equivalent();
+  const ThinLensCamera camera(glm::mat4(1.0f), 0.5f, thin, kW, kH, m);
+  for (const glm::vec2 px : {glm::vec2(150.0f, 100.0f), glm::vec2(290.0f, 100.0f),
+                             glm::vec2(20.0f, 185.0f), glm::vec2(230.0f, 10.0f)}) {
+    SCOPED_TRACE(px.x);
+    const glm::dvec2 f{(0.5 - px.x / kW) * m.film_size.x, (px.y / kH - 0.5) * m.film_size.y};
+    const BokehSpot b = camera.bokeh(px, thin.focus_distance);
+    EXPECT_TRUE(b.normalised);
+    const lens::RimDisc* rims[2] = {&m.rims.front, &m.rims.rear};
+    for (int k = 0; k < 2; ++k) {
+      ASSERT_TRUE(b.stops[k].present());
+      EXPECT_NEAR(b.stops[k].radius, rims[k]->radius, 1e-4);
+      EXPECT_NEAR(b.stops[k].centre.x, rims[k]->slope * f.x, 1e-4);
+      EXPECT_NEAR(b.stops[k].centre.y, rims[k]->slope * f.y, 1e-4);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace dofcache::render

@@ -46,6 +46,8 @@ TEST(ViewRealLens, FocusingBreathesAndTheInputsAreSeenFromItsPrincipalPlane) {
   ASSERT_TRUE(far.real_lens);
   EXPECT_NEAR(far.lens.focal_length, 0.0504, 0.0002);
   EXPECT_NEAR(far.real_lens.lens->focus_distance(), 4.0, 1e-9);
+  // Its previews draw the lens's own cat's eyes (lens/lens_rims.h).
+  EXPECT_TRUE(far.lens.aperture.rims.any());
   // The pinhole sits at the front principal plane, so the near wall's depth is 1 m less its
   // distance from the sensor.
   const int x = kWidth / 4, y = kHeight / 2;
@@ -75,6 +77,7 @@ TEST(ViewRealLens, FocusingBreathesAndTheInputsAreSeenFromItsPrincipalPlane) {
   const lens::ThinLens thin = session.set_real_lens("");
   EXPECT_NEAR(thin.focal_length, 0.0504, 0.0002);
   EXPECT_NEAR(thin.focus_distance, 1.0, 1e-4);
+  EXPECT_FALSE(thin.aperture.rims.any());  // the real lens's own cat's eyes stay with it
   EXPECT_FALSE(session.status().real_lens);
   ASSERT_TRUE(session.wait_for_stage(InputStage::Refined, 60.0));
   EXPECT_NEAR(session.depth_at(x, y), 1.0, 1e-4);

@@ -79,6 +79,22 @@ struct VignettingStop {
   }
 };
 
+// A real lens's own optical vignetting as its thin-lens equivalent draws it (lens/lens_rims.h):
+// the rims in front of its stop and behind it, each as a circular stop. `front` clips as a
+// vignetting stop does; `rear` lies `distance` behind the aperture, towards the film, and clips
+// the other side of an off-axis bundle. `normalised`: the image is divided by what they pass (a
+// real lens whose exposure does not follow it), so a cat's eye keeps a round bokeh's light. Not
+// a choice of the command line: MountedLens::equivalent sets it from the traced lens, and the
+// preview draws it (the traced lens's own rays need no model).
+struct LensRims {
+  VignettingStop front, rear;
+  bool normalised = false;
+  bool any() const { return front.radius > 0.0 || rear.radius > 0.0; }
+  bool operator==(const LensRims& o) const {
+    return front == o.front && rear == o.rear && normalised == o.normalised;
+  }
+};
+
 struct ApertureShape {
   ApertureShape() = default;
   ApertureShape(int blades, double rotation_deg, double roundness, double anamorphic_ratio,
@@ -104,6 +120,7 @@ struct ApertureShape {
   double tilt_x_deg = 0.0, tilt_y_deg = 0.0;  // lens tilt about the horizontal, vertical axes
   double shift_x = 0.0, shift_y = 0.0;        // film shift, in image heights
   std::string image;                          // an aperture image's path; empty: none
+  LensRims rims;                              // a real lens's equivalent's; none by default
 
   // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
   bool round() const { return blades == 0 && anamorphic_ratio == 1.0 && image.empty(); }
@@ -115,7 +132,8 @@ struct ApertureShape {
   // The ideal lens of before shapes: round, nothing clipped, every colour alike, every lens ray
   // of the same weight.
   bool plain() const {
-    return round() && !vignetting() && !chromatic() && !weighted() && !tilted() && !shifted();
+    return round() && !vignetting() && !chromatic() && !weighted() && !tilted() && !shifted() &&
+           !rims.any();
   }
   // A lens ray's weight at normalised radius rho: T(rho) over T's mean (1 without a profile).
   double transmission(double rho) const;
@@ -135,7 +153,8 @@ struct ApertureShape {
   // roundness outside [0, 1], a ratio <= 0 or non-finite, a non-finite rotation, a vignetting
   // stop whose radius or distance is not positive and finite, a lateral chromatic aberration
   // beyond 20 % or either aberration not finite, a profile strength outside [0, 1], a tilt of 90
-  // degrees or more, a shift beyond one image height).
+  // degrees or more, a shift beyond one image height, a rim whose radius or distance is not
+  // positive and finite, rims with a vignetting stop).
   void validate() const;
   bool operator==(const ApertureShape& o) const {
     return blades == o.blades && rotation_deg == o.rotation_deg && roundness == o.roundness &&
@@ -143,7 +162,7 @@ struct ApertureShape {
            axial_ca == o.axial_ca && lateral_ca == o.lateral_ca && profile == o.profile &&
            profile_strength == o.profile_strength && tilt_x_deg == o.tilt_x_deg &&
            tilt_y_deg == o.tilt_y_deg && shift_x == o.shift_x && shift_y == o.shift_y &&
-           image == o.image;
+           image == o.image && rims == o.rims;
   }
 };
 
@@ -168,7 +187,8 @@ struct ApertureChoices {
   // The shape with the unset values at their defaults (round).
   ApertureShape shape() const;
   // A resolved shape as choices (what a printed request keeps): every scalar set, the stop, tilt,
-  // shift and image only where the shape has them. of(s).shape() == s.
+  // shift and image only where the shape has them. of(s).shape() == s (a real lens's rims are
+  // not a choice: of() leaves them out).
   static ApertureChoices of(const ApertureShape& s);
   bool any() const {
     return blades || rotation_deg || roundness || anamorphic_ratio || vignetting_stop ||

@@ -28,6 +28,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include "dofcache/lens/lens_rims.h"
 #include "dofcache/lens/lens_system.h"
 #include "dofcache/lens/thin_lens.h"
 
@@ -99,6 +100,11 @@ class RealLens {
 
   // Whether any glass has an Abbe number (the colour bands then differ).
   bool dispersive() const;
+  // The lens's own vignetting, the stop aside: whether every element's rim passes the film ray
+  // `ray` (lens/lens_rims.h). And where the ray crosses the stop's plane, in units of the stop's
+  // radius (x, y as lens space), traced without clipping; nullopt where it misses a surface.
+  bool passes_rims(LensRay ray) const;
+  std::optional<glm::dvec2> stop_point(LensRay ray) const;
 
   static constexpr int kPupilBins = 64;
 
@@ -183,11 +189,13 @@ struct MountedLens {
   std::shared_ptr<const RealLens> lens;
   glm::dvec2 film_size{0.0};  // metres
   std::string source;         // the lens file (messages, cache files)
+  RimModel rims;              // its own vignetting, fitted over the film (lens_rims.h)
 
   explicit operator bool() const { return lens != nullptr; }
   // The thin lens a cache's reuse rule and a preview see: the effective focal length, the f-number
   // of the entrance pupil, and the focus distance measured from the front principal plane (the
-  // thick-lens law, which the traced bokeh follows: tests/lens/real_lens_test.cpp).
+  // thick-lens law, which the traced bokeh follows: tests/lens/real_lens_test.cpp), its stop's
+  // shape, and its rims as that thin lens's stops (lens_rims.h), which the preview draws.
   ThinLens equivalent() const;
   // The paraxial vertical field of view: the film's height over the image distance behind the
   // rear principal plane.

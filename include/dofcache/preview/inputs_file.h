@@ -13,7 +13,10 @@
 //                                aperture_blades, aperture_rotation, aperture_roundness,
 //                                anamorphic_ratio, vignetting_stop_radius and _distance,
 //                                axial_ca, lateral_ca, aperture_profile, aperture_profile_strength,
-//                                lens_tilt_x and _y, lens_shift_x and _y, aperture_image
+//                                lens_tilt_x and _y, lens_shift_x and _y, aperture_image;
+//                                a real lens's rims (lens/lens_rims.h) where it has them:
+//                                lens_rims_front_radius and _distance, lens_rims_rear_radius
+//                                and _distance, lens_rims_normalised (0 or 1)
 //   part "depth"       Z         camera-space depth, +inf for no hit
 //   part "ids"         id        triangle (or object) ids, -1 for no hit
 //   part "revealed.K"  x, y, R, G, B, Z

@@ -95,11 +95,13 @@ class PreviewWorkspace {
 };
 
 // The lens's own bokeh. With a lens that is not plain (lens/aperture.h: blades, an anamorphic
-// squeeze, an aperture image, a vignetting stop, chromatic aberration, tilt or shift), every
+// squeeze, an aperture image, a vignetting stop, a real lens's rims, chromatic aberration, tilt
+// or shift), every
 // method draws it with the shaped scatter: each pixel splats the aperture's shape where the lens
 // puts its rays (render::ThinLensCamera::bokeh: turned by 180 degrees in front of the plane of
 // focus, scaled by the band's and the tilted plane's circle of confusion, its centre moved by
-// lateral chromatic aberration, cut by the stop's disc and dimmed by the light the stop takes),
+// lateral chromatic aberration, cut by the stop's disc and dimmed by the light the stop takes,
+// or cut by a real lens's rims and, where its image is normalised for them, as bright as uncut),
 // binned and composited far to near as the disk scatter (baselines.h), with each colour channel's
 // own coverage. The layered methods' pyramid blurs round discs of one radius per depth, which a
 // tilted plane, a cat's eye or colour fringes break; PreviewTimings::shaped_bokeh says when this
@@ -109,16 +111,18 @@ class PreviewWorkspace {
 // What a front end says when the shaped scatter draws a preview (one line).
 inline constexpr const char* kShapedPreviewNotice =
     "the preview draws this lens's bokeh with its shaped scatter (the aperture's shape, the "
-    "vignetting stop, the colour bands and the tilted plane, pixel by pixel); the layered "
+    "vignetting stop or the lens's rims, the colour bands and the tilted plane, pixel by pixel); "
+    "the layered "
     "methods, their occlusion fix and the transmission profile are left out";
 
 // What a front end says when the preview draws a real lens (lens/real_lens.h): as its thick-lens
 // equivalent, whose circle of confusion the traced bokeh follows (tests/render/
-// real_lens_render_test.cpp), through the pinhole projection from its front principal plane.
+// real_lens_render_test.cpp), cut to the cat's eyes of its rims (lens/lens_rims.h), through the
+// pinhole projection from its front principal plane.
 inline constexpr const char* kRealLensPreviewNotice =
     "the preview draws the real lens as its thick-lens equivalent (the bokeh of its circle of "
-    "confusion in its stop's shape, a perspective projection); the cat's eyes, distortion and "
-    "aberrations of its traced render are left out";
+    "confusion in its stop's shape, cut to the cat's eyes of its rims; a perspective "
+    "projection); the distortion and aberrations of its traced render are left out";
 // Beyond this corner distortion (lens::MountedLens::corner_distortion) a real lens is not drawn
 // by the preview's perspective projection (a fisheye): resolve() refuses it in one line.
 inline constexpr double kMaxPreviewDistortion = 0.1;

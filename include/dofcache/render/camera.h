@@ -3,6 +3,9 @@
 // aperture F/n focused at distance P. A camera ray starts at a point on the lens and passes through
 // the point where the pinhole ray of its film position meets the focal plane, so every ray of one
 // film point converges at depth P and points at depth D spread over the CoC of eq. (2.4).
+#include <cmath>
+#include <limits>
+
 #include <glm/mat4x4.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
@@ -30,13 +33,21 @@ struct LensSample {
 // `scale` is the signed CoC radius: negative in front of the plane of focus, where the bokeh is
 // turned by 180 degrees. `tilt` is 0 for an untilted lens; tilted, each film point focuses at its
 // own depth, and the bokeh is the aperture under that projective map (exact). The vignetting
-// stop lets through the rays of the aperture points inside its disc.
+// stop lets through the rays of the aperture points inside its disc; a real lens's rims
+// (lens/lens_rims.h) are two such discs.
+struct StopDisc {
+  glm::vec2 centre{0.0f};                                 // aperture units
+  float radius = std::numeric_limits<float>::infinity();  // aperture units; +inf: none
+  bool present() const { return std::isfinite(radius); }
+};
 struct BokehSpot {
   glm::vec2 centre{0.0f};
   float scale = 0.0f;
-  glm::vec2 tilt{0.0f};         // aperture radius x (sin tilt_y, sin tilt_x) / F
-  glm::vec2 stop_centre{0.0f};  // aperture units
-  float stop_radius = 0.0f;     // aperture units; +inf without a stop (or a point before it)
+  glm::vec2 tilt{0.0f};  // aperture radius x (sin tilt_y, sin tilt_x) / F
+  // The vignetting stop's disc, or a real lens's front and rear rims' (a point before a stop:
+  // none).
+  StopDisc stops[2];
+  bool normalised = false;  // the image is divided by what the stops pass (LensRims)
 };
 
 class ThinLensCamera {
@@ -55,7 +66,8 @@ class ThinLensCamera {
   // mapped to the aperture (lens::Aperture: the concentric mapping for a round one). Direction is
   // unit length, and its weight (the profile, the vignetting stop). `band` (0 red, 1 green, 2
   // blue; -1 none) picks the wavelength band whose focus and magnification chromatic aberration
-  // shifts.
+  // shifts. A real lens's rims (lens::LensRims) shape bokeh() alone: that lens's own rays are
+  // traced through it.
   LensSample lens_ray(glm::vec2 film, glm::vec2 lens_u, int band = -1) const;
   // The ray alone (its weight ignored).
   scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u) const {
