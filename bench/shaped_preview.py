@@ -8,7 +8,13 @@ lens), both compared with the converged DRT reference through that lens (REFS/sh
 uncached, e.g. 512 spp; --make-refs renders them): relMSE and PSNR (dofcache compare). Also the
 post-process's time (the fastest of three runs). Writes bench/results/NAME.json and .csv.
 
+With --real-lens NAME (a shipped prescription, e.g. double_gauss_50mm), also the preview through
+that traced lens, whose rims cut cat's eyes towards the corners (docs/lens.md), against its
+uncached DRT reference; "drawn round" is then the same saved preview inputs with the rims taken
+out of the file (oiiotool), which is what the preview drew before it fitted them.
+
     python3 bench/shaped_preview.py --dofcache build/dofcache --refs DIR [--make-refs]
+        [--real-lens double_gauss_50mm] [--lenses round,blades6,...]
 """
 
 import argparse
@@ -42,6 +48,44 @@ def compare(dofcache, test, ref):
     return m["rel_mse"], m["psnr"]
 
 
+def postprocess_ms(dofcache, argv):
+    """The fastest of three runs' post-process time (ms) of a preview command."""
+    best = None
+    for _ in range(3):
+        _, out = dq.run([dofcache] + argv)
+        ms = float(out.split("post-process ")[1].split(" ms")[0])
+        best = ms if best is None else min(best, ms)
+    return best
+
+
+def real_lens_row(a, size):
+    name = "real_" + a.real_lens
+    flags = ["--lens-file", a.real_lens]
+    ref = os.path.join(a.refs, "shaped_%s_%d.exr" % (name, a.width))
+    if not os.path.isfile(ref):
+        if not a.make_refs:
+            raise SystemExit("no reference %s (--make-refs renders it)" % ref)
+        dq.render_reference(a.dofcache, SCENE, ref, a.ref_spp, size + flags)
+    inputs = os.path.join(a.work, name + "_inputs.exr")
+    shaped = os.path.join(a.work, name + "_shaped.exr")
+    dq.run([a.dofcache, "render", SCENE, "--mode", "preview", "-q", "-o", shaped,
+            "--save-preview-inputs", inputs] + size + flags)
+    plain = os.path.join(a.work, name + "_inputs_round.exr")
+    dq.run(["oiiotool", inputs, "-a", "--eraseattrib", "dofcache:lens_rims.*", "-o", plain])
+    round_out = os.path.join(a.work, name + "_round.exr")
+    row = {"lens": name, "flags": " ".join(flags), "width": a.width}
+    for label, src, out in (("shaped", inputs, shaped), ("round", plain, round_out)):
+        row["postprocess_ms_" + label] = postprocess_ms(
+            a.dofcache, ["refocus", src, "-o", out])
+        row["rel_mse_" + label], row["psnr_" + label] = compare(a.dofcache, out, ref)
+    print("%-11s relMSE %.4f (PSNR %.1f dB), without its rims %.4f (%.1f dB); post-process "
+          "%.0f ms (without %.0f ms)" % (name, row["rel_mse_shaped"], row["psnr_shaped"],
+                                         row["rel_mse_round"], row["psnr_round"],
+                                         row["postprocess_ms_shaped"],
+                                         row["postprocess_ms_round"]), flush=True)
+    return row
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--dofcache", default=os.path.join(REPO, "build", "dofcache"))
@@ -51,11 +95,17 @@ def main():
     p.add_argument("--width", type=int, default=320)
     p.add_argument("--work", default="/tmp/dofcache-shaped-preview")
     p.add_argument("--results", default="shaped_preview")
+    p.add_argument("--real-lens", help="also a shipped lens prescription's preview")
+    p.add_argument("--lenses", default=",".join(n for n, _ in LENSES),
+                   help="which of the thin lenses to run (comma-separated; empty: none)")
     a = p.parse_args()
     os.makedirs(a.work, exist_ok=True)
     size = ["--width", str(a.width)]
     rows = []
+    chosen = set(a.lenses.split(",")) if a.lenses else set()
     for name, flags in LENSES:
+        if name not in chosen:
+            continue
         ref = os.path.join(a.refs, "shaped_%s_%d.exr" % (name, a.width))
         if not os.path.isfile(ref):
             if not a.make_refs:
@@ -80,6 +130,8 @@ def main():
                                            row["rel_mse_round"], row["psnr_round"],
                                            row["postprocess_ms_shaped"],
                                            row["postprocess_ms_round"]), flush=True)
+    if a.real_lens:
+        rows.append(real_lens_row(a, size))
     path = pb.write_results(a.results, {"settings": {"width": a.width, "ref_spp": a.ref_spp,
                                                      "scene": "bokeh_lights.gltf"},
                                         "columns": list(rows[0].keys()), "rows": rows}, None)

@@ -303,7 +303,8 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
   const lens::LensImaging& imaging = inputs.imaging;
   const render::ThinLensCamera camera(glm::mat4(1.0f), static_cast<float>(imaging.yfov),
                                       imaging.lens, W, H);
-  const ApertureRows rows(camera.aperture());
+  const ApertureLevels levels(camera.aperture());
+  const ApertureRows& shape = levels.shape();
   const int bands = imaging.lens.aperture.chromatic() ? 3 : 1;
   const float limit = static_cast<float>(options.max_coc_radius);
 
@@ -324,21 +325,38 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
                spot.tilt.x, spot.tilt.y, {spot.stops[0], spot.stops[1]}};
           // Normalised over the part inside the image, as the disk scatter; a shape too small
           // to cover a pixel centre is drawn as a sharp one.
-          auto pixels = [&](bool cut) {
+          auto pixels = [&](const ApertureRows& rows, bool cut) {
             double inside = 0;
             for_each_run(s, rows, W, 0, H, cut,
                          [&](int, int x0, int x1, float j) { inside += (x1 - x0 + 1) * j; });
             return inside;
           };
-          const double inside = s.sharp() ? 0.0 : pixels(false);
+          // The light's pixels: every level's, each weighing its step of the transmission.
+          auto lit = [&](bool cut) {
+            double n = 0;
+            for (int k = 0; k < levels.count(); ++k)
+              n += levels.weight(k) * pixels(levels.level(k), cut);
+            return n;
+          };
+          const double inside = s.sharp() ? 0.0 : pixels(shape, false);
           if (inside > 0.0) {
-            s.weight = s.light = static_cast<float>(1.0 / inside);
+            s.weight = static_cast<float>(1.0 / inside);
+            // A graded splat whole in the frame: its levels' pixels as the shape's times the
+            // transmission's mean (within a pixel's rounding of each level's rim), which saves a
+            // pass per level; at the frame's border, counted.
+            const float e = s.extent();
+            const bool whole = s.cx - e >= 0.0f && s.cy - e >= 0.0f &&
+                               s.cx + e <= static_cast<float>(W) && s.cy + e <= static_cast<float>(H);
+            const double all = levels.count() == 1 ? inside
+                               : whole             ? inside * levels.mean()
+                                                   : lit(false);
+            s.light = all > 0.0 ? static_cast<float>(1.0 / all) : 0.0f;
             if (spot.normalised && s.stopped()) {
-              const double passed = pixels(true);
+              const double passed = lit(true);
               if (passed > 0.0) s.light = static_cast<float>(1.0 / passed);
             }
           } else if (s.stopped() && !spot.normalised) {
-            s.pass = rows.area_share(s.stops);
+            s.pass = levels.area_share(s.stops);
           }
         }
       }
@@ -392,9 +410,9 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
             for_each_bilinear(s, W, H, [&](int y, int x, float w) { add(colour, y, x, x, w); });
             continue;
           }
-          if (!s.stopped()) {  // colour and alpha over the same runs
+          if (!s.stopped() && levels.count() == 1) {  // colour and alpha over the same runs
             for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
-            for_each_run(s, rows, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
+            for_each_run(s, shape, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
               add(colour, y, x0, x1, s.weight * j);
             });
             continue;
@@ -402,13 +420,16 @@ void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& o
           // The stopped rays bring no light but their share of the coverage: the splats' alphas
           // then tile as the uncut shapes do, and the light a pixel gathers through the cut ones
           // is its own bundle's share that the stops pass, as in the ray tracer (normalised: the
-          // whole of it, as a real lens's image divided by what its rims pass).
-          for_each_run(s, rows, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
+          // whole of it, as a real lens's image divided by what its rims pass). A graded
+          // transmission's light is its levels', its coverage the whole shape's.
+          for_each_run(s, shape, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
             add(alpha, y, x0, x1, s.weight * j);
           });
-          for_each_run(s, rows, W, r0, r1, true, [&](int y, int x0, int x1, float j) {
-            add(colour, y, x0, x1, s.light * j);
-          });
+          for (int k = 0; k < levels.count(); ++k)
+            for_each_run(s, levels.level(k), W, r0, r1, s.stopped(),
+                         [&](int y, int x0, int x1, float j) {
+                           add(colour, y, x0, x1, s.light * levels.weight(k) * j);
+                         });
         }
       },
       [&](int y, const double* row) {

@@ -9,7 +9,6 @@
 #include <string>
 
 #include "../render/lamp_bokeh.h"
-#include "dofcache/image/image_io.h"
 #include "dofcache/lens/real_lens.h"
 #include "dofcache/preview/preview_renderer.h"
 #include "dofcache/scene/accel.h"
@@ -62,11 +61,7 @@ Pair render_both(const Lamp& lamp, bool exposure_follows_lens = false) {
   const ScenePreview pv = render_scene_preview(s, accel, s.cameras[0], r, PreviewMethod::Layered);
   EXPECT_TRUE(pv.timings.postprocess.shaped_bokeh);
   p.preview = pv.image;
-  if (const char* dump = std::getenv("DUMP")) {
-    static int n = 0;
-    image::write_image(std::string(dump) + std::to_string(n) + "_drt.exr", p.drt);
-    image::write_image(std::string(dump) + std::to_string(n++) + "_preview.exr", p.preview);
-  }
+  testing::dump_if_asked(p.drt, p.preview);
   return p;
 }
 

@@ -3,8 +3,11 @@
 // that compare a bokeh with the aperture's geometry or one renderer's bokeh with another's.
 #include <cmath>
 #include <complex>
+#include <cstdlib>
+#include <string>
 
 #include "dofcache/image/image.h"
+#include "dofcache/image/image_io.h"
 #include "dofcache/render/renderer.h"
 #include "test_scenes.h"
 
@@ -26,6 +29,16 @@ inline scene::Scene lamp_scene(glm::vec3 lamp, double side, float yfov, bool bac
   build_emitters(s);
   s.cameras.push_back(origin_camera(yfov));
   return s;
+}
+
+// With DUMP=prefix in the environment, writes a pair of a test's images (prefixN_drt.exr and
+// prefixN_preview.exr) to look at.
+inline void dump_if_asked(const image::Image& drt, const image::Image& preview) {
+  const char* dump = std::getenv("DUMP");
+  if (!dump) return;
+  static int n = 0;
+  image::write_image(std::string(dump) + std::to_string(n) + "_drt.exr", drt);
+  image::write_image(std::string(dump) + std::to_string(n++) + "_preview.exr", preview);
 }
 
 inline render::RenderSettings lamp_settings(const lens::ThinLens& lens, int size, int spp) {

@@ -105,15 +105,14 @@ class PreviewWorkspace {
 // binned and composited far to near as the disk scatter (baselines.h), with each colour channel's
 // own coverage. The layered methods' pyramid blurs round discs of one radius per depth, which a
 // tilted plane, a cat's eye or colour fringes break; PreviewTimings::shaped_bokeh says when this
-// path ran. The transmission profile is not drawn (evenly lit splats), an aperture image is drawn
-// as its non-zero pixels, and the occlusion fix's revealed layers are not used.
+// path ran. A graded transmission (a profile, an aperture image's grey levels) is drawn as levels
+// (aperture_rows.h); the occlusion fix's revealed layers are not used.
 //
 // What a front end says when the shaped scatter draws a preview (one line).
 inline constexpr const char* kShapedPreviewNotice =
     "the preview draws this lens's bokeh with its shaped scatter (the aperture's shape, the "
-    "vignetting stop or the lens's rims, the colour bands and the tilted plane, pixel by pixel); "
-    "the layered "
-    "methods, their occlusion fix and the transmission profile are left out";
+    "vignetting stop or the lens's rims, the transmission, the colour bands and the tilted "
+    "plane, pixel by pixel); the layered methods and their occlusion fix are left out";
 
 // What a front end says when the preview draws a real lens (lens/real_lens.h): as its thick-lens
 // equivalent, whose circle of confusion the traced bokeh follows (tests/render/
