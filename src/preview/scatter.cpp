@@ -205,11 +205,12 @@ struct ShapedSplat {
   float cx, cy, scale;
   float tilt_x, tilt_y;
   render::StopDisc stops[2];
-  float pass = 1.0f;    // sharp: the share of the aperture's area that the stops let through
+  bool normalised = false;  // the image is divided by what the stops pass (BokehSpot)
   float weight = 0.0f;  // coverage per pixel (times the run's density): one over the shape's
                         // pixels in the image; 0: drawn as a sharp splat
-  float light = 0.0f;   // light per pixel: the weight, or where the image is normalised for the
-                        // stops, one over the pixels they pass
+  float light = 1.0f;   // light per pixel: one over the transmission's pixels (cut by the stops
+                        // where the image is normalised for them); sharp: the share of the
+                        // aperture's light that the stops let through
 
   bool sharp() const { return std::abs(scale) <= 0.5f; }
   bool stopped() const { return stops[0].present() || stops[1].present(); }
@@ -293,168 +294,233 @@ void for_each_bilinear(const ShapedSplat& s, int W, int H, const F& f) {
 }
 }  // namespace
 
-void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
-                            PreviewWorkspace::Impl& ws, image::Image& out) {
-  const image::Image& color = inputs.color;
-  const int W = color.width(), H = color.height();
-  const size_t N = color.pixel_count();
-  const float* col = color.data().data();
-  const float* depth = inputs.depth.data().data();
-  const lens::LensImaging& imaging = inputs.imaging;
-  const render::ThinLensCamera camera(glm::mat4(1.0f), static_cast<float>(imaging.yfov),
-                                      imaging.lens, W, H);
-  const ApertureLevels levels(camera.aperture());
-  const ApertureRows& shape = levels.shape();
-  const int bands = imaging.lens.aperture.chromatic() ? 3 : 1;
-  const float limit = static_cast<float>(options.max_coc_radius);
+namespace {
+// The shaped scatter (preview.h) of one image: every pixel splats the lens's bokeh where the lens
+// puts it. A splat's geometry is the camera's (BokehSpot), found again wherever it is drawn, so
+// only its two weights are kept per pixel and band (8 bytes rather than the 60 of the whole).
+class ShapedScatter {
+ public:
+  ShapedScatter(const PreviewInputs& inputs, const PreviewOptions& options)
+      : inputs_(inputs), options_(options), W_(inputs.color.width()), H_(inputs.color.height()),
+        camera_(glm::mat4(1.0f), static_cast<float>(inputs.imaging.yfov), inputs.imaging.lens,
+                W_, H_),
+        levels_(camera_.aperture()),
+        bands_(inputs.imaging.lens.aperture.chromatic() ? 3 : 1),
+        limit_(static_cast<float>(options.max_coc_radius)) {}
 
-  // Every pixel's splat per band, where the lens puts it.
-  std::vector<ShapedSplat> splats(N * bands);
-  parallel_rows(H, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y)
-      for (int x = 0; x < W; ++x) {
-        const size_t p = static_cast<size_t>(y) * W + x;
-        double z = depth[p];
-        if (!(z > 0.0)) z = std::isnan(z) ? 1e30 : 1e-9;  // a miss is far; at the lens, near
-        if (std::isinf(z)) z = 1e30;
-        for (int b = 0; b < bands; ++b) {
-          const render::BokehSpot spot =
-              camera.bokeh({x + 0.5f, y + 0.5f}, z, bands == 3 ? b : -1);
-          ShapedSplat& s = splats[p * bands + b];
-          s = {spot.centre.x, spot.centre.y, std::clamp(spot.scale, -limit, limit),
-               spot.tilt.x, spot.tilt.y, {spot.stops[0], spot.stops[1]}};
-          // Normalised over the part inside the image, as the disk scatter; a shape too small
-          // to cover a pixel centre is drawn as a sharp one.
-          auto pixels = [&](const ApertureRows& rows, bool cut) {
-            double inside = 0;
-            for_each_run(s, rows, W, 0, H, cut,
-                         [&](int, int x0, int x1, float j) { inside += (x1 - x0 + 1) * j; });
-            return inside;
-          };
-          // The light's pixels: every level's, each weighing its step of the transmission.
-          auto lit = [&](bool cut) {
-            double n = 0;
-            for (int k = 0; k < levels.count(); ++k)
-              n += levels.weight(k) * pixels(levels.level(k), cut);
-            return n;
-          };
-          const double inside = s.sharp() ? 0.0 : pixels(shape, false);
+  void run(PreviewWorkspace::Impl& ws, image::Image& out) {
+    weigh();
+    const Bins bins = sort_into_bins(ws.coc.data(), inputs_.color.pixel_count(), options_, ws);
+    draw(bins, ws);
+    resolve(ws, out);
+  }
+
+ private:
+  static constexpr int kCh = 6;  // colour and alpha per channel: chromatic bands cover differently
+
+  // Pixel p's splat in `band` (-1 without colour bands), its weights left unset.
+  ShapedSplat geometry(std::size_t p, int band) const {
+    double z = inputs_.depth.data()[p];
+    if (!(z > 0.0)) z = std::isnan(z) ? 1e30 : 1e-9;  // a miss is far; at the lens, near
+    if (std::isinf(z)) z = 1e30;
+    const int x = static_cast<int>(p % W_), y = static_cast<int>(p / W_);
+    const render::BokehSpot spot = camera_.bokeh({x + 0.5f, y + 0.5f}, z, band);
+    return {spot.centre.x,
+            spot.centre.y,
+            std::clamp(spot.scale, -limit_, limit_),
+            spot.tilt.x,
+            spot.tilt.y,
+            {spot.stops[0], spot.stops[1]},
+            spot.normalised};
+  }
+  ShapedSplat splat(std::size_t p, int b) const {
+    ShapedSplat s = geometry(p, bands_ == 3 ? b : -1);
+    const Weights& w = weights_[p * bands_ + b];
+    s.weight = w.weight, s.light = w.light;
+    return s;
+  }
+
+  // A splat's pixels in the image (times the tilt's density) over `rows`, cut by its stops.
+  double pixels(const ShapedSplat& s, const ApertureRows& rows, bool cut) const {
+    double inside = 0;
+    for_each_run(s, rows, W_, 0, H_, cut,
+                 [&](int, int x0, int x1, float j) { inside += (x1 - x0 + 1) * j; });
+    return inside;
+  }
+  // The light's pixels: every level's, each weighing its step of the transmission.
+  double lit(const ShapedSplat& s, bool cut) const {
+    double n = 0;
+    for (int k = 0; k < levels_.count(); ++k)
+      n += levels_.weight(k) * pixels(s, levels_.level(k), cut);
+    return n;
+  }
+
+  // Every splat's weights: normalised over its part inside the image, as the disk scatter's; a
+  // shape too small to cover a pixel centre is drawn as a sharp one.
+  void weigh() {
+    weights_.assign(inputs_.color.pixel_count() * bands_, Weights{});
+    parallel_rows(H_, [&](int y0, int y1) {
+      for (std::size_t p = static_cast<std::size_t>(y0) * W_;
+           p < static_cast<std::size_t>(y1) * W_; ++p)
+        for (int b = 0; b < bands_; ++b) {
+          const ShapedSplat s = geometry(p, bands_ == 3 ? b : -1);
+          Weights& w = weights_[p * bands_ + b];
+          const double inside = s.sharp() ? 0.0 : pixels(s, levels_.shape(), false);
           if (inside > 0.0) {
-            s.weight = static_cast<float>(1.0 / inside);
+            w.weight = static_cast<float>(1.0 / inside);
             // A graded splat whole in the frame: its levels' pixels as the shape's times the
-            // transmission's mean (within a pixel's rounding of each level's rim), which saves a
-            // pass per level; at the frame's border, counted.
+            // transmission's mean (within a pixel's rounding of each level's rim), which saves
+            // a pass per level; at the frame's border, counted.
             const float e = s.extent();
             const bool whole = s.cx - e >= 0.0f && s.cy - e >= 0.0f &&
-                               s.cx + e <= static_cast<float>(W) && s.cy + e <= static_cast<float>(H);
-            const double all = levels.count() == 1 ? inside
-                               : whole             ? inside * levels.mean()
-                                                   : lit(false);
-            s.light = all > 0.0 ? static_cast<float>(1.0 / all) : 0.0f;
-            if (spot.normalised && s.stopped()) {
-              const double passed = lit(true);
-              if (passed > 0.0) s.light = static_cast<float>(1.0 / passed);
+                               s.cx + e <= static_cast<float>(W_) &&
+                               s.cy + e <= static_cast<float>(H_);
+            const double all = levels_.count() == 1 ? inside
+                               : whole              ? inside * levels_.mean()
+                                                    : lit(s, false);
+            w.light = all > 0.0 ? static_cast<float>(1.0 / all) : 0.0f;
+            if (s.normalised && s.stopped()) {
+              const double passed = lit(s, true);
+              if (passed > 0.0) w.light = static_cast<float>(1.0 / passed);
             }
-          } else if (s.stopped() && !spot.normalised) {
-            s.pass = levels.area_share(s.stops);
+          } else if (s.stopped() && !s.normalised) {
+            w.light = levels_.area_share(s.stops);
           }
+        }
+    });
+  }
+
+  // Per bin: the rows from its own that a splat of the bin can touch.
+  std::vector<int> reaches(const Bins& bins) const {
+    std::vector<int> reach(bins.count, 0);
+    tbb::parallel_for(0, bins.count, [&](int b) {
+      for (int k = bins.start[b]; k < bins.start[b + 1]; ++k) {
+        const int q = bins.sorted[k], qy = q / W_;
+        for (int band = 0; band < bands_; ++band) {
+          const ShapedSplat s = geometry(static_cast<std::size_t>(q), bands_ == 3 ? band : -1);
+          const float off = std::abs(s.cy - (static_cast<float>(qy) + 0.5f));
+          reach[b] = std::max(reach[b], static_cast<int>(std::ceil(off + s.extent() + 1.0f)));
         }
       }
-  });
+    });
+    return reach;
+  }
 
-  const Bins bins = sort_into_bins(ws.coc.data(), N, options, ws);  // depth order
-  std::vector<int> reach(bins.count, 0);
-  for (int b = 0; b < bins.count; ++b)
-    for (int k = bins.start[b]; k < bins.start[b + 1]; ++k) {
-      const int q = bins.sorted[k], qy = q / W;
-      for (int band = 0; band < bands; ++band) {
-        const ShapedSplat& s = splats[static_cast<size_t>(q) * bands + band];
-        const float off = std::abs(s.cy - (static_cast<float>(qy) + 0.5f));
-        reach[b] = std::max(reach[b], static_cast<int>(std::ceil(off + s.extent() + 1.0f)));
+  // Pixel q's splats within rows [r0, r1) (diff: row r0's difference buffer), widening [ya, yb)
+  // to the rows they touch.
+  void draw_splats(int q, int r0, int r1, double* diff, int& ya, int& yb) const {
+    const float* col = inputs_.color.data().data();
+    const std::size_t row_len = static_cast<std::size_t>(W_ + 1) * kCh;
+    const ApertureRows& shape = levels_.shape();
+    for (int band = 0; band < bands_; ++band) {
+      const ShapedSplat s = splat(static_cast<std::size_t>(q), band);
+      // Colour and alpha per unit of weight.
+      double colour[kCh] = {0, 0, 0, 0, 0, 0}, alpha[kCh] = {0, 0, 0, 0, 0, 0};
+      for (int c = 0; c < 3; ++c)
+        if (bands_ == 1 || c == band) {
+          colour[c] = col[3 * q + c];
+          alpha[3 + c] = 1.0;
+        }
+      auto add = [&](const double* v, int y, int x0, int x1, double w) {
+        if (y < r0 || y >= r1) return;  // (the runs are clipped already; bilinear ones not)
+        ya = std::min(ya, y);
+        yb = std::max(yb, y + 1);
+        double* row = diff + row_len * (y - r0);
+        double* a = row + kCh * x0;
+        double* z = row + kCh * (x1 + 1);
+        for (int k = 0; k < kCh; ++k) {
+          a[k] += v[k] * w;
+          z[k] -= v[k] * w;
+        }
+      };
+      if (s.weight == 0.0f) {  // sharp: its light is what the stop lets through of its bundle
+        for (int c = 0; c < 3; ++c) colour[c] *= s.light;
+        for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
+        for_each_bilinear(s, W_, H_, [&](int y, int x, float w) { add(colour, y, x, x, w); });
+        continue;
       }
-    }
-
-  // Colour and alpha per channel: chromatic bands cover differently.
-  constexpr int kCh = 6;
-  const size_t row_len = static_cast<size_t>(W + 1) * kCh;
-  std::vector<float>& acc = ws.shaped_acc;
-  ensure_size(acc, N * kCh);
-  std::fill(acc.begin(), acc.begin() + N * kCh, 0.0f);
-  scatter_bins<kCh>(
-      W, H, bins, reach, ws.diff,
-      [&](int q, int r0, int r1, double* diff, int& ya, int& yb) {
-        for (int band = 0; band < bands; ++band) {
-          const ShapedSplat& s = splats[static_cast<size_t>(q) * bands + band];
-          // Colour and alpha per unit of weight.
-          double colour[kCh] = {0, 0, 0, 0, 0, 0}, alpha[kCh] = {0, 0, 0, 0, 0, 0};
-          for (int c = 0; c < 3; ++c)
-            if (bands == 1 || c == band) {
-              colour[c] = col[3 * q + c];
-              alpha[3 + c] = 1.0;
-            }
-          auto add = [&](const double* v, int y, int x0, int x1, double w) {
-            if (y < r0 || y >= r1) return;  // (the runs are clipped already; bilinear ones not)
-            ya = std::min(ya, y);
-            yb = std::max(yb, y + 1);
-            double* row = diff + row_len * (y - r0);
-            double* a = row + kCh * x0;
-            double* z = row + kCh * (x1 + 1);
-            for (int k = 0; k < kCh; ++k) {
-              a[k] += v[k] * w;
-              z[k] -= v[k] * w;
-            }
-          };
-          if (s.weight == 0.0f) {  // sharp: its light is what the stop lets through of its bundle
-            for (int c = 0; c < 3; ++c) colour[c] *= s.pass;
-            for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
-            for_each_bilinear(s, W, H, [&](int y, int x, float w) { add(colour, y, x, x, w); });
-            continue;
-          }
-          if (!s.stopped() && levels.count() == 1) {  // colour and alpha over the same runs
-            for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
-            for_each_run(s, shape, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
-              add(colour, y, x0, x1, s.weight * j);
-            });
-            continue;
-          }
-          // The stopped rays bring no light but their share of the coverage: the splats' alphas
-          // then tile as the uncut shapes do, and the light a pixel gathers through the cut ones
-          // is its own bundle's share that the stops pass, as in the ray tracer (normalised: the
-          // whole of it, as a real lens's image divided by what its rims pass). A graded
-          // transmission's light is its levels', its coverage the whole shape's.
-          for_each_run(s, shape, W, r0, r1, false, [&](int y, int x0, int x1, float j) {
-            add(alpha, y, x0, x1, s.weight * j);
-          });
-          for (int k = 0; k < levels.count(); ++k)
-            for_each_run(s, levels.level(k), W, r0, r1, s.stopped(),
-                         [&](int y, int x0, int x1, float j) {
-                           add(colour, y, x0, x1, s.light * levels.weight(k) * j);
-                         });
-        }
-      },
-      [&](int y, const double* row) {
-        float* accrow = acc.data() + static_cast<size_t>(y) * W * kCh;
-        double sum[kCh] = {0, 0, 0, 0, 0, 0};
-        for (int x = 0; x < W; ++x) {
-          for (int k = 0; k < kCh; ++k) sum[k] += row[kCh * x + k];
-          float* a = accrow + kCh * x;
-          for (int c = 0; c < 3; ++c) {
-            if (sum[3 + c] <= 1e-9) continue;
-            const float alpha = static_cast<float>(std::min(1.0, sum[3 + c]));
-            a[c] = static_cast<float>(sum[c] * alpha / sum[3 + c]) + a[c] * (1.0f - alpha);
-            a[3 + c] = alpha + a[3 + c] * (1.0f - alpha);
-          }
-        }
+      if (!s.stopped() && levels_.count() == 1) {  // colour and alpha over the same runs
+        for (int c = 3; c < kCh; ++c) colour[c] = alpha[c];
+        for_each_run(s, shape, W_, r0, r1, false, [&](int y, int x0, int x1, float j) {
+          add(colour, y, x0, x1, s.weight * j);
+        });
+        continue;
+      }
+      // The stopped rays bring no light but their share of the coverage: the splats' alphas
+      // then tile as the uncut shapes do, and the light a pixel gathers through the cut ones is
+      // its own bundle's share that the stops pass, as in the ray tracer (normalised: the whole
+      // of it, as a real lens's image divided by what its rims pass). A graded transmission's
+      // light is its levels', its coverage the whole shape's.
+      for_each_run(s, shape, W_, r0, r1, false, [&](int y, int x0, int x1, float j) {
+        add(alpha, y, x0, x1, s.weight * j);
       });
+      for (int k = 0; k < levels_.count(); ++k)
+        for_each_run(s, levels_.level(k), W_, r0, r1, s.stopped(),
+                     [&](int y, int x0, int x1, float j) {
+                       add(colour, y, x0, x1, s.light * levels_.weight(k) * j);
+                     });
+    }
+  }
 
-  float* o = out.data().data();
-  parallel_rows(H, [&](int y0, int y1) {
-    for (size_t p = static_cast<size_t>(y0) * W; p < static_cast<size_t>(y1) * W; ++p)
-      for (int c = 0; c < 3; ++c) {
-        const float a = acc[kCh * p + 3 + c];
-        o[3 * p + c] = a > 0.0f ? acc[kCh * p + c] / a : 0.0f;
-      }
-  });
+  // The bins far to near, each composited over what lies behind, per channel.
+  void draw(const Bins& bins, PreviewWorkspace::Impl& ws) const {
+    const std::size_t N = inputs_.color.pixel_count();
+    std::vector<float>& acc = ws.shaped_acc;
+    ensure_size(acc, N * kCh);
+    std::fill(acc.begin(), acc.begin() + N * kCh, 0.0f);
+    scatter_bins<kCh>(
+        W_, H_, bins, reaches(bins), ws.diff,
+        [&](int q, int r0, int r1, double* diff, int& ya, int& yb) {
+          draw_splats(q, r0, r1, diff, ya, yb);
+        },
+        [&](int y, const double* row) {
+          float* accrow = acc.data() + static_cast<std::size_t>(y) * W_ * kCh;
+          double sum[kCh] = {0, 0, 0, 0, 0, 0};
+          for (int x = 0; x < W_; ++x) {
+            for (int k = 0; k < kCh; ++k) sum[k] += row[kCh * x + k];
+            float* a = accrow + kCh * x;
+            for (int c = 0; c < 3; ++c) {
+              if (sum[3 + c] <= 1e-9) continue;
+              const float alpha = static_cast<float>(std::min(1.0, sum[3 + c]));
+              a[c] = static_cast<float>(sum[c] * alpha / sum[3 + c]) + a[c] * (1.0f - alpha);
+              a[3 + c] = alpha + a[3 + c] * (1.0f - alpha);
+            }
+          }
+        });
+  }
+
+  // Colour over coverage.
+  void resolve(const PreviewWorkspace::Impl& ws, image::Image& out) const {
+    const std::vector<float>& acc = ws.shaped_acc;
+    float* o = out.data().data();
+    parallel_rows(H_, [&](int y0, int y1) {
+      for (std::size_t p = static_cast<std::size_t>(y0) * W_;
+           p < static_cast<std::size_t>(y1) * W_; ++p)
+        for (int c = 0; c < 3; ++c) {
+          const float a = acc[kCh * p + 3 + c];
+          o[3 * p + c] = a > 0.0f ? acc[kCh * p + c] / a : 0.0f;
+        }
+    });
+  }
+
+  struct Weights {
+    float weight = 0.0f, light = 1.0f;  // as ShapedSplat's
+  };
+
+  const PreviewInputs& inputs_;
+  const PreviewOptions& options_;
+  const int W_, H_;
+  const render::ThinLensCamera camera_;
+  const ApertureLevels levels_;
+  const int bands_;
+  const float limit_;
+  std::vector<Weights> weights_;
+};
+}  // namespace
+
+void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
+                            PreviewWorkspace::Impl& ws, image::Image& out) {
+  ShapedScatter(inputs, options).run(ws, out);
 }
 
 }  // namespace dofcache::preview::detail
