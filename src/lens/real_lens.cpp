@@ -345,14 +345,13 @@ RealLens::PupilBin RealLens::pupil_bin(int i) const {
   return bin;
 }
 
-RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const {
-  Sample s;
+bool RealLens::aim(glm::dvec2 film, glm::dvec2 u, Sample& s, double& w, double& t) const {
   s.ray.origin = {film.x, film.y, 0.0};
   const double r = std::sqrt(film.x * film.x + film.y * film.y);
-  const double t = r * pupil_bins_per_metre_;
+  t = r * pupil_bins_per_metre_;
   const int i = std::min(static_cast<int>(t), kPupilBins - 1);
   const PupilBin& bin = pupil_[i];
-  if (!(bin.throughput > 0.0)) return s;
+  if (!(bin.throughput > 0.0)) return false;
   glm::dvec2 q = bin.lo + u * (bin.hi - bin.lo);
   if (r > 0.0) {  // the bins hold film points on +x: turn to this one's angle
     const double inv = 1.0 / r;
@@ -361,8 +360,11 @@ RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const
   }
   const double area = (bin.hi.x - bin.lo.x) * (bin.hi.y - bin.lo.y);
   s.ray.direction = glm::normalize(glm::dvec3{q.x - film.x, q.y - film.y, z_of(surfaces_.size() - 1)});
-  double w = raw_weight(s.ray, area), pass = 1.0;
-  if (!trace_through_stop(s.ray, band, pass)) return s;
+  w = raw_weight(s.ray, area);
+  return true;
+}
+
+double RealLens::finish(double w, double pass, double t) const {
   w *= pass;
   double norm = normalisation_;
   if (norm == 0.0) {
@@ -373,8 +375,140 @@ RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const
     const double f = x - j;
     norm = (1.0 - f) * pupil_[j].throughput + f * pupil_[j + 1].throughput;
   }
-  s.weight = norm > 0.0 ? w / norm : 0.0;
+  return norm > 0.0 ? w / norm : 0.0;
+}
+
+RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const {
+  Sample s;
+  double w = 0.0, t = 0.0, pass = 1.0;
+  if (!aim(film, u, s, w, t) || !trace_through_stop(s.ray, band, pass)) return s;
+  s.weight = finish(w, pass, t);
   return s;
+}
+
+// kLanes rays as structure of arrays: the loops over lanes are short, independent and alike, so
+// the processor overlaps them and the compiler may vectorise them. A lane that is stopped keeps
+// its origin and direction as the scalar trace leaves them (cross() writes the origin before the
+// clip and the direction last) and is carried along unchanged.
+struct RealLens::RayLanes {
+  static constexpr int N = kLanes;
+  double ox[N], oy[N], oz[N], dx[N], dy[N], dz[N];
+  const double* eta[N];  // per surface, the lane's band's (from the film)
+  bool live[N];
+
+  bool any() const {
+    bool a = false;
+    for (int l = 0; l < N; ++l) a |= live[l];
+    return a;
+  }
+  // glm::normalize of the live lanes' directions, as trace_span ends: d * (1 / sqrt(d . d)).
+  void normalise() {
+    for (int l = 0; l < N; ++l) {
+      if (!live[l]) continue;
+      const double inv = 1.0 / std::sqrt(dx[l] * dx[l] + dy[l] * dy[l] + dz[l] * dz[l]);
+      dx[l] *= inv, dy[l] *= inv, dz[l] *= inv;
+    }
+  }
+};
+
+// cross() for every lane towards the scene with clipping, written out per component in glm's
+// order of operations (a dot product is (x x' + y y') + z z').
+void RealLens::cross_lanes(std::size_t k, RayLanes& r) const {
+  constexpr int N = RayLanes::N;
+  const LensSurface& s = surfaces_[k];
+  const double zk = z_of(k), radius = s.radius, inv_radius = inv_radius_[k];
+  const double half_aperture2 = half_aperture2_[k];
+  double nx[N], ny[N], nz[N];
+  bool ok[N];
+  if (radius == 0.0) {
+    for (int l = 0; l < N; ++l) {
+      const double t = (zk - r.oz[l]) / r.dz[l];
+      ok[l] = r.live[l] && t > 0.0;
+      if (ok[l]) r.ox[l] += t * r.dx[l], r.oy[l] += t * r.dy[l], r.oz[l] += t * r.dz[l];
+      nx[l] = 0.0, ny[l] = 0.0, nz[l] = r.dz[l] > 0.0 ? -1.0 : 1.0;
+    }
+  } else {
+    const double centre_z = zk - radius, radius2 = radius * radius;
+    const bool concave = radius < 0.0;
+    for (int l = 0; l < N; ++l) {
+      const double ocx = r.ox[l], ocy = r.oy[l], ocz = r.oz[l] - centre_z;
+      const double dx = r.dx[l], dy = r.dy[l], dz = r.dz[l];
+      const double b = ocx * dx + ocy * dy + ocz * dz;
+      const double disc = b * b - (ocx * ocx + ocy * ocy + ocz * ocz - radius2);
+      // disc < 0: the root is NaN, and so is t (the scalar's early return).
+      const double root = std::sqrt(disc);
+      const double t = (dz > 0.0) == concave ? -b - root : -b + root;
+      ok[l] = r.live[l] && t > 0.0;
+      if (ok[l]) r.ox[l] += t * dx, r.oy[l] += t * dy, r.oz[l] += t * dz;
+      double x = (ocx + t * dx) * inv_radius, y = (ocy + t * dy) * inv_radius,
+             z = (ocz + t * dz) * inv_radius;
+      if (x * dx + y * dy + z * dz > 0.0) x = -x, y = -y, z = -z;
+      nx[l] = x, ny[l] = y, nz[l] = z;
+    }
+  }
+  for (int l = 0; l < N; ++l)
+    r.live[l] = ok[l] && !(r.ox[l] * r.ox[l] + r.oy[l] * r.oy[l] > half_aperture2);
+  if (s.stop) return;
+  for (int l = 0; l < N; ++l) {
+    const double dx = r.dx[l], dy = r.dy[l], dz = r.dz[l], eta = r.eta[l][k];
+    const double cos_i = -(nx[l] * dx + ny[l] * dy + nz[l] * dz);
+    const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
+    r.live[l] = r.live[l] && !(sin2_t >= 1.0);  // total internal reflection
+    if (!r.live[l]) continue;
+    const double a = eta * cos_i - std::sqrt(1.0 - sin2_t);
+    r.dx[l] = eta * dx + a * nx[l], r.dy[l] = eta * dy + a * ny[l], r.dz[l] = eta * dz + a * nz[l];
+  }
+}
+
+void RealLens::trace_span_lanes(RayLanes& r, std::size_t first, std::size_t last) const {
+  for (std::size_t k = last; k-- > first;) {
+    cross_lanes(k, r);
+    if (!r.any()) return;  // every lane stopped
+  }
+  r.normalise();
+}
+
+void RealLens::sample_lanes(const glm::dvec2* film, const glm::dvec2* u, const int* band,
+                            Sample* out) const {
+  constexpr int N = RayLanes::N;
+  RayLanes r;
+  double w[N], t[N], pass[N];
+  for (int l = 0; l < N; ++l) {
+    out[l] = Sample{};
+    w[l] = 0.0, t[l] = 0.0, pass[l] = 1.0;
+    r.live[l] = aim(film[l], u[l], out[l], w[l], t[l]);
+    const glm::dvec3 o = out[l].ray.origin, d = out[l].ray.direction;
+    r.ox[l] = o.x, r.oy[l] = o.y, r.oz[l] = o.z, r.dx[l] = d.x, r.dy[l] = d.y, r.dz[l] = d.z;
+    const int b = band[l] < 0 || band[l] > 2 ? 0 : band[l] + 1;
+    r.eta[l] = eta_from_film_[b].data();
+  }
+  const std::size_t count = surfaces_.size();
+  if (!stop_aperture_) {
+    trace_span_lanes(r, 0, count);
+  } else {
+    // trace_through_stop: to the stop, the shape's share where each lane crosses it, the rest.
+    const std::size_t stop = static_cast<std::size_t>(stop_);
+    trace_span_lanes(r, stop, count);
+    for (int l = 0; l < N; ++l) {
+      if (!r.live[l]) continue;
+      pass[l] = stop_aperture_->pass(glm::vec2(static_cast<float>(r.ox[l] / stop_radius_),
+                                               static_cast<float>(r.oy[l] / stop_radius_)));
+      r.live[l] = pass[l] > 0.0;
+    }
+    if (r.any()) trace_span_lanes(r, 0, stop);
+  }
+  for (int l = 0; l < N; ++l) {
+    out[l].ray.origin = {r.ox[l], r.oy[l], r.oz[l]};
+    out[l].ray.direction = {r.dx[l], r.dy[l], r.dz[l]};
+    if (r.live[l]) out[l].weight = finish(w[l], pass[l], t[l]);
+  }
+}
+
+void RealLens::sample_n(std::size_t n, const glm::dvec2* film, const glm::dvec2* u,
+                        const int* band, Sample* out) const {
+  std::size_t i = 0;
+  for (; i + kLanes <= n; i += kLanes) sample_lanes(film + i, u + i, band + i, out + i);
+  for (; i < n; ++i) out[i] = sample(film[i], u[i], band[i]);
 }
 
 double RealLens::field_angle(double height) const {

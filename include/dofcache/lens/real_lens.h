@@ -20,6 +20,7 @@
 // centre's at the lens's widest stop when the exposure follows the lens (the image then darkens
 // with the f-stop and with the lens's own vignetting, as a camera's does).
 #include <array>
+#include <cstddef>
 #include <memory>
 #include <optional>
 #include <string>
@@ -83,6 +84,15 @@ class RealLens {
   };
   // The lens ray of film point `film` (lens space x, y; metres) for the sample u in [0,1)^2.
   Sample sample(glm::dvec2 film, glm::dvec2 u, int band = -1) const;
+  // sample(film[i], u[i], band[i]) for i in [0, n), every output bit for bit sample()'s (a ray
+  // that is stopped too: its origin and direction where it stopped). The rays cross the lens
+  // kLanes at a time, each surface for all of them before the next (structure of arrays: the
+  // trace of one ray is a chain of square roots, each waiting for the last, and the processor
+  // overlaps the lanes' chains); the same operations per lane in the same order, so no result
+  // changes. The rest of n, below a multiple of kLanes, is sampled one by one.
+  static constexpr int kLanes = 4;
+  void sample_n(std::size_t n, const glm::dvec2* film, const glm::dvec2* u, const int* band,
+                Sample* out) const;
 
   const CardinalPoints& cardinal() const { return cardinal_; }
   double film_distance() const { return film_distance_; }  // rear vertex to film
@@ -136,6 +146,20 @@ class RealLens {
   // the moment.
   PupilBin pupil_bin(int i) const;
   double raw_weight(const LensRay& from_film, double area) const;
+  // sample()'s steps around the trace. aim: the ray from `film` towards a point of its exit
+  // pupil's bounds for u, `w` its weight before the trace and `t` the distance from the centre in
+  // bins; false where no light reaches that distance (the ray then stays as `s` holds it).
+  // finish: the weight of a ray that passed with share `pass` of the stop.
+  bool aim(glm::dvec2 film, glm::dvec2 u, Sample& s, double& w, double& t) const;
+  double finish(double w, double pass, double t) const;
+  // sample() of kLanes film points whose rays are aimed: trace_through_stop lane by lane, surface
+  // by surface (RayLanes in real_lens.cpp).
+  struct RayLanes;
+  void sample_lanes(const glm::dvec2* film, const glm::dvec2* u, const int* band,
+                    Sample* out) const;
+  void cross_lanes(std::size_t k, RayLanes& r) const;
+  // trace_span towards the scene with clipping, for the live lanes of `r`.
+  void trace_span_lanes(RayLanes& r, std::size_t first, std::size_t last) const;
   // trace_from_film with the stop's shape: `pass` the share the stop passes where the ray
   // crosses it (1 for a round stop); false where the ray is stopped.
   bool trace_through_stop(LensRay& ray, int band, double& pass) const;
