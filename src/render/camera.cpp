@@ -64,24 +64,46 @@ scene::Ray ThinLensCamera::pinhole_ray(glm::vec2 film) const {
   return ray;
 }
 
-LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) const {
-  if (mounted_) {
-    // The lens turns the image over: the scene's right and up land on the film's -x and -y.
-    const glm::dvec2 f{(0.5 - film.x / width_) * mounted_.film_size.x,
-                       (film.y / height_ - 0.5) * mounted_.film_size.y};
-    const lens::RealLens::Sample s = mounted_.lens->sample(f, glm::dvec2(lens_u), band);
-    LensSample out;
-    out.weight = static_cast<float>(s.weight);
-    const glm::dvec3 o = s.ray.origin, d = s.ray.direction;
-    const float z = static_cast<float>(o.z - mounted_.principal_offset());
-    out.ray.origin = position_ + static_cast<float>(o.x) * right_ +
-                     static_cast<float>(o.y) * up_ + z * forward_;
-    out.ray.direction = glm::normalize(static_cast<float>(d.x) * right_ +
-                                       static_cast<float>(d.y) * up_ +
-                                       static_cast<float>(d.z) * forward_);
-    out.ray.cull_back_faces = true;
-    return out;
+glm::dvec2 ThinLensCamera::lens_film(glm::vec2 film) const {
+  // The lens turns the image over: the scene's right and up land on the film's -x and -y.
+  return {(0.5 - film.x / width_) * mounted_.film_size.x,
+          (film.y / height_ - 0.5) * mounted_.film_size.y};
+}
+
+LensSample ThinLensCamera::placed(const lens::RealLens::Sample& s) const {
+  LensSample out;
+  out.weight = static_cast<float>(s.weight);
+  const glm::dvec3 o = s.ray.origin, d = s.ray.direction;
+  const float z = static_cast<float>(o.z - mounted_.principal_offset());
+  out.ray.origin = position_ + static_cast<float>(o.x) * right_ + static_cast<float>(o.y) * up_ +
+                   z * forward_;
+  out.ray.direction = glm::normalize(static_cast<float>(d.x) * right_ +
+                                     static_cast<float>(d.y) * up_ +
+                                     static_cast<float>(d.z) * forward_);
+  out.ray.cull_back_faces = true;
+  return out;
+}
+
+void ThinLensCamera::lens_rays(std::size_t n, const glm::vec2* film, const glm::vec2* lens_u,
+                               const int* band, LensSample* out) const {
+  if (!mounted_) {
+    for (std::size_t i = 0; i < n; ++i) out[i] = lens_ray(film[i], lens_u[i], band[i]);
+    return;
   }
+  // In blocks, so that the lens's inputs and outputs stay on the stack.
+  constexpr std::size_t kBlock = 16;
+  glm::dvec2 f[kBlock], u[kBlock];
+  lens::RealLens::Sample s[kBlock];
+  for (std::size_t i0 = 0; i0 < n; i0 += kBlock) {
+    const std::size_t m = std::min(kBlock, n - i0);
+    for (std::size_t i = 0; i < m; ++i) f[i] = lens_film(film[i0 + i]), u[i] = lens_u[i0 + i];
+    mounted_.lens->sample_n(m, f, u, band + i0, s);
+    for (std::size_t i = 0; i < m; ++i) out[i0 + i] = placed(s[i]);
+  }
+}
+
+LensSample ThinLensCamera::lens_ray(glm::vec2 film, glm::vec2 lens_u, int band) const {
+  if (mounted_) return placed(mounted_.lens->sample(lens_film(film), glm::dvec2(lens_u), band));
   // The pinhole direction has depth component 1, so it reaches the focal plane at parameter P.
   glm::vec2 slopes = film_slopes(film);
   const BandOptics optics = band_optics(band);

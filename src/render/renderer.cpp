@@ -221,6 +221,19 @@ class PixelSamples {
     if (mode_ == Mode::Pinhole) return {camera.pinhole_ray(film(s)), 1.0f};
     return camera.lens_ray(film(s), lens_(s), band);
   }
+  // ray(camera, s0 + i, band[i]) for i in [0, n), n <= kBlock: the lens rays together
+  // (ThinLensCamera::lens_rays traces a real lens's several at a time).
+  static constexpr std::uint32_t kBlock = 16;
+  void rays(const ThinLensCamera& camera, std::uint32_t s0, std::uint32_t n, const int* band,
+            LensSample* out) const {
+    if (mode_ == Mode::Pinhole) {
+      for (std::uint32_t i = 0; i < n; ++i) out[i] = ray(camera, s0 + i);
+      return;
+    }
+    glm::vec2 films[kBlock], lens[kBlock];
+    for (std::uint32_t i = 0; i < n; ++i) films[i] = film(s0 + i), lens[i] = lens_(s0 + i);
+    camera.lens_rays(n, films, lens, band, out);
+  }
 
  private:
   glm::vec2 pixel_;
@@ -319,36 +332,48 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
   const bool chromatic = banded(st);
   const std::uint64_t bands = band_key(st, x, y);
   glm::dvec3 acc(0.0);
-  for (std::uint32_t s = s0; s < end; ++s) {
+  // The camera rays of a block of samples first (a real lens traces them together), then their
+  // paths.
+  int block_bands[PixelSamples::kBlock];
+  LensSample block_rays[PixelSamples::kBlock];
+  for (std::uint32_t first = s0; first < end; first += PixelSamples::kBlock) {
+    const std::uint32_t n = std::min(PixelSamples::kBlock, end - first);
     // Chromatic aberration: the sample's band, whose channel alone it estimates (finish_pixel).
-    const int band = chromatic ? sample_band(bands, s) : -1;
-    // Weight 0: stopped by the vignetting stop, a lens sample that brings no light.
-    const LensSample lens = samples.ray(c.camera, s, band);
-    scene::Ray ray = clipped(c.camera, st, lens.ray);
-    std::uint64_t key = hash_combine(pixel, s);
-    ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
-    Rng rng(key, s);
-    SampleFeatures f;
-    glm::vec3 l(0.0f);
-    if (lens.weight > 0.0f)
-      l = lens.weight * trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
-    if (band >= 0) l = in_band(l, band);
-    if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
-    acc += glm::dvec3(l);
-    if (moments) {
-      const double v = scene::luminance(l);
-      moments->sum += v, moments->sum2 += v * v, ++moments->count;
-    }
-    if (feature_sums) {
-      double* fs = feature_sums;
-      const glm::vec3 weighted = lens.weight * f.emission;
-      const double v = scene::luminance(l - (band >= 0 ? in_band(weighted, band) : weighted));
-      for (int k = 0; k < 3; ++k)
-        fs[k] += f.albedo[k], fs[3 + k] += f.normal[k], fs[10 + k] += f.emission[k];
-      if (f.hit) fs[6] += f.depth, fs[7] += 1.0;
-      fs[8] += v, fs[9] += v * v;
-      const double e = scene::luminance(f.emission), a = scene::luminance(f.albedo);
-      fs[13] += e, fs[14] += e * e, fs[15] += a * a;
+    for (std::uint32_t i = 0; i < n; ++i)
+      block_bands[i] = chromatic ? sample_band(bands, first + i) : -1;
+    samples.rays(c.camera, first, n, block_bands, block_rays);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const std::uint32_t s = first + i;
+      const int band = block_bands[i];
+      // Weight 0: stopped by the vignetting stop, a lens sample that brings no light.
+      const LensSample& lens = block_rays[i];
+      scene::Ray ray = clipped(c.camera, st, lens.ray);
+      std::uint64_t key = hash_combine(pixel, s);
+      ray.seed = static_cast<std::uint32_t>(key ^ (key >> 32));  // BLEND: one draw per sample
+      Rng rng(key, s);
+      SampleFeatures f;
+      glm::vec3 l(0.0f);
+      if (lens.weight > 0.0f)
+        l = lens.weight *
+            trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
+      if (band >= 0) l = in_band(l, band);
+      if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
+      acc += glm::dvec3(l);
+      if (moments) {
+        const double v = scene::luminance(l);
+        moments->sum += v, moments->sum2 += v * v, ++moments->count;
+      }
+      if (feature_sums) {
+        double* fs = feature_sums;
+        const glm::vec3 weighted = lens.weight * f.emission;
+        const double v = scene::luminance(l - (band >= 0 ? in_band(weighted, band) : weighted));
+        for (int k = 0; k < 3; ++k)
+          fs[k] += f.albedo[k], fs[3 + k] += f.normal[k], fs[10 + k] += f.emission[k];
+        if (f.hit) fs[6] += f.depth, fs[7] += 1.0;
+        fs[8] += v, fs[9] += v * v;
+        const double e = scene::luminance(f.emission), a = scene::luminance(f.albedo);
+        fs[13] += e, fs[14] += e * e, fs[15] += a * a;
+      }
     }
   }
   return acc;

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -170,6 +172,53 @@ TEST(ThinLensCamera, BokehFollowsATiltedPlaneOfFocus) {
   const double p = cam.imaging_at(ray.origin + ray.direction * 3.0f).lens.focus_distance;
   EXPECT_NEAR(cam.bokeh(film, p).scale, 0.0f, 1e-3f) << p;
   EXPECT_GT(std::abs(cam.bokeh(film, 1.5).scale), 1.0f);  // the untilted focus is not in focus
+}
+
+// Bit for bit (== would take -0 for 0).
+bool same(const LensSample& a, const LensSample& b) {
+  return std::memcmp(&a.ray.origin, &b.ray.origin, sizeof a.ray.origin) == 0 &&
+         std::memcmp(&a.ray.direction, &b.ray.direction, sizeof a.ray.direction) == 0 &&
+         std::memcmp(&a.weight, &b.weight, sizeof a.weight) == 0 &&
+         a.ray.cull_back_faces == b.ray.cull_back_faces;
+}
+
+TEST(ThinLensCamera, LensRaysAreLensRayBitForBit) {
+  // Through a real lens (traced several at a time) with a six-blade stop, and through a thin lens
+  // with chromatic aberration and a vignetting stop; film points from the corners across the
+  // frame, the bands in turn, a count that is not a multiple of a block.
+  const int width = 200, height = 100;
+  lens::ApertureShape blades(6, 0.0, 0.0, 1.0);
+  const lens::MountedLens mounted =
+      lens::mount_lens(lens::read_lens_file("double_gauss_50mm"), "double_gauss_50mm", 4.0, 3.0,
+                       lens::Sensor{}, width, height, false, blades);
+  lens::ThinLens thin{0.05, 2.0, 3.0};
+  thin.aperture.axial_ca = 0.01;
+  thin.aperture.stop = {0.01, 0.02};
+  const ThinLensCamera cameras[] = {
+      ThinLensCamera(glm::mat4(1.0f), kYfov, mounted.equivalent(), width, height, mounted),
+      ThinLensCamera(glm::mat4(1.0f), kYfov, thin, width, height)};
+  std::vector<glm::vec2> film = {{0.0f, 0.0f}, {200.0f, 0.0f}, {0.0f, 100.0f}, {200.0f, 100.0f},
+                                 {100.0f, 50.0f}};
+  std::vector<glm::vec2> u = {{0.5f, 0.5f}, {0.1f, 0.9f}, {0.9f, 0.1f}, {0.0f, 0.0f},
+                              {0.99f, 0.99f}};
+  for (int i = 0; film.size() < 37; ++i) {
+    film.push_back({std::fmod(37.3f * i, 200.0f), std::fmod(11.9f * i, 100.0f)});
+    u.push_back({std::fmod(0.618f * i, 1.0f), std::fmod(0.382f * i, 1.0f)});
+  }
+  std::vector<int> band;
+  for (std::size_t i = 0; i < film.size(); ++i) band.push_back(static_cast<int>(i % 4) - 1);
+  for (const ThinLensCamera& camera : cameras) {
+    std::vector<LensSample> rays(film.size());
+    camera.lens_rays(film.size(), film.data(), u.data(), band.data(), rays.data());
+    int passed = 0;
+    for (std::size_t i = 0; i < film.size(); ++i) {
+      SCOPED_TRACE(i);
+      EXPECT_TRUE(same(rays[i], camera.lens_ray(film[i], u[i], band[i])));
+      passed += rays[i].weight > 0.0f;
+    }
+    EXPECT_GT(passed, 0);
+    EXPECT_LT(passed, static_cast<int>(film.size()));  // stopped rays too
+  }
 }
 
 }  // namespace

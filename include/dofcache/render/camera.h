@@ -4,6 +4,7 @@
 // the point where the pinhole ray of its film position meets the focal plane, so every ray of one
 // film point converges at depth P and points at depth D spread over the CoC of eq. (2.4).
 #include <cmath>
+#include <cstddef>
 #include <limits>
 
 #include <glm/mat4x4.hpp>
@@ -69,6 +70,10 @@ class ThinLensCamera {
   // shifts. A real lens's rims (lens::LensRims) shape bokeh() alone: that lens's own rays are
   // traced through it.
   LensSample lens_ray(glm::vec2 film, glm::vec2 lens_u, int band = -1) const;
+  // lens_ray(film[i], lens_u[i], band[i]) for i in [0, n), each bit for bit lens_ray's: through a
+  // real lens the rays are traced several at a time (RealLens::sample_n), else one by one.
+  void lens_rays(std::size_t n, const glm::vec2* film, const glm::vec2* lens_u, const int* band,
+                 LensSample* out) const;
   // The ray alone (its weight ignored).
   scene::Ray generate_ray(glm::vec2 film, glm::vec2 lens_u) const {
     return lens_ray(film, lens_u).ray;
@@ -111,6 +116,10 @@ class ThinLensCamera {
 
  private:
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
+  // A real lens's film point (lens space, metres) of film position `film` (pixels), and its lens
+  // ray placed in the world.
+  glm::dvec2 lens_film(glm::vec2 film) const;
+  LensSample placed(const lens::RealLens::Sample& s) const;
   glm::vec3 direction_of(glm::vec2 slopes) const;     // forward + slopes.x right + slopes.y up
   // The depth at which the lens rays of the pinhole direction (slopes, 1) converge: p (the
   // focus distance, or a colour band's) untilted, else where it meets the tilted plane of focus.
