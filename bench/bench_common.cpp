@@ -365,6 +365,40 @@ RayTiming time_camera_rays(const render::ThinLensCamera& camera, int count, bool
   return t;
 }
 
+RayTiming time_camera_rays_batched(const render::ThinLensCamera& camera, int count, bool banded,
+                                   float* sink) {
+  const render::Sobol2D film(1), lens(2);
+  constexpr int kBlock = 16;
+  glm::vec2 films[kBlock], us[kBlock];
+  int bands[kBlock];
+  render::LensSample rays[kBlock];
+  const Stopwatch clock;
+  float sum = 0.0f;
+  int passed = 0;
+  const int w = camera.width(), h = camera.height();
+  for (int i0 = 0; i0 < count; i0 += kBlock) {
+    const int n = std::min(kBlock, count - i0);
+    for (int j = 0; j < n; ++j) {
+      const int i = i0 + j;
+      const glm::vec2 f = film(static_cast<std::uint32_t>(i));
+      films[j] = {f.x * w, f.y * h};
+      us[j] = lens(static_cast<std::uint32_t>(i));
+      bands[j] = banded ? i % 3 : -1;
+    }
+    camera.lens_rays(static_cast<std::size_t>(n), films, us, bands, rays);
+    for (int j = 0; j < n; ++j) {
+      const render::LensSample& s = rays[j];
+      sum += s.ray.direction.x + s.ray.origin.y + s.weight;
+      passed += s.weight > 0.0f;
+    }
+  }
+  RayTiming t;
+  t.seconds = clock.seconds();
+  t.passed = static_cast<double>(passed) / count;
+  *sink += sum;
+  return t;
+}
+
 CLI::Option* add_scene_option(CLI::App& app, std::vector<std::string>& scenes) {
   auto in_scenes_dir = [](std::string& file) -> std::string {
     if (fs::is_regular_file(scene_path(file))) return {};

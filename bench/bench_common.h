@@ -97,6 +97,10 @@ struct RayTiming {
 };
 RayTiming time_camera_rays(const render::ThinLensCamera& camera, int count, bool banded,
                            float* sink);
+// The same rays generated in blocks of 16 (ThinLensCamera::lens_rays: a real lens traces them
+// several at a time), as the renderer generates a pixel's.
+RayTiming time_camera_rays_batched(const render::ThinLensCamera& camera, int count, bool banded,
+                                   float* sink);
 
 // --scene FILE, repeatable: a file in the source tree's scenes/ directory; `scenes` holds the
 // default list, which the given files replace.

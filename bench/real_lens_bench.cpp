@@ -2,9 +2,11 @@
 // at most 3x through a 6-10 element lens): rays generated over a 320x240 film on the 36 x 24 mm
 // sensor, one thread, for each shipped prescription wide open and at f/8, focused at 3 m. Also
 // how many of the traced rays the lens passes (the exit pupil's bounds waste the rest) and the
-// cost per ray that brings light. Lenses are measured in interleaved rounds, each keeping its
-// fastest (a shared machine only adds time to a loop this short). Prints a table and writes
-// bench/results/real_lens.{json,csv}.
+// cost per ray that brings light. The real lens's rays are generated one by one and, as the
+// renderer generates a pixel's, in blocks of 16 traced four at a time (RealLens::sample_n; the
+// same rays bit for bit, which the checksums confirm). Lenses are measured in interleaved rounds,
+// each keeping its fastest (a shared machine only adds time to a loop this short). Prints a table
+// and writes bench/results/real_lens.{json,csv}.
 //   real_lens_bench [--rays N] [--rounds N] [--results NAME]
 #include <algorithm>
 #include <cstdio>
@@ -12,6 +14,7 @@
 #include <vector>
 
 #include "bench_common.h"
+#include "dofcache/core/error.h"
 #include "dofcache/lens/real_lens.h"
 #include "dofcache/render/camera.h"
 
@@ -50,23 +53,37 @@ int run(const Options& o) {
                                               equivalent, width, height),
                        elements});
     }
-  std::vector<double> real_s(cases.size(), 1e30), thin_s(cases.size(), 1e30), pass(cases.size());
+  const std::size_t count = cases.size();
+  std::vector<double> real_s(count, 1e30), batched_s(count, 1e30), thin_s(count, 1e30);
+  std::vector<double> pass(count);
   float sink = 0.0f;
   for (int round = 0; round < o.rounds; ++round)
-    for (std::size_t k = 0; k < cases.size(); ++k) {
-      const bench::RayTiming real = bench::time_camera_rays(cases[k].real, o.rays, false, &sink);
+    for (std::size_t k = 0; k < count; ++k) {
+      float one_by_one = 0.0f, together = 0.0f;
+      const bench::RayTiming real =
+          bench::time_camera_rays(cases[k].real, o.rays, false, &one_by_one);
       real_s[k] = std::min(real_s[k], real.seconds);
       pass[k] = real.passed;
+      batched_s[k] = std::min(
+          batched_s[k],
+          bench::time_camera_rays_batched(cases[k].real, o.rays, false, &together).seconds);
+      // The batch's rays are the scalar's bit for bit, so their sums are too.
+      if (one_by_one != together)
+        throw Error(cases[k].name + ": the batched rays' checksum differs from the scalar's");
+      sink += one_by_one + together;
       thin_s[k] =
           std::min(thin_s[k], bench::time_camera_rays(cases[k].thin, o.rays, false, &sink).seconds);
     }
   bench::Table table({"lens", "elements", "thin [ns/ray]", "real [ns/ray]", "real / thin",
-                      "rays passed", "real per passed ray / thin"});
-  for (std::size_t k = 0; k < cases.size(); ++k) {
+                      "real batched [ns/ray]", "batched / thin", "rays passed",
+                      "real per passed ray / thin"});
+  for (std::size_t k = 0; k < count; ++k) {
     const double t = thin_s[k] / o.rays * 1e9, r = real_s[k] / o.rays * 1e9;
+    const double b = batched_s[k] / o.rays * 1e9;
     table.add_row({cases[k].name, bench::Table::Cell(cases[k].elements),
                    bench::Table::Cell(t, 2), bench::Table::Cell(r, 2),
-                   bench::Table::Cell(r / t, 3), bench::Table::Cell(pass[k], 3),
+                   bench::Table::Cell(r / t, 3), bench::Table::Cell(b, 2),
+                   bench::Table::Cell(b / t, 3), bench::Table::Cell(pass[k], 3),
                    bench::Table::Cell(r / pass[k] / t, 3)});
   }
   std::printf("Camera rays through the shipped lenses and their thin-lens equivalents, %dx%d on "
