@@ -386,12 +386,12 @@ RealLens::Sample RealLens::sample(glm::dvec2 film, glm::dvec2 u, int band) const
   return s;
 }
 
-// kLanes rays as structure of arrays: the loops over lanes are short, independent and alike, so
-// the processor overlaps them and the compiler may vectorise them. A lane that is stopped keeps
-// its origin and direction as the scalar trace leaves them (cross() writes the origin before the
-// clip and the direction last) and is carried along unchanged.
+// N rays as structure of arrays: the loops over lanes are short, independent and alike, so the
+// processor overlaps them. A lane that is stopped keeps its origin and direction as the scalar
+// trace leaves them (cross() writes the origin before the clip and the direction last) and is
+// skipped from then on.
+template <int N>
 struct RealLens::RayLanes {
-  static constexpr int N = kLanes;
   double ox[N], oy[N], oz[N], dx[N], dy[N], dz[N];
   const double* eta[N];  // per surface, the lane's band's (from the film)
   bool live[N];
@@ -413,54 +413,66 @@ struct RealLens::RayLanes {
 
 // cross() for every lane towards the scene with clipping, written out per component in glm's
 // order of operations (a dot product is (x x' + y y') + z z').
-void RealLens::cross_lanes(std::size_t k, RayLanes& r) const {
-  constexpr int N = RayLanes::N;
+template <int N>
+void RealLens::cross_lanes(std::size_t k, RayLanes<N>& r) const {
   const LensSurface& s = surfaces_[k];
   const double zk = z_of(k), radius = s.radius, inv_radius = inv_radius_[k];
   const double half_aperture2 = half_aperture2_[k];
-  double nx[N], ny[N], nz[N];
-  bool ok[N];
+  double nx[N], ny[N], nz[N], cos_i[N];  // the live lanes' normals, and -(n . d)
   if (radius == 0.0) {
     for (int l = 0; l < N; ++l) {
+      if (!r.live[l]) continue;
       const double t = (zk - r.oz[l]) / r.dz[l];
-      ok[l] = r.live[l] && t > 0.0;
-      if (ok[l]) r.ox[l] += t * r.dx[l], r.oy[l] += t * r.dy[l], r.oz[l] += t * r.dz[l];
+      r.live[l] = t > 0.0;
+      if (!r.live[l]) continue;
+      r.ox[l] += t * r.dx[l], r.oy[l] += t * r.dy[l], r.oz[l] += t * r.dz[l];
       nx[l] = 0.0, ny[l] = 0.0, nz[l] = r.dz[l] > 0.0 ? -1.0 : 1.0;
+      cos_i[l] = -(nx[l] * r.dx[l] + ny[l] * r.dy[l] + nz[l] * r.dz[l]);
     }
   } else {
     const double centre_z = zk - radius, radius2 = radius * radius;
     const bool concave = radius < 0.0;
     for (int l = 0; l < N; ++l) {
+      if (!r.live[l]) continue;
       const double ocx = r.ox[l], ocy = r.oy[l], ocz = r.oz[l] - centre_z;
       const double dx = r.dx[l], dy = r.dy[l], dz = r.dz[l];
       const double b = ocx * dx + ocy * dy + ocz * dz;
       const double disc = b * b - (ocx * ocx + ocy * ocy + ocz * ocz - radius2);
-      // disc < 0: the root is NaN, and so is t (the scalar's early return).
-      const double root = std::sqrt(disc);
+      // A miss (disc < 0, or NaN) stops the lane as it stops the scalar trace, whose root is
+      // then never taken; the root of 0 in its place is not used.
+      const double root = std::sqrt(disc >= 0.0 ? disc : 0.0);
       const double t = (dz > 0.0) == concave ? -b - root : -b + root;
-      ok[l] = r.live[l] && t > 0.0;
-      if (ok[l]) r.ox[l] += t * dx, r.oy[l] += t * dy, r.oz[l] += t * dz;
+      r.live[l] = disc >= 0.0 && t > 0.0;
+      if (!r.live[l]) continue;
+      r.ox[l] += t * dx, r.oy[l] += t * dy, r.oz[l] += t * dz;
       double x = (ocx + t * dx) * inv_radius, y = (ocy + t * dy) * inv_radius,
              z = (ocz + t * dz) * inv_radius;
-      if (x * dx + y * dy + z * dz > 0.0) x = -x, y = -y, z = -z;
+      // Turned to face the ray. cross() then takes cos_i = -(n . d) of the turned normal, which
+      // is this n . d where it was turned (a negated product, a sum of negated terms: negated
+      // exactly, and n . d > 0 is no zero), else -(n . d).
+      const double n_d = x * dx + y * dy + z * dz;
+      const bool facing = n_d > 0.0;
+      if (facing) x = -x, y = -y, z = -z;
       nx[l] = x, ny[l] = y, nz[l] = z;
+      cos_i[l] = facing ? n_d : -n_d;
     }
   }
   for (int l = 0; l < N; ++l)
-    r.live[l] = ok[l] && !(r.ox[l] * r.ox[l] + r.oy[l] * r.oy[l] > half_aperture2);
+    r.live[l] = r.live[l] && !(r.ox[l] * r.ox[l] + r.oy[l] * r.oy[l] > half_aperture2);
   if (s.stop) return;
   for (int l = 0; l < N; ++l) {
-    const double dx = r.dx[l], dy = r.dy[l], dz = r.dz[l], eta = r.eta[l][k];
-    const double cos_i = -(nx[l] * dx + ny[l] * dy + nz[l] * dz);
-    const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i * cos_i);
-    r.live[l] = r.live[l] && !(sin2_t >= 1.0);  // total internal reflection
     if (!r.live[l]) continue;
-    const double a = eta * cos_i - std::sqrt(1.0 - sin2_t);
+    const double dx = r.dx[l], dy = r.dy[l], dz = r.dz[l], eta = r.eta[l][k];
+    const double sin2_t = eta * eta * std::max(0.0, 1.0 - cos_i[l] * cos_i[l]);
+    r.live[l] = !(sin2_t >= 1.0);  // else total internal reflection
+    if (!r.live[l]) continue;
+    const double a = eta * cos_i[l] - std::sqrt(1.0 - sin2_t);
     r.dx[l] = eta * dx + a * nx[l], r.dy[l] = eta * dy + a * ny[l], r.dz[l] = eta * dz + a * nz[l];
   }
 }
 
-void RealLens::trace_span_lanes(RayLanes& r, std::size_t first, std::size_t last) const {
+template <int N>
+void RealLens::trace_span_lanes(RayLanes<N>& r, std::size_t first, std::size_t last) const {
   for (std::size_t k = last; k-- > first;) {
     cross_lanes(k, r);
     if (!r.any()) return;  // every lane stopped
@@ -468,10 +480,10 @@ void RealLens::trace_span_lanes(RayLanes& r, std::size_t first, std::size_t last
   r.normalise();
 }
 
+template <int N>
 void RealLens::sample_lanes(const glm::dvec2* film, const glm::dvec2* u, const int* band,
                             Sample* out) const {
-  constexpr int N = RayLanes::N;
-  RayLanes r;
+  RayLanes<N> r;
   double w[N], t[N], pass[N];
   for (int l = 0; l < N; ++l) {
     out[l] = Sample{};
@@ -506,8 +518,13 @@ void RealLens::sample_lanes(const glm::dvec2* film, const glm::dvec2* u, const i
 
 void RealLens::sample_n(std::size_t n, const glm::dvec2* film, const glm::dvec2* u,
                         const int* band, Sample* out) const {
+  // Eight lanes keep the processor busier than four, and sixteen (more than it holds in flight)
+  // less busy (bench/real_lens_bench.cpp); half a group for a rest, as the renderer's first
+  // passes of 1, 2, 4 and 8 samples leave.
+  constexpr int kHalf = kLanes / 2;
   std::size_t i = 0;
-  for (; i + kLanes <= n; i += kLanes) sample_lanes(film + i, u + i, band + i, out + i);
+  for (; i + kLanes <= n; i += kLanes) sample_lanes<kLanes>(film + i, u + i, band + i, out + i);
+  if (i + kHalf <= n) sample_lanes<kHalf>(film + i, u + i, band + i, out + i), i += kHalf;
   for (; i < n; ++i) out[i] = sample(film[i], u[i], band[i]);
 }
 

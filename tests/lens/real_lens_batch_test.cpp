@@ -95,8 +95,9 @@ Inputs inputs() {
       in.film.push_back(f), in.u.push_back(u);
       in.band.push_back(k++ % 5 - 1);  // -1, 0, 1, 2 and 3 (out of range: as -1)
     }
-  // Not a multiple of the lanes: the last few one by one.
-  in.film.resize(in.film.size() - 3), in.u.resize(in.u.size() - 3), in.band.resize(in.band.size() - 3);
+  // Three short of a multiple of eight: groups of eight, one of four and one sample alone.
+  const std::size_t n = in.film.size() - 3;
+  in.film.resize(n), in.u.resize(n), in.band.resize(n);
   return in;
 }
 
@@ -115,7 +116,7 @@ Counts expect_batch_is_scalar(const RealLens& lens, const Inputs& in) {
   for (std::size_t i = 0; i < n; ++i) {
     const RealLens::Sample one = lens.sample(in.film[i], in.u[i], in.band[i]);
     if (!same(batch[i], one) && ++mismatches <= 5)
-      ADD_FAILURE() << "sample " << i << " (lane " << i % RealLens::kLanes << ", band "
+      ADD_FAILURE() << "sample " << i << " (band "
                     << in.band[i] << "): batch " << describe(batch[i]) << "; one by one "
                     << describe(one);
     if (one.weight > 0.0) ++c.passed;
@@ -153,35 +154,42 @@ TEST(RealLensBatch, HoldsWithTheExposureFollowingTheLensAndAnAnamorphicStop) {
   EXPECT_GT(c.passed, 0);
 }
 
-// A lane mixed up with another would give it the other's ray: the four lanes of a group here
-// differ in everything, and each must be its own.
+// A lane mixed up with another would give it the other's ray: the lanes of a group here differ
+// in everything, and each must be its own, in a group of eight and in one of four.
 TEST(RealLensBatch, EachLaneIsItsOwnRay) {
   const RealLens lens(*lens_system("dispersive double Gauss"), {});
   ASSERT_TRUE(lens.dispersive());
-  const glm::dvec2 film[4] = {{0.0, 0.0}, {0.01, 0.005}, {-0.015, 0.01}, {0.005, -0.012}};
-  const glm::dvec2 u[4] = {{0.5, 0.5}, {0.3, 0.6}, {0.7, 0.2}, {0.45, 0.55}};
-  const int band[4] = {-1, 0, 1, 2};
-  RealLens::Sample batch[4];
-  lens.sample_n(4, film, u, band, batch);
-  for (int i = 0; i < 4; ++i) {
-    SCOPED_TRACE(i);
-    EXPECT_TRUE(same(batch[i], lens.sample(film[i], u[i], band[i])));
-    for (int j = 0; j < i; ++j) EXPECT_FALSE(same(batch[i], batch[j]));
+  const glm::dvec2 film[8] = {{0.0, 0.0},     {0.01, 0.005},   {-0.015, 0.01}, {0.005, -0.012},
+                              {-0.002, 0.003}, {0.012, -0.004}, {0.0, 0.011},   {-0.009, -0.009}};
+  const glm::dvec2 u[8] = {{0.5, 0.5}, {0.3, 0.6},  {0.7, 0.2},   {0.45, 0.55},
+                           {0.6, 0.4}, {0.35, 0.5}, {0.55, 0.65}, {0.4, 0.45}};
+  const int band[8] = {-1, 0, 1, 2, 2, 1, 0, -1};
+  for (int n : {8, 4}) {
+    SCOPED_TRACE(n);
+    RealLens::Sample batch[8];
+    lens.sample_n(n, film, u, band, batch);
+    for (int i = 0; i < n; ++i) {
+      SCOPED_TRACE(i);
+      EXPECT_GT(batch[i].weight, 0.0);
+      EXPECT_TRUE(same(batch[i], lens.sample(film[i], u[i], band[i])));
+      for (int j = 0; j < i; ++j) EXPECT_FALSE(same(batch[i], batch[j]));
+    }
+    // The same inputs in the reverse order give the same rays in the reverse order.
+    glm::dvec2 rfilm[8], ru[8];
+    int rband[8];
+    for (int i = 0; i < n; ++i)
+      rfilm[i] = film[n - 1 - i], ru[i] = u[n - 1 - i], rband[i] = band[n - 1 - i];
+    RealLens::Sample reversed[8];
+    lens.sample_n(n, rfilm, ru, rband, reversed);
+    for (int i = 0; i < n; ++i) EXPECT_TRUE(same(reversed[i], batch[n - 1 - i]));
   }
   // The bands differ: the same film and lens point in another band is another ray.
   RealLens::Sample blue[1];
   const int band2[1] = {2};
   lens.sample_n(1, &film[1], &u[1], band2, blue);
   EXPECT_GT(blue[0].weight, 0.0);
-  EXPECT_FALSE(same(blue[0], batch[1]));
   EXPECT_TRUE(same(blue[0], lens.sample(film[1], u[1], 2)));
-  // The same inputs in the reverse order give the same rays in the reverse order.
-  const glm::dvec2 rfilm[4] = {film[3], film[2], film[1], film[0]};
-  const glm::dvec2 ru[4] = {u[3], u[2], u[1], u[0]};
-  const int rband[4] = {band[3], band[2], band[1], band[0]};
-  RealLens::Sample reversed[4];
-  lens.sample_n(4, rfilm, ru, rband, reversed);
-  for (int i = 0; i < 4; ++i) EXPECT_TRUE(same(reversed[i], batch[3 - i]));
+  EXPECT_FALSE(same(blue[0], lens.sample(film[1], u[1], 0)));
 }
 
 TEST(RealLensBatch, FewerSamplesThanLanesAndNoneAtAll) {

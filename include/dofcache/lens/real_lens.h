@@ -86,11 +86,11 @@ class RealLens {
   Sample sample(glm::dvec2 film, glm::dvec2 u, int band = -1) const;
   // sample(film[i], u[i], band[i]) for i in [0, n), every output bit for bit sample()'s (a ray
   // that is stopped too: its origin and direction where it stopped). The rays cross the lens
-  // kLanes at a time, each surface for all of them before the next (structure of arrays: the
-  // trace of one ray is a chain of square roots, each waiting for the last, and the processor
-  // overlaps the lanes' chains); the same operations per lane in the same order, so no result
-  // changes. The rest of n, below a multiple of kLanes, is sampled one by one.
-  static constexpr int kLanes = 4;
+  // kLanes at a time (a rest of four or more four at a time, the last few one by one), each
+  // surface for all of them before the next: the trace of one ray is a chain of square roots,
+  // each waiting for the last, and the processor overlaps the lanes' chains. Each lane does the
+  // same operations in the same order as sample(), so no result changes.
+  static constexpr int kLanes = 8;
   void sample_n(std::size_t n, const glm::dvec2* film, const glm::dvec2* u, const int* band,
                 Sample* out) const;
 
@@ -152,14 +152,18 @@ class RealLens {
   // finish: the weight of a ray that passed with share `pass` of the stop.
   bool aim(glm::dvec2 film, glm::dvec2 u, Sample& s, double& w, double& t) const;
   double finish(double w, double pass, double t) const;
-  // sample() of kLanes film points whose rays are aimed: trace_through_stop lane by lane, surface
-  // by surface (RayLanes in real_lens.cpp).
+  // sample() of N film points at once: their rays aimed, then trace_through_stop for all of them
+  // surface by surface (RayLanes in real_lens.cpp, structure of arrays).
+  template <int N>
   struct RayLanes;
+  template <int N>
   void sample_lanes(const glm::dvec2* film, const glm::dvec2* u, const int* band,
                     Sample* out) const;
-  void cross_lanes(std::size_t k, RayLanes& r) const;
-  // trace_span towards the scene with clipping, for the live lanes of `r`.
-  void trace_span_lanes(RayLanes& r, std::size_t first, std::size_t last) const;
+  template <int N>
+  void cross_lanes(std::size_t k, RayLanes<N>& r) const;
+  // trace_span towards the scene with clipping, for the lanes of `r` not stopped.
+  template <int N>
+  void trace_span_lanes(RayLanes<N>& r, std::size_t first, std::size_t last) const;
   // trace_from_film with the stop's shape: `pass` the share the stop passes where the ray
   // crosses it (1 for a round stop); false where the ray is stopped.
   bool trace_through_stop(LensRay& ray, int band, double& pass) const;
