@@ -344,25 +344,37 @@ CLI::Option* add_rays_option(CLI::App& app, int& rays) {
       ->check(CLI::Range(1, 1 << 30));
 }
 
+namespace {
+// What a timing loop adds up from its rays (so the compiler keeps them) and how many pass.
+struct RayTally {
+  float sum = 0.0f;
+  int passed = 0;
+  void add(const render::LensSample& s) {
+    sum += s.ray.direction.x + s.ray.origin.y + s.weight;
+    passed += s.weight > 0.0f;
+  }
+  RayTiming finish(const Stopwatch& clock, int count, float* sink) const {
+    RayTiming t;
+    t.seconds = clock.seconds();
+    t.passed = static_cast<double>(passed) / count;
+    *sink += sum;
+    return t;
+  }
+};
+}  // namespace
+
 RayTiming time_camera_rays(const render::ThinLensCamera& camera, int count, bool banded,
                            float* sink) {
   const render::Sobol2D film(1), lens(2);
   const Stopwatch clock;
-  float sum = 0.0f;
-  int passed = 0;
+  RayTally tally;
   const int w = camera.width(), h = camera.height();
   for (int i = 0; i < count; ++i) {
     const glm::vec2 f = film(static_cast<std::uint32_t>(i));
-    const render::LensSample s = camera.lens_ray(
-        {f.x * w, f.y * h}, lens(static_cast<std::uint32_t>(i)), banded ? i % 3 : -1);
-    sum += s.ray.direction.x + s.ray.origin.y + s.weight;
-    passed += s.weight > 0.0f;
+    tally.add(camera.lens_ray({f.x * w, f.y * h}, lens(static_cast<std::uint32_t>(i)),
+                              banded ? i % 3 : -1));
   }
-  RayTiming t;
-  t.seconds = clock.seconds();
-  t.passed = static_cast<double>(passed) / count;
-  *sink += sum;
-  return t;
+  return tally.finish(clock, count, sink);
 }
 
 RayTiming time_camera_rays_batched(const render::ThinLensCamera& camera, int count, bool banded,
@@ -373,8 +385,7 @@ RayTiming time_camera_rays_batched(const render::ThinLensCamera& camera, int cou
   int bands[kBlock];
   render::LensSample rays[kBlock];
   const Stopwatch clock;
-  float sum = 0.0f;
-  int passed = 0;
+  RayTally tally;
   const int w = camera.width(), h = camera.height();
   for (int i0 = 0; i0 < count; i0 += kBlock) {
     const int n = std::min(kBlock, count - i0);
@@ -386,17 +397,9 @@ RayTiming time_camera_rays_batched(const render::ThinLensCamera& camera, int cou
       bands[j] = banded ? i % 3 : -1;
     }
     camera.lens_rays(static_cast<std::size_t>(n), films, us, bands, rays);
-    for (int j = 0; j < n; ++j) {
-      const render::LensSample& s = rays[j];
-      sum += s.ray.direction.x + s.ray.origin.y + s.weight;
-      passed += s.weight > 0.0f;
-    }
+    for (int j = 0; j < n; ++j) tally.add(rays[j]);
   }
-  RayTiming t;
-  t.seconds = clock.seconds();
-  t.passed = static_cast<double>(passed) / count;
-  *sink += sum;
-  return t;
+  return tally.finish(clock, count, sink);
 }
 
 CLI::Option* add_scene_option(CLI::App& app, std::vector<std::string>& scenes) {

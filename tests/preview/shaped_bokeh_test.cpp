@@ -8,7 +8,6 @@
 #include <cmath>
 
 #include "../render/lamp_bokeh.h"
-#include "dofcache/image/image_io.h"
 #include "scratch_dir.h"
 #include "dofcache/preview/preview_renderer.h"
 #include "dofcache/scene/accel.h"
@@ -134,12 +133,8 @@ TEST_F(ShapedPreviewImage, AnApertureImagesGreyLevelsMoveTheBokehAsInTheRayTrace
   // The left half of the aperture passes a quarter of the right half's light: the bokeh's
   // centroid moves right behind the focus (0.6 of a half-disc's, 4 R / (3 pi)), as the DRT's;
   // drawn as its non-zero pixels it would stay centred.
-  image::Image half(64, 64, 3, 0.25f);
-  for (int y = 0; y < 64; ++y)
-    for (int x = 32; x < 64; ++x)
-      for (int c = 0; c < 3; ++c) half.at(x, y, c) = 1.0f;
   const std::string path = (dir_ / "half.exr").string();
-  image::write_image(path, half);
+  testing::write_half_aperture_image(path);
   lens::ThinLens lens{0.05, 2.0, 1.0};
   lens.aperture.image = path;
   const Pair p = render_both(lens, {0.0f, 0.0f, -3.0f});

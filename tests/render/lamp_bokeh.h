@@ -41,6 +41,16 @@ inline void dump_if_asked(const image::Image& drt, const image::Image& preview) 
   image::write_image(std::string(dump) + std::to_string(n++) + "_preview.exr", preview);
 }
 
+// An aperture image whose right half passes everything and whose left half passes a quarter
+// (64 x 64, the square around the round aperture), written to `path`.
+inline void write_half_aperture_image(const std::string& path) {
+  image::Image half(64, 64, 3, 0.25f);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 32; x < 64; ++x)
+      for (int c = 0; c < 3; ++c) half.at(x, y, c) = 1.0f;
+  image::write_image(path, half);
+}
+
 inline render::RenderSettings lamp_settings(const lens::ThinLens& lens, int size, int spp) {
   render::RenderSettings r;
   r.width = r.height = size;

@@ -11,7 +11,6 @@
 
 #include "dofcache/lens/real_lens.h"
 #include "dofcache/render/renderer.h"
-#include "dofcache/image/image_io.h"
 #include "lamp_bokeh.h"
 #include "scratch_dir.h"
 
@@ -119,12 +118,8 @@ TEST_F(RealLensImageStop, ApertureImageTransmitsItsGreyLevels) {
   // The stop's right half passes everything, its left half a quarter. The bokeh is the disc with
   // that transmission, upright behind the focus: its centroid lies (1 - 1/4) / (1 + 1/4) of a
   // half-disc's, 4 R / (3 pi), to the right; in front of the focus as far to the left.
-  image::Image half(64, 64, 3, 0.25f);
-  for (int y = 0; y < 64; ++y)
-    for (int x = 32; x < 64; ++x)
-      for (int c = 0; c < 3; ++c) half.at(x, y, c) = 1.0f;
   const std::string path = (dir_ / "half.exr").string();
-  image::write_image(path, half);
+  testing::write_half_aperture_image(path);
   lens::ApertureShape stop;
   stop.image = path;
   for (const LampAt& lamp : lamp_bokeh(stop, 512)) {
