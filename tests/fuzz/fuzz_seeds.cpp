@@ -57,6 +57,11 @@ void preview_inputs_seed(const fs::path& dir) {
   in.revealed.push_back(r);
   preview::RevealedCoverage c{true, 1.5, 4.0, 0.05 / 2.8};
   preview::save_preview_inputs((dir / "inputs.exr").string(), in, c);
+  // A lens that is not plain: its aperture's attributes, a real lens's rims among them.
+  in.revealed.clear();
+  in.imaging.lens.aperture.blades = 6;
+  in.imaging.lens.aperture.rims = {{0.012, 0.018}, {0.009, 0.014}, true};
+  preview::save_preview_inputs((dir / "inputs_shaped.exr").string(), in, {});
 }
 
 void trace_seed(const fs::path& dir) {
