@@ -93,6 +93,7 @@ RealLens::RealLens(const LensSystem& system, const RealLensSettings& settings)
   build_pupil_table();
   if (!(pupil_[0].throughput > 0.0)) throw Error("no ray through the lens reaches the film centre");
   if (!settings.exposure_follows_lens) normalisation_ = 0.0;  // per radius, below
+  rims_ = fit_rims(*this, settings.film_radius);  // kept with the lens: mounting it again is free
 }
 
 void RealLens::tabulate() {
@@ -626,7 +627,7 @@ ThinLens MountedLens::equivalent() const {
   const double focus = std::min(lens->focus_distance(), 1e7) - c.front_principal_z;
   ThinLens thin(c.focal_length, lens->fstop(), focus);
   thin.aperture = lens->stop_shape();
-  thin.aperture.rims = rims_of(rims, thin, !lens->exposure_follows_lens());
+  thin.aperture.rims = rims_of(lens->rims(), thin, !lens->exposure_follows_lens());
   return thin;
 }
 
@@ -668,7 +669,7 @@ MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const st
   sensor.validate();
   if (width < 1 || height < 1) throw Error("the image must have at least one pixel");
   ApertureShape stop = shape;
-  stop.rims = {};  // an equivalent's (a lens mounted again): the lens's own, fitted below
+  stop.rims = {};  // an equivalent's (a lens mounted again): the lens's own are RealLens::rims
   check_stop_shape(stop);  // before the kept lenses, whose keys hold only what a stop takes
   MountedLens m;
   m.film_size = sensor.film_size(width, height);
@@ -692,7 +693,6 @@ MountedLens mount_lens(const std::shared_ptr<const LensSystem>& system, const st
       << aperture_profile_name(stop.profile) << ' ' << stop.profile_strength << ' '
       << (stop.image.empty() ? "" : core::file_version_key(stop.image).value_or(stop.image));
   m.lens = mounted.get(key.str(), [&] { return std::make_shared<const RealLens>(*system, settings); });
-  m.rims = fit_rims(*m.lens, settings.film_radius);
   return m;
 }
 

@@ -88,7 +88,7 @@ TEST(LensRims, TheFittedDiscsPassWhatTheTracedLensPasses) {
       SCOPED_TRACE(f);
       const double h = f * corner;
       const Traced traced = trace_bundle(*m.lens, h);
-      const Traced model = model_bundle(m.rims, h);
+      const Traced model = model_bundle(m.lens->rims(), h);
       EXPECT_NEAR(model.share, traced.share, 0.05);
       EXPECT_NEAR(model.lo, traced.lo, 0.06);
       EXPECT_NEAR(model.hi, traced.hi, 0.06);
@@ -103,20 +103,20 @@ TEST(LensRims, FrontRimsCutTheFarSideAndRearRimsTheNear) {
   // The double Gauss wide open vignettes from both sides at the corner: its front elements clip
   // the side of the stop away from the film point, its rear ones the side towards it.
   const MountedLens m = mount("double_gauss_50mm", 0.0);
-  ASSERT_TRUE(m.rims.front.present());
-  ASSERT_TRUE(m.rims.rear.present());
-  EXPECT_GT(m.rims.front.slope, 0.0);
-  EXPECT_LT(m.rims.rear.slope, 0.0);
+  ASSERT_TRUE(m.lens->rims().front.present());
+  ASSERT_TRUE(m.lens->rims().rear.present());
+  EXPECT_GT(m.lens->rims().front.slope, 0.0);
+  EXPECT_LT(m.lens->rims().rear.slope, 0.0);
   // The telephoto's rims cut nothing within the frame: its equivalent stays plain.
   const MountedLens tele = mount("telephoto_250mm", 0.0);
-  EXPECT_FALSE(tele.rims.front.present());
-  EXPECT_FALSE(tele.rims.rear.present());
+  EXPECT_FALSE(tele.lens->rims().front.present());
+  EXPECT_FALSE(tele.lens->rims().rear.present());
   EXPECT_TRUE(tele.equivalent().aperture.plain());
   // Stopped down to f/8 the stop's small disc passes the rims' bundle whole out to mid-frame.
   const MountedLens stopped = mount("double_gauss_50mm", 8.0);
   const double mid = 0.25 * std::hypot(stopped.film_size.x, stopped.film_size.y);
   EXPECT_NEAR(trace_bundle(*stopped.lens, mid).share, 1.0, 1e-9);
-  EXPECT_NEAR(model_bundle(stopped.rims, mid).share, 1.0, 1e-9);
+  EXPECT_NEAR(model_bundle(stopped.lens->rims(), mid).share, 1.0, 1e-9);
 }
 
 TEST(LensRims, TheEquivalentCarriesThemAsItsStops) {

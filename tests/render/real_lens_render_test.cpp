@@ -184,7 +184,7 @@ TEST(RealLensRender, TheEquivalentsBokehSeesTheFittedRims) {
   constexpr int kW = 300, kH = 200;
   const lens::MountedLens m = lens::mount_lens(lens::read_lens_file(path), path, 0.0, 3.0,
                                                lens::Sensor{}, kW, kH, false);
-  ASSERT_TRUE(m.rims.front.present() && m.rims.rear.present());
+  ASSERT_TRUE(m.lens->rims().front.present() && m.lens->rims().rear.present());
   const lens::ThinLens thin = m.equivalent();
   const ThinLensCamera camera(glm::mat4(1.0f), 0.5f, thin, kW, kH, m);
   for (const glm::vec2 px : {glm::vec2(150.0f, 100.0f), glm::vec2(290.0f, 100.0f),
@@ -193,7 +193,7 @@ TEST(RealLensRender, TheEquivalentsBokehSeesTheFittedRims) {
     const glm::dvec2 f{(0.5 - px.x / kW) * m.film_size.x, (px.y / kH - 0.5) * m.film_size.y};
     const BokehSpot b = camera.bokeh(px, thin.focus_distance);
     EXPECT_TRUE(b.normalised);
-    const lens::RimDisc* rims[2] = {&m.rims.front, &m.rims.rear};
+    const lens::RimDisc* rims[2] = {&m.lens->rims().front, &m.lens->rims().rear};
     for (int k = 0; k < 2; ++k) {
       ASSERT_TRUE(b.stops[k].present());
       EXPECT_NEAR(b.stops[k].radius, rims[k]->radius, 1e-4);

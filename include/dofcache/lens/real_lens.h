@@ -115,6 +115,8 @@ class RealLens {
   // radius (x, y as lens space), traced without clipping; nullopt where it misses a surface.
   bool passes_rims(LensRay ray) const;
   std::optional<glm::dvec2> stop_point(LensRay ray) const;
+  // Those rims as two discs at the stop, fitted once over the film (settings' film_radius).
+  const RimModel& rims() const { return rims_; }
 
   static constexpr int kPupilBins = 64;
 
@@ -183,6 +185,7 @@ class RealLens {
   std::array<PupilBin, kPupilBins> pupil_{};
   std::optional<Aperture> stop_aperture_;  // a shaped stop; none: round
   double stop_radius_ = 0;                 // the round stop's, metres
+  RimModel rims_;
 };
 
 // The sensor a real lens images onto, and which part of it an image of another aspect ratio uses:
@@ -217,7 +220,6 @@ struct MountedLens {
   std::shared_ptr<const RealLens> lens;
   glm::dvec2 film_size{0.0};  // metres
   std::string source;         // the lens file (messages, cache files)
-  RimModel rims;              // its own vignetting, fitted over the film (lens_rims.h)
 
   explicit operator bool() const { return lens != nullptr; }
   // The thin lens a cache's reuse rule and a preview see: the effective focal length, the f-number
