@@ -50,7 +50,13 @@ void add_sequence_options(CLI::App* cmd, request::RenderRequest& r) {
                   "Cap the cache at this many MB, evicting the least recently used first "
                   "(0: no cap)")
       ->capture_default_str()->check(CLI::Range(0.0, 1e9));
-  cmd->add_option("--cache-in", q.cache_in, "Start from this cache file (.vdb)");
+  cmd->add_option("--cache-in", q.cache_in,
+                  "Start from this cache file (.vdb); refused if made for another scene or "
+                  "shading, or through a lens of another design (focus, f-number and focal "
+                  "length may differ)");
+  cmd->add_flag("--cache-any-lens", q.cache_any_lens,
+                "Accept a --cache-in made through another lens (cached values do not depend on "
+                "the lens; the reuse rule follows this render's)");
   cmd->add_option("--cache-out", q.cache_out, "Save the cache to this file (.vdb) at the end");
   cmd->add_option("--checkpoint", q.checkpoint,
                   "Checkpoint of the persistent cache, written after every frame so an "

@@ -163,7 +163,11 @@ request::RenderRequest FarmPlan::warm_request() const {
 request::RenderRequest FarmPlan::chunk_request(const Chunk& c) const {
   request::RenderRequest r = job_request(settings_, stats_file(c));
   r.sequence.frames = fmt::format("{}-{}", c.first, c.last);
-  if (has_warm_pass()) r.sequence.cache_in = warm_cache_file();
+  if (has_warm_pass()) {
+    r.sequence.cache_in = warm_cache_file();
+    // The warm pass rendered this path, whose lens may change between its frames.
+    r.sequence.cache_any_lens = true;
+  }
   if (settings_.carry) r.sequence.checkpoint = checkpoint_file(c);
   return r;
 }

@@ -13,6 +13,7 @@
 #include "dofcache/denoise/render_filter.h"
 #include "dofcache/image/image_io.h"
 #include "dofcache/image/metrics.h"
+#include "dofcache/lens/lens_identity.h"
 #include "dofcache/lens/lens_json.h"
 #include "dofcache/preview/inputs_file.h"
 
@@ -156,27 +157,7 @@ std::string describe_setup(const ResolvedRequest& r, const scene::Scene& scene,
   // A real lens's equivalent carries its stop's shape (lens/real_lens.h).
   const lens::ApertureShape& a = l.aperture;
   if (a.plain()) return text;
-  text += "        aperture ";
-  if (a.blades > 0)
-    text += fmt::format("{} blades, a corner at {:g} deg, roundness {:g}", a.blades,
-                        a.rotation_deg, a.roundness);
-  else
-    text += "round";
-  if (a.anamorphic_ratio != 1.0) text += fmt::format(", anamorphic ratio {:g}", a.anamorphic_ratio);
-  if (a.vignetting())
-    text += fmt::format(", vignetting stop {:g} mm across at {:g} mm", 2000.0 * a.stop.radius,
-                        1000.0 * a.stop.distance);
-  if (a.rims.any()) text += ", the lens's rims (cat's eyes towards the corners)";
-  if (a.chromatic())
-    text += fmt::format(", chromatic aberration {:g} mm axial, {:g} % lateral",
-                        1000.0 * a.axial_ca, 100.0 * a.lateral_ca);
-  if (a.weighted())
-    text += fmt::format(", {}-weighted transmission (strength {:g})",
-                        lens::aperture_profile_name(a.profile), a.profile_strength);
-  if (!a.image.empty()) text += ", image " + a.image;
-  if (a.tilted()) text += fmt::format(", tilt {:g}, {:g} deg", a.tilt_x_deg, a.tilt_y_deg);
-  if (a.shifted()) text += fmt::format(", shift {:g}, {:g}", a.shift_x, a.shift_y);
-  text += "\n";
+  text += "        aperture " + lens::describe_aperture(a) + "\n";
   if (r.preview) text += std::string("notice  ") + preview::kShapedPreviewNotice + "\n";
   return text;
 }

@@ -320,6 +320,7 @@ json to_json(const RenderRequest& r) {
                      {"evict_after", s.evict_after},
                      {"cache_memory_mb", s.cache_memory_mb},
                      {"cache_in", s.cache_in},
+                     {"cache_any_lens", s.cache_any_lens},
                      {"cache_out", s.cache_out},
                      {"checkpoint", s.checkpoint},
                      {"checkpoint_journal", s.checkpoint_journal},
@@ -475,6 +476,7 @@ RenderRequest request_from_json(const json& j) {
     s.get("evict_after", q.evict_after, 0, 1 << 30);
     s.get("cache_memory_mb", q.cache_memory_mb, 0, 1e9);
     s.get("cache_in", q.cache_in);
+    s.get("cache_any_lens", q.cache_any_lens);
     s.get("cache_out", q.cache_out);
     s.get("checkpoint", q.checkpoint);
     s.get("checkpoint_journal", q.checkpoint_journal, 0, 1e6);

@@ -129,6 +129,10 @@ void write_vdb(const std::string& path, const CacheFile& file) {
   meta.insertMeta("dofcache.sample_quality", vdb::Int32Metadata(file.identity.sample_quality));
   meta.insertMeta("dofcache.min_factor", vdb::DoubleMetadata(file.min_factor));
   meta.insertMeta("dofcache.sample_count", vdb::Int64Metadata(static_cast<std::int64_t>(n)));
+  if (file.lens.design != 0) {
+    meta.insertMeta("dofcache.lens_design", vdb::StringMetadata(hex64(file.lens.design)));
+    meta.insertMeta("dofcache.lens", vdb::StringMetadata(file.lens.description));
+  }
   if (file.checkpoint) {
     meta.insertMeta("dofcache.sequence_key",
                     vdb::StringMetadata(hex64(file.checkpoint->sequence_key)));
@@ -246,6 +250,11 @@ CacheFile read_vdb(const std::string& path, std::uint64_t max_samples) {
   if (static_cast<std::uint64_t>(count) > max_samples)
     throw Error(path + ": cache file declares " + std::to_string(count) +
                 " samples, more than the limit of " + std::to_string(max_samples));
+  if (m.has("dofcache.lens_design")) {  // written since lenses are recorded
+    file.lens.design = m.hex("dofcache.lens_design");
+    if (file.lens.design == 0) throw Error(path + ": metadata dofcache.lens_design is malformed");
+    file.lens.description = m.string("dofcache.lens");
+  }
   if (m.has("dofcache.sequence_key")) {
     SequenceCheckpoint cp;
     cp.sequence_key = m.hex("dofcache.sequence_key");
@@ -401,6 +410,14 @@ void check_cache_identity(const CacheFile& file, const CacheIdentity& expected,
   differs("--gather-rays", got.gather_rays, expected.gather_rays);
   differs("--bounces", got.bounces, expected.bounces);
   differs("--cache-sample-quality", got.sample_quality, expected.sample_quality);
+}
+
+void check_cache_lens(const CacheFile& file, const lens::LensIdentity& expected,
+                      const std::string& path, bool any_lens) {
+  if (any_lens || file.lens.design == 0 || file.lens == expected) return;
+  throw Error(path + ": the cache was made through another lens (" + file.lens.description +
+              "; this render's: " + expected.description +
+              "); cached values do not depend on the lens, so --cache-any-lens reuses it");
 }
 
 }  // namespace dofcache::sequence

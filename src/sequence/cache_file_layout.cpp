@@ -45,7 +45,8 @@ const std::map<std::string, std::string>& file_metadata_types() {
       {"dofcache.bounces", "int32"},       {"dofcache.sample_quality", "int32"},
       {"dofcache.min_factor", "double"},   {"dofcache.sample_count", "int64"},
       {"dofcache.sequence_key", "string"}, {"dofcache.first_frame", "int32"},
-      {"dofcache.frame", "int32"},         {"dofcache.environment_hash", "string"}};
+      {"dofcache.frame", "int32"},         {"dofcache.environment_hash", "string"},
+      {"dofcache.lens_design", "string"},  {"dofcache.lens", "string"}};
   return types;
 }
 

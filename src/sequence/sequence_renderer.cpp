@@ -54,6 +54,9 @@ std::uint64_t work_of(const render::RenderSettings& s) {
          static_cast<std::uint64_t>(s.visibility_only ? 1 : s.spp);
 }
 
+// The lens a cache file records for a frame (lens/lens_identity.h).
+lens::LensIdentity frame_lens(const FrameSpec& f) { return lens::lens_identity(f.lens, f.real_lens); }
+
 }  // namespace
 
 const char* cache_mode_name(CacheMode mode) {
@@ -328,6 +331,7 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
   if (!s.cache_in.empty()) {
     CacheFile in = read_cache_file(s.cache_in);
     check_cache_identity(in, identity, s.cache_in);
+    check_cache_lens(in, frame_lens(frames_.front()), s.cache_in, s.cache_any_lens);
     initial = std::move(in.records);
     for (cache::SampleRecord& r : initial) r.last_used = frames_.front().number - 1;
     say("loaded " + std::to_string(initial.size()) + " cache samples from " + s.cache_in);
@@ -492,6 +496,7 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
     if (store) {
       auto t_checkpoint = std::chrono::steady_clock::now();
       const double cpu = cpu_seconds();
+      store->set_lens(frame_lens(spec));
       CheckpointStore::Saved saved = store->save(
           cache_->records(), store->journaling() ? &before : nullptr,
           SequenceCheckpoint{sequence_key(scene_, s, frames_, i + 1, initial_hash),
@@ -521,6 +526,7 @@ SequenceSummary SequenceRenderer::run(const FrameCallback& on_frame,
       out.scene_source = scene_.source;
       out.min_factor = s.render.cache.radius.min_factor;
       out.records = cache_->records();
+      out.lens = frame_lens(frames_.back());
       write_cache_file(s.cache_out, out);
     }
   }

@@ -49,6 +49,7 @@ PreparedSequence prepare_sequence(const request::RenderRequest& request) {
   s.cache_memory_mb = q.cache_memory_mb;
   s.output = r.out;
   s.cache_in = q.cache_in;
+  s.cache_any_lens = q.cache_any_lens;
   s.cache_out = q.cache_out;
   s.checkpoint = q.checkpoint;
   s.checkpoint_journal_ratio = q.checkpoint_journal;

@@ -184,6 +184,17 @@ TEST_F(SequenceCli, RefusesForeignAndDamagedCacheFiles) {
                             " --width 32 --spp 4 --light-samples 1 --gather-rays 16 "
                             "--cache-sample-quality 1"),
                         "--gather-rays");
+  // ... refused through a lens of another design, in one line naming both; accepted with
+  // --cache-any-lens (the first "same" run above changed focus and f-number: the same lens).
+  const std::string pull = "sequence " + kScenes + "cornell_box.gltf --path " + kScenes +
+                           "paths/cornell_focus_pull.json --frames 0 --persistent --cache-in " +
+                           at("cornell.vdb") + kQuick;
+  expect_one_line_error(run(pull + " -o '" + at("f/####.png") + "' --aperture-blades 6"),
+                        "another lens (thin lens");
+  dofcache::testing::CliResult any =
+      run(pull + " -o '" + at("g/####.png") + "' --aperture-blades 6 --cache-any-lens");
+  EXPECT_EQ(any.exit_code, 0) << any.err;
+  EXPECT_NE(any.out.find("loaded"), std::string::npos) << any.out;
   // Damaged: cut short.
   std::string bytes = slurp(dir_ / "cornell.vdb");
   std::ofstream(at("cut.vdb"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);

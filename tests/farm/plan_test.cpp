@@ -159,6 +159,8 @@ TEST_F(FarmPlanTest, ChunkRequestsStartFromTheWarmCacheWithTheirOwnCheckpoint) {
   EXPECT_EQ(a.sequence.frames, "10-13");
   EXPECT_EQ(b.sequence.frames, "14-15");
   EXPECT_EQ(a.sequence.cache_in, plan.warm_cache_file());
+  // The warm pass rendered the same path: a lens it animates is no mismatch.
+  EXPECT_TRUE(a.sequence.cache_any_lens);
   EXPECT_EQ(a.threads, 8);
   EXPECT_FALSE(a.sequence.checkpoint.empty());
   EXPECT_NE(a.sequence.checkpoint, b.sequence.checkpoint);
@@ -171,6 +173,7 @@ TEST_F(FarmPlanTest, ChunkRequestsStartFromTheWarmCacheWithTheirOwnCheckpoint) {
   const request::RenderRequest c = cold.chunk_request(cold.chunks()[0]);
   EXPECT_EQ(c.threads, 3);
   EXPECT_TRUE(c.sequence.cache_in.empty());
+  EXPECT_FALSE(c.sequence.cache_any_lens);
   EXPECT_FALSE(cold.has_warm_pass());
 }
 

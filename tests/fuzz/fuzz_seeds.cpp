@@ -34,7 +34,12 @@ void cache_file_seed(const fs::path& dir, int samples, bool checkpoint) {
     r.origin = {0.01f, 0.01f, 0.001f};
     f.records.push_back(r);
   }
-  if (checkpoint) f.checkpoint = sequence::SequenceCheckpoint{0xfeedULL, 0, 3};
+  if (checkpoint) {  // a checkpoint as a sequence writes it, with the lens recorded
+    f.checkpoint = sequence::SequenceCheckpoint{0xfeedULL, 0, 3};
+    lens::ApertureShape six;
+    six.blades = 6;
+    f.lens = lens::lens_identity(lens::ThinLens(0.05, 2.8, 3.0, six));
+  }
   fs::path path = dir / ("samples-" + std::to_string(samples) + ".vdb");
   sequence::write_cache_file(path.string(), f);
   fs::resize_file(path, fs::file_size(path) - 24);  // the trailer

@@ -179,6 +179,45 @@ TEST_F(CacheFileTest, RefusesOtherSceneOrShading) {
   EXPECT_EQ(message(f.identity), "accepted");
 }
 
+// A file records the lens it was made through; a lens of another design is refused in one line
+// naming both, unless any lens is accepted; files from before lenses were recorded are accepted.
+TEST_F(CacheFileTest, RecordsTheLensAndRefusesAnotherDesign) {
+  CacheFile f = sample_file(5);
+  lens::ApertureShape six;
+  six.blades = 6;
+  f.lens = lens::lens_identity(lens::ThinLens(0.05, 2.8, 3.0, six));
+  write_cache_file(path("lens.vdb"), f);
+  const CacheFile g = read_cache_file(path("lens.vdb"));
+  EXPECT_EQ(g.lens.design, f.lens.design);
+  EXPECT_EQ(g.lens.description, f.lens.description);
+
+  auto message = [&](const CacheFile& file, const lens::LensIdentity& expected, bool any) {
+    try {
+      check_cache_lens(file, expected, "lens.vdb", any);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  // Refocused, zoomed, stopped down: the same lens.
+  EXPECT_EQ(message(g, lens::lens_identity(lens::ThinLens(0.035, 8.0, 1.5, six)), false),
+            "accepted");
+  const lens::LensIdentity round = lens::lens_identity(lens::ThinLens(0.05, 2.8, 3.0));
+  const std::string refused = message(g, round, false);
+  EXPECT_EQ(refused.find('\n'), std::string::npos);
+  EXPECT_EQ(refused.rfind("lens.vdb: the cache was made through another lens", 0), 0u) << refused;
+  EXPECT_NE(refused.find("6 blades"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("aperture round"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("--cache-any-lens"), std::string::npos) << refused;
+  EXPECT_EQ(message(g, round, true), "accepted");
+
+  // Written without a lens (as before lenses were recorded): nothing to compare.
+  write_cache_file(path("old.vdb"), sample_file(5));
+  const CacheFile old = read_cache_file(path("old.vdb"));
+  EXPECT_EQ(old.lens.design, 0u);
+  EXPECT_EQ(message(old, round, false), "accepted");
+}
+
 TEST_F(CacheFileTest, EnvironmentIsPartOfTheIdentity) {
   CacheFile f = sample_file(4);
   f.identity.environment_hash = 0x00000000cafef00dULL;

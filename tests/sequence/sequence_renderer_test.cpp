@@ -198,7 +198,9 @@ TEST_F(SequenceTest, JournalRecordsCostWhatTheFrameChanged) {
     EXPECT_TRUE(f.checkpoint_full) << f.frame;
   });
   EXPECT_FALSE(fs::exists(journal_of("full/####.exr")));
-  EXPECT_EQ(read_cache_file(default_checkpoint_path(s.output)).checkpoint->frame, 2);
+  const CacheFile full = read_cache_file(default_checkpoint_path(s.output));
+  EXPECT_EQ(full.checkpoint->frame, 2);
+  EXPECT_EQ(full.lens.description, lens::describe_lens(frames(0, 2).back().lens));
 }
 
 // A run killed while appending frame 3's record: the record is cut short, the journal is used up
@@ -413,6 +415,11 @@ TEST_F(SequenceTest, CacheInAndOut) {
   CacheFile saved = read_cache_file(s.cache_out);
   EXPECT_EQ(saved.records.size(), first.cache()->size());
   EXPECT_FALSE(saved.checkpoint.has_value());
+  // It records the lens of the last frame, every parameter of it.
+  const FrameSpec last = frames(0, 2).back();
+  EXPECT_EQ(saved.lens.design, lens::lens_design(last.lens));
+  EXPECT_EQ(saved.lens.description, lens::describe_lens(last.lens));
+  EXPECT_NE(saved.lens.description.find("thin lens"), std::string::npos);
 
   // Starting from it, the first frame already reuses.
   SequenceSettings t = settings(CacheMode::Persistent, "");

@@ -65,6 +65,7 @@ struct SequenceChoices {
   int evict_after = 8;
   double cache_memory_mb = 0.0;
   std::string cache_in, cache_out, checkpoint;
+  bool cache_any_lens = false;  // accept a cache_in made through a lens of another design
   double checkpoint_journal = 1.0;
   bool restart = false;
   // The temporal filter over the written frames (sequence/temporal_pass.h): frames on each side

@@ -9,6 +9,9 @@
 //                   dofcache.min_factor (double), dofcache.sample_count (int64),
 //                   dofcache.environment_hash (16 hex digits: the environment light's content
 //                   hash, 0 for none; absent in files from before environments: none),
+//                   dofcache.lens_design (16 hex digits: lens::LensIdentity::design of the lens
+//                   the cache was made through) and dofcache.lens (its every parameter, one
+//                   line); both absent in files from before lenses were recorded,
 //                   checkpoints also: dofcache.sequence_key (16 hex digits), dofcache.first_frame,
 //                   dofcache.frame (int32: the last complete frame)
 //   grid "samples"  a PointDataGrid, one point per sample, power-of-two voxel size (so positions
@@ -29,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "dofcache/lens/lens_identity.h"
 #include "dofcache/render/renderer.h"
 #include "dofcache/scene/scene.h"
 #include "dofcache/cache/persistent_cache.h"
@@ -68,6 +72,8 @@ struct CacheFile {
   double min_factor = 0.5;
   std::vector<cache::SampleRecord> records;  // increasing id
   std::optional<SequenceCheckpoint> checkpoint;
+  // The lens the cache was made through (the last frame's); design 0: not recorded (older files).
+  lens::LensIdentity lens;
 };
 
 // Writes atomically (temporary file, then rename). Throws dofcache::Error on failure.
@@ -96,5 +102,12 @@ void append_cache_file_trailer(const std::string& path);
 // identity is not `expected`.
 void check_cache_identity(const CacheFile& file, const CacheIdentity& expected,
                           const std::string& path);
+
+// Throws dofcache::Error, one line with both lenses, if the file records a lens of another design
+// than `expected` (lens/lens_identity.h: focal length, f-number and focus may differ). Cached
+// values do not depend on the lens, so `any_lens` (--cache-any-lens) accepts any; a file that
+// records no lens is accepted.
+void check_cache_lens(const CacheFile& file, const lens::LensIdentity& expected,
+                      const std::string& path, bool any_lens);
 
 }  // namespace dofcache::sequence

@@ -37,6 +37,8 @@ class CheckpointStore {
   // `base_bytes` long: after a resume that replayed the journal up to there.
   void continue_journal(std::uint64_t base_bytes, std::uint64_t complete_bytes);
 
+  // The lens the next base records (the frame's it is saved after).
+  void set_lens(lens::LensIdentity lens) { header_.lens = std::move(lens); }
   // Whether save() will want the frame's cache as the reuse rule left it (a journal is open).
   bool journaling() const { return journal_.has_value(); }
 

@@ -50,6 +50,7 @@ struct SequenceSettings {
   // "frames/####.exr". Empty: frames are not written (on_frame still gets them).
   std::string output;
   std::string cache_in;   // load this cache file first (refused if made for something else)
+  bool cache_any_lens = false;  // accept a cache_in made through a lens of another design
   std::string cache_out;  // save the cache here at the end
   // Checkpoint of a persistent cache; empty: default_checkpoint_path(output) when writing frames,
   // none otherwise.
