@@ -137,33 +137,98 @@ ApertureChoices ApertureChoices::of(const ApertureShape& s) {
   return c;
 }
 
+namespace {
+
+// One way of drawing a bin in proportion to its weight: the bins that have any, each with its
+// cumulative share below and above (0 first, 1 last) and its index among all bins, and a guide
+// table of `cells` cells: the bin holding the least u of each cell, from which the bin of any u in
+// the cell is a scan of at most `steps` forward. Empty bins are left out, so no scan crosses the
+// dark gap between two of an image's shapes; the guide is made finer until one step suffices,
+// and the scan's length is known, so it runs as fixed steps, without a branch to mispredict (a
+// mispredicted branch costs a tenth of a thin-lens ray).
+struct BinSampler {
+  struct Bin {
+    float lo, hi;         // the cumulative share below and above it
+    float inverse_share;  // 1 / (hi - lo): a product where a division would be slower
+    int index;            // among all bins
+  };
+  std::vector<Bin> bins;
+  std::vector<int> guide;
+  float cells = 0;  // guide.size()
+  int steps = 0;
+
+  // From the cumulative shares of all bins (first 0, last 1).
+  void build(const float* all, int count) {
+    bins.clear();
+    for (int i = 0; i < count; ++i)
+      if (all[i + 1] > all[i]) bins.push_back({all[i], all[i + 1], 1.0f / (all[i + 1] - all[i]), i});
+    bins.back().hi = 1.0f;
+    const int n = static_cast<int>(bins.size());
+    for (int fine = 1;; fine *= 2) {
+      build_guide(n * fine);
+      if (steps <= 1 || fine >= kMaxFineness || n * fine * 2 > kMaxCells) break;
+    }
+  }
+
+  void build_guide(int g) {
+    guide.resize(g);
+    cells = static_cast<float>(g);
+    const int n = static_cast<int>(bins.size());
+    int i = 0;
+    for (int k = 0; k < g; ++k) {
+      // The least u that invert() looks up in cell k (u * cells rounds in float).
+      float u = static_cast<float>(k) / cells;
+      while (static_cast<int>(u * cells) < k) u = std::nextafter(u, 1.0f);
+      while (u > 0.0f && static_cast<int>(std::nextafter(u, 0.0f) * cells) >= k)
+        u = std::nextafter(u, 0.0f);
+      while (i < n - 1 && bins[i].hi <= u) ++i;
+      guide[k] = i;
+    }
+    steps = 0;
+    for (int k = 0; k < g; ++k) steps = std::max(steps, (k + 1 < g ? guide[k + 1] : n - 1) - guide[k]);
+  }
+
+  // The bin (among all) holding u in [0, 1), and u's place within it, scanning `fixed` steps
+  // (at least `steps`; more are harmless) or, past kMaxFixedSteps, as far as it takes. One
+  // image's samplers all take the same, so the switch is always predicted.
+  std::pair<int, float> invert(float u, int fixed) const {
+    u = std::min(u, 0x1.fffffep-1f);  // below 1, so no scan passes the last bin (hi = 1)
+    int i = guide[std::min(static_cast<int>(guide.size()) - 1, static_cast<int>(u * cells))];
+    switch (fixed) {
+      case 0: break;
+      case 1: i += bins[i].hi <= u; break;
+      default: while (bins[i].hi <= u) ++i;
+    }
+    const Bin& b = bins[i];
+    return {b.index, std::min(1.0f, std::max(0.0f, (u - b.lo) * b.inverse_share))};
+  }
+
+  static constexpr int kMaxFixedSteps = 1, kMaxFineness = 8, kMaxCells = 1 << 14;
+};
+
+}  // namespace
+
 // The cumulative transmission of an aperture image down its rows (h + 1 values, 0 first, 1
-// last) and along each row (w + 1 values per row, likewise), and for each a guide table: the bin
-// holding k / bins, from which the bin of any u >= k / bins is a short scan forward (constant
-// expected time, where a binary search's mispredicted branches cost more than the ray).
+// last) and along each row (w + 1 values per row, likewise), which give a pixel's transmission,
+// and the samplers of rows and, per row, of columns that draw a pixel.
 struct Aperture::ImageTables {
   int w = 0, h = 0;
+  float pixel_x = 0, pixel_y = 0;  // a pixel's size in the square [-1, 1]^2: 2 / w, 2 / h
   float peak = 0;  // the largest pixel's share of the total (row share x column share)
   std::vector<float> row_cdf, column_cdf;
-  std::vector<int> row_guide, column_guide;
+  BinSampler rows;
+  std::vector<BinSampler> columns;  // per row (empty for a dark row)
+  int steps = 0;  // the scan every sampler's invert() takes: the longest, or any beyond 1
 };
 
 namespace {
-
-void build_guide(const float* cdf, int bins, int* guide) {
-  int i = 0;
-  for (int k = 0; k < bins; ++k) {
-    const float u = static_cast<float>(k) / static_cast<float>(bins);
-    while (i < bins - 1 && cdf[i + 1] <= u) ++i;
-    guide[k] = i;
-  }
-}
 
 std::shared_ptr<const Aperture::ImageTables> build_image_tables(const std::string& path) {
   const image::Image im =
       image::read_image(path, std::uint64_t{kMaxApertureImageSide} * kMaxApertureImageSide * 3);
   auto t = std::make_shared<Aperture::ImageTables>();
   const int w = t->w = im.width(), h = t->h = im.height();
+  t->pixel_x = 2.0f / static_cast<float>(w), t->pixel_y = 2.0f / static_cast<float>(h);
   if (w > kMaxApertureImageSide || h > kMaxApertureImageSide)
     throw Error("lens: the aperture image " + path + " is larger than " +
                 std::to_string(kMaxApertureImageSide) + " pixels a side");
@@ -184,20 +249,22 @@ std::shared_ptr<const Aperture::ImageTables> build_image_tables(const std::strin
     throw Error("lens: the aperture image " + path + " transmits no light (all black)");
   for (double v : rows) t->row_cdf.push_back(static_cast<float>(v / rows.back()));
   t->column_cdf.resize(cols.size());
-  t->column_guide.resize(static_cast<std::size_t>(h) * w);
-  t->row_guide.resize(h);
-  build_guide(t->row_cdf.data(), h, t->row_guide.data());
+  t->columns.resize(h);
+  t->rows.build(t->row_cdf.data(), h);
   for (int y = 0; y < h; ++y) {
     const std::size_t o = static_cast<std::size_t>(y) * (w + 1);
     const double total = cols[o + w];
     for (int x = 0; x <= w; ++x)
       t->column_cdf[o + x] = total > 0.0 ? static_cast<float>(cols[o + x] / total)
                                          : static_cast<float>(x) / w;
-    build_guide(&t->column_cdf[o], w, &t->column_guide[static_cast<std::size_t>(y) * w]);
     const float row_share = t->row_cdf[y + 1] - t->row_cdf[y];
     for (int x = 0; x < w; ++x)
       t->peak = std::max(t->peak, row_share * (t->column_cdf[o + x + 1] - t->column_cdf[o + x]));
+    if (row_share > 0.0f) t->columns[y].build(&t->column_cdf[o], w);
+    t->steps = std::max(t->steps, t->columns[y].steps);
   }
+  t->steps = std::max(t->steps, t->rows.steps);
+  if (t->steps > BinSampler::kMaxFixedSteps) t->steps = BinSampler::kMaxFixedSteps + 1;
   return t;
 }
 
@@ -256,28 +323,13 @@ double Aperture::polygon_rim(double angle) const {
   return (1.0 - shape_.roundness) * std::cos(kPi / n) / std::cos(t) + shape_.roundness;
 }
 
-namespace {
-
-// The bin of a cumulative table (first 0, last 1) holding u, from its guide, and u's place
-// within it.
-std::pair<int, float> invert_cdf(const float* cdf, const int* guide, int bins, float u) {
-  int i = guide[std::min(bins - 1, static_cast<int>(u * static_cast<float>(bins)))];
-  while (i < bins - 1 && cdf[i + 1] <= u) ++i;
-  const float width = cdf[i + 1] - cdf[i];
-  return {i, width > 0.0f ? std::clamp((u - cdf[i]) / width, 0.0f, 1.0f) : 0.5f};
-}
-
-}  // namespace
-
 glm::vec2 Aperture::sample_image(glm::vec2 u) const {
   const ImageTables& t = *image_;
-  const auto [row, fy] = invert_cdf(t.row_cdf.data(), t.row_guide.data(), t.h, u.y);
-  const auto [col, fx] =
-      invert_cdf(&t.column_cdf[static_cast<std::size_t>(row) * (t.w + 1)],
-                 &t.column_guide[static_cast<std::size_t>(row) * t.w], t.w, u.x);
+  const auto [row, fy] = t.rows.invert(u.y, t.steps);
+  const auto [col, fx] = t.columns[row].invert(u.x, t.steps);
   // Pixel (col, row) covers [col, col + 1) x [row, row + 1) of the square [-1, 1]^2, top row up.
-  return {2.0f * (static_cast<float>(col) + fx) / t.w - 1.0f,
-          1.0f - 2.0f * (static_cast<float>(row) + fy) / t.h};
+  return {(static_cast<float>(col) + fx) * t.pixel_x - 1.0f,
+          1.0f - (static_cast<float>(row) + fy) * t.pixel_y};
 }
 
 float Aperture::transmission_at(glm::vec2 p) const {

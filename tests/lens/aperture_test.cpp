@@ -122,6 +122,74 @@ TEST(Aperture, ImageSamplesFollowTheTransmissionPixelByPixel) {
   std::filesystem::remove(path);
 }
 
+// A larger image with wide dark gaps, a pixel a thousand times brighter than the rest (whose
+// neighbours' shares are then too thin for the guide's fixed steps) and uneven greys: every
+// sample lands in the pixel that inverting the image's cumulative sums (in double, here) gives
+// for its u (so in proportion to the transmission: a row by u.y, a column of it by u.x), and
+// the sampling is a monotone warp, so that stratified u stay stratified over the aperture. Then
+// the same without the bright pixel (the guide's fixed steps) and in black and white.
+TEST(Aperture, ImageSamplingIsAMonotoneWarpInProportionToTheTransmission) {
+  for (const int kind : {0, 1, 2}) {
+    const bool grey = kind < 2;
+    const int w = 37, h = 23;
+    image::Image im(w, h, 3, 0.0f);
+    std::vector<double> weight(w * h, 0.0), row_sum(h, 0.0);
+    double total = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const bool dark = (x >= 8 && x < 25) || y % 5 == 2;
+        double v = dark ? 0.0 : grey ? 0.05 + std::fmod(0.618 * (x * 31 + y * 17), 1.0) : 1.0;
+        if (kind == 0 && x == 30 && y == 10) v = 1000.0;
+        weight[y * w + x] = v, row_sum[y] += v, total += v;
+        for (int k = 0; k < 3; ++k) im.at(x, y, k) = static_cast<float>(v);
+      }
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              ("dofcache_aperture_warp_" + std::to_string(::getpid()) + ".exr"))
+                                 .string();
+    image::write_image(path, im);
+    ApertureShape shape;
+    shape.image = path;
+    const Aperture a(shape);
+    std::filesystem::remove(path);
+    // The pixel u falls in: the first row whose cumulative share passes u.y, and in it the first
+    // column whose cumulative share passes u.x.
+    auto expected = [&](double ux, double uy) {
+      int y = 0;
+      for (double c = row_sum[0] / total; c <= uy && y < h - 1;) c += row_sum[++y] / total;
+      int x = 0;
+      for (double c = weight[y * w] / row_sum[y]; c <= ux && x < w - 1;)
+        c += weight[y * w + ++x] / row_sum[y];
+      return y * w + x;
+    };
+    const int k = 400;
+    int n = 0, elsewhere = 0, out_of_order = 0;
+    double bright = 0;
+    for (int i = 0; i < k; ++i) {
+      float last_x = -2.0f;
+      const float uy = (i + 0.37f) / k;
+      for (int j = 0; j < k; ++j) {
+        const float ux = (j + 0.61f) / k;
+        const glm::vec2 p = a.sample(glm::vec2(ux, uy));
+        const int x = static_cast<int>(std::floor((p.x + 1.0f) * 0.5f * w));
+        const int y = static_cast<int>(std::floor((1.0f - p.y) * 0.5f * h));
+        ASSERT_TRUE(x >= 0 && x < w && y >= 0 && y < h) << p.x << ", " << p.y;
+        ASSERT_GT(weight[y * w + x], 0.0) << x << ", " << y;
+        ++n;
+        elsewhere += expected(ux, uy) != y * w + x;
+        bright += (x == 30 && y == 10);
+        if (p.x < last_x) ++out_of_order;
+        last_x = p.x;
+      }
+      if (i > 0)  // rows go down the image as u.y grows
+        EXPECT_GE(a.sample(glm::vec2(0.5f, (i - 0.63f) / k)).y, a.sample(glm::vec2(0.5f, uy)).y);
+    }
+    EXPECT_EQ(out_of_order, 0) << "image " << kind;
+    // Only where float and double round a boundary differently.
+    EXPECT_LE(elsewhere, n / 1000) << "image " << kind;
+    if (kind == 0) EXPECT_NEAR(bright / n, 1000.0 / total, 0.003);
+  }
+}
+
 TEST(Aperture, RoundedBladeSamplesAreUniformOverTheirArea) {
   // Six blades, roundness 0.5: the rim at t from an edge's normal is 0.5 cos 30 / cos t + 0.5.
   // Its area, 12 half-sectors of the integral of rim^2 / 2, by the midpoint rule here.
