@@ -42,6 +42,57 @@ double ThinLens::cone_radius(double depth) const {
   return lens::cone_radius(focal_length, fstop, focus_distance, depth);
 }
 
+void ThinLens::stop_circles(glm::dvec2 slopes, double depth, StopCircle out[2]) const {
+  out[0] = out[1] = StopCircle{};
+  const double r = aperture_radius();
+  // A stop of radius R at distance d in front of the lens: the ray from the aperture point l to
+  // the point (slopes s, depth D) crosses its plane at l (1 - d / D) + s d, so it passes where
+  // |l + s d / k| <= R / k, k = (1 - d / D) r in aperture units.
+  auto front = [&](const VignettingStop& stop) {
+    if (!(stop.radius > 0.0 && depth > stop.distance)) return;
+    const double k = (1.0 - stop.distance / depth) * r;
+    out[0] = {-slopes * (stop.distance / k), stop.radius / k};
+  };
+  front(aperture.stop);
+  front(aperture.rims.front);
+  const VignettingStop& rear = aperture.rims.rear;
+  if (rear.radius > 0.0) {
+    // Behind the lens at d, between it and the point's image at V_D (s V_D from the axis,
+    // turned over): the ray from l crosses the stop's plane at l (1 - d / V_D) - s d.
+    const double v = depth > focal_length ? image_distance(focal_length, depth) : 1e30;
+    const double k = (1.0 - rear.distance / v) * r;
+    if (k > 0.0) out[1] = {slopes * (rear.distance / k), rear.radius / k};
+  }
+}
+
+double ThinLens::stop_reach(glm::dvec2 slopes, double depth) const {
+  StopCircle c[2];
+  stop_circles(slopes, depth, c);
+  if (!std::isfinite(c[0].radius) && !std::isfinite(c[1].radius)) return 1.0;
+  // Every centre is on the line through the aperture's centre along the slopes, so the largest
+  // circle within them all is centred on it too (the intersection is convex and symmetric about
+  // the line): along it, at t, a circle of radius min_i (rho_i - |t - c_i|) fits. That concave
+  // function peaks at a centre or where two of its sides cross.
+  const double length = std::hypot(slopes.x, slopes.y);
+  const glm::dvec2 axis = length > 0.0 ? slopes / length : glm::dvec2(1.0, 0.0);
+  double at[3] = {0.0, 0.0, 0.0}, rho[3] = {1.0, 0.0, 0.0};
+  int n = 1;
+  for (const StopCircle& s : c)
+    if (std::isfinite(s.radius)) at[n] = glm::dot(s.centre, axis), rho[n] = s.radius, ++n;
+  auto fits = [&](double t) {
+    double f = rho[0] - std::abs(t - at[0]);
+    for (int i = 1; i < n; ++i) f = std::min(f, rho[i] - std::abs(t - at[i]));
+    return f;
+  };
+  double best = 0.0;
+  for (int i = 0; i < n; ++i) {
+    best = std::max(best, fits(at[i]));
+    for (int j = 0; j < n; ++j)  // rho_i - (t - c_i) = rho_j - (c_j - t)
+      if (at[i] <= at[j]) best = std::max(best, fits(0.5 * (rho[i] - rho[j] + at[i] + at[j])));
+  }
+  return std::min(1.0, best);
+}
+
 void ThinLens::validate() const {
   auto check = [](double v, const char* name) {
     if (!std::isfinite(v) || v <= 0.0)

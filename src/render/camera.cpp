@@ -153,24 +153,11 @@ BokehSpot ThinLensCamera::bokeh(glm::vec2 film, double depth, int band) const {
   if (tilted_)
     out.tilt = glm::vec2(static_cast<float>(r * tilt_sin_.y / imaging_.lens.focal_length),
                          static_cast<float>(r * tilt_sin_.x / imaging_.lens.focal_length));
-  // A stop of radius R at distance d in front of the lens: the ray from l to the point crosses
-  // its plane at l (1 - d / D) + s0 d.
-  auto front = [&](const lens::VignettingStop& stop, StopDisc& disc) {
-    if (!(stop.radius > 0.0 && depth > stop.distance)) return;
-    const double k = (1.0 - stop.distance / depth) * r;
-    disc = {-s0 * static_cast<float>(stop.distance / k), static_cast<float>(stop.radius / k)};
-  };
-  front(a.stop, out.stops[0]);
-  front(a.rims.front, out.stops[0]);
-  if (a.rims.rear.radius > 0.0) {
-    // Behind the lens at d, between it and the point's image at V_D (s0 V_D from the axis,
-    // turned over): the ray from l crosses the stop's plane at l (1 - d / V_D) - s0 d.
-    const double f = imaging_.lens.focal_length, d = a.rims.rear.distance;
-    const double v = depth > f ? lens::image_distance(f, depth) : 1e30;
-    const double k = (1.0 - d / v) * r;
-    if (k > 0.0)
-      out.stops[1] = {s0 * static_cast<float>(d / k), static_cast<float>(a.rims.rear.radius / k)};
-  }
+  lens::ThinLens::StopCircle circles[2];
+  imaging_.lens.stop_circles(glm::dvec2(s0), depth, circles);
+  for (int i = 0; i < 2; ++i)
+    if (std::isfinite(circles[i].radius))
+      out.stops[i] = {glm::vec2(circles[i].centre), static_cast<float>(circles[i].radius)};
   out.normalised = a.rims.normalised;
   return out;
 }
@@ -202,6 +189,14 @@ lens::LensImaging ThinLensCamera::imaging_at(glm::vec3 world) const {
   at.lens.focus_distance = std::max(focus_depth(slopes, imaging_.lens.focus_distance),
                                     1.001 * imaging_.lens.focal_length);
   return at;
+}
+
+double ThinLensCamera::footprint_reach(glm::vec3 world) const {
+  if (!imaging_.lens.aperture.stopped()) return 1.0;
+  const glm::vec3 v = world - position_;
+  const float z = glm::dot(v, forward_);
+  if (!(z > 0.0f)) return 1.0;
+  return imaging_.lens.stop_reach({glm::dot(v, right_) / z, glm::dot(v, up_) / z}, z);
 }
 
 float ThinLensCamera::t_at_depth(const scene::Ray& ray, float z) const {

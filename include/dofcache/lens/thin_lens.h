@@ -1,6 +1,8 @@
 #pragma once
 // Thin-lens optics of the paper's section 2. All lengths in metres; depths are distances along the
 // optical axis (camera-space z), which is what the thin-lens law is written in.
+#include <limits>
+
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -45,6 +47,22 @@ struct ThinLens {
   double film_distance() const { return image_distance(focal_length, focus_distance); }  // V_P
   double coc_diameter(double depth) const;
   double cone_radius(double depth) const;
+
+  // The stops that clip the bundle of a point off the axis (a vignetting stop, a real lens's
+  // front and rear rims), seen from the aperture: each a disc of the aperture's plane, in units
+  // of the aperture's radius, that the point's lens rays must start in to pass it. `slopes` is
+  // the point's camera-space (x / z, y / z), `depth` its z. A disc of radius +inf is no stop
+  // (the point is not beyond it, or the lens has none). The bokeh is the aperture's shape cut by
+  // both (a cat's eye).
+  struct StopCircle {
+    glm::dvec2 centre{0.0};
+    double radius = std::numeric_limits<double>::infinity();
+  };
+  void stop_circles(glm::dvec2 slopes, double depth, StopCircle out[2]) const;
+  // The radius of the largest circle within the unit disc and those stops, over the unit disc's:
+  // how much of the round bokeh's reach the cat's eye keeps in its narrowest direction (1 where
+  // nothing clips; 0 where the stops pass nothing).
+  double stop_reach(glm::dvec2 slopes, double depth) const;
 
   // Throws dofcache::Error naming the first absurd value (non-finite, non-positive, P <= F, an
   // absurd aperture shape).
