@@ -118,8 +118,7 @@ void apply_reuse_rule(std::vector<SampleRecord>& records, const FrameCamera& cam
                       double min_factor, FrameCacheStats* stats) {
   for (SampleRecord& r : records) {
     float radius = reuse_radius(r.origin, r.sample.radius, camera.imaging,
-                                camera.depth(r.sample.position), min_factor,
-                                camera.footprint_reach(r.sample.position));
+                                       camera.depth(r.sample.position), min_factor);
     if (stats && radius < r.sample.radius) ++stats->shrunk;
     if (stats && radius > r.sample.radius) ++stats->grown;
     r.sample.radius = radius;
@@ -184,7 +183,7 @@ FrameCacheStats PersistentCache::end_frame() {
     SampleRecord r;
     r.sample = s;
     r.origin = radius_origin(s.radius, camera_->imaging, camera_->depth(s.position),
-                             radius_.min_factor, camera_->footprint_reach(s.position));
+                                    radius_.min_factor);
     r.last_used = frame_;
     records_.push_back(r);
     ++st.inserted;

@@ -7,20 +7,17 @@
 
 namespace dofcache::cache {
 
-double sample_radius_pixels(const lens::LensImaging& imaging, double depth, double min_factor,
-                            double reach) {
+double sample_radius_pixels(const lens::LensImaging& imaging, double depth, double min_factor) {
   // eq. (4.2), CoC in pixels; a shaped aperture's bokeh reaches its polygon's inradius (1 for the
   // round one) along its larger axis, and the lookup's anisotropic footprint shortens the smaller
-  // (anisotropic_footprint), so a sample is never reused beyond what the blur hides; where stops
-  // cut the bokeh to a cat's eye, its inradius (`reach`).
-  return std::max(imaging.coc_radius_pixels(depth) * imaging.lens.aperture.footprint_scale() * reach,
+  // (anisotropic_footprint), so a sample is never reused beyond what the blur hides.
+  return std::max(imaging.coc_radius_pixels(depth) * imaging.lens.aperture.footprint_scale(),
                   min_factor);
 }
 
-double sample_radius(const lens::LensImaging& imaging, double depth, double min_factor,
-                     double reach) {
+double sample_radius(const lens::LensImaging& imaging, double depth, double min_factor) {
   // eq. (4.1): the pixel footprint, times eq. (4.2)'s factor
-  return imaging.pixel_footprint(depth) * sample_radius_pixels(imaging, depth, min_factor, reach);
+  return imaging.pixel_footprint(depth) * sample_radius_pixels(imaging, depth, min_factor);
 }
 
 RadiusRule parse_radius_rule(const std::string& name) {
@@ -46,8 +43,8 @@ void RadiusSettings::validate() const {
 }
 
 RadiusOrigin new_sample_radius(const RadiusSettings& settings, const lens::LensImaging& imaging,
-                               double depth, double smooth_distance, double reach) {
-  const double view = sample_radius(imaging, depth, settings.min_factor, reach);
+                               double depth, double smooth_distance) {
+  const double view = sample_radius(imaging, depth, settings.min_factor);
   const double footprint = imaging.pixel_footprint(depth);
   double radius = view;
   if (settings.rule == RadiusRule::Adaptive) {
@@ -58,18 +55,18 @@ RadiusOrigin new_sample_radius(const RadiusSettings& settings, const lens::LensI
 }
 
 RadiusOrigin radius_origin(float radius, const lens::LensImaging& imaging, double depth,
-                           double min_factor, double reach) {
+                           double min_factor) {
   if (!(depth > imaging.lens.focal_length)) return {radius, radius, 0.0f};
-  return {radius, static_cast<float>(sample_radius(imaging, depth, min_factor, reach)),
+  return {radius, static_cast<float>(sample_radius(imaging, depth, min_factor)),
           static_cast<float>(imaging.pixel_footprint(depth))};
 }
 
 float reuse_radius(const RadiusOrigin& origin, float current, const lens::LensImaging& imaging,
-                   double depth, double min_factor, double reach) {
+                   double depth, double min_factor) {
   // Behind the lens or nearer than the focal length: no image forms there, the frame cannot see
   // the sample; leave it as it is.
   if (!(depth > imaging.lens.focal_length)) return current;
-  auto required = static_cast<float>(sample_radius(imaging, depth, min_factor, reach));
+  auto required = static_cast<float>(sample_radius(imaging, depth, min_factor));
   if (!(required > 0.0f) || !std::isfinite(required)) return current;
   float r = std::min(origin.radius, required);
   if (origin.widened() && origin.footprint > 0.0f) {

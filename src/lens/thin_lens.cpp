@@ -65,34 +65,6 @@ void ThinLens::stop_circles(glm::dvec2 slopes, double depth, StopCircle out[2]) 
   }
 }
 
-double ThinLens::stop_reach(glm::dvec2 slopes, double depth) const {
-  StopCircle c[2];
-  stop_circles(slopes, depth, c);
-  if (!std::isfinite(c[0].radius) && !std::isfinite(c[1].radius)) return 1.0;
-  // Every centre is on the line through the aperture's centre along the slopes, so the largest
-  // circle within them all is centred on it too (the intersection is convex and symmetric about
-  // the line): along it, at t, a circle of radius min_i (rho_i - |t - c_i|) fits. That concave
-  // function peaks at a centre or where two of its sides cross.
-  const double length = std::hypot(slopes.x, slopes.y);
-  const glm::dvec2 axis = length > 0.0 ? slopes / length : glm::dvec2(1.0, 0.0);
-  double at[3] = {0.0, 0.0, 0.0}, rho[3] = {1.0, 0.0, 0.0};
-  int n = 1;
-  for (const StopCircle& s : c)
-    if (std::isfinite(s.radius)) at[n] = glm::dot(s.centre, axis), rho[n] = s.radius, ++n;
-  auto fits = [&](double t) {
-    double f = rho[0] - std::abs(t - at[0]);
-    for (int i = 1; i < n; ++i) f = std::min(f, rho[i] - std::abs(t - at[i]));
-    return f;
-  };
-  double best = 0.0;
-  for (int i = 0; i < n; ++i) {
-    best = std::max(best, fits(at[i]));
-    for (int j = 0; j < n; ++j)  // rho_i - (t - c_i) = rho_j - (c_j - t)
-      if (at[i] <= at[j]) best = std::max(best, fits(0.5 * (rho[i] - rho[j] + at[i] + at[j])));
-  }
-  return std::min(1.0, best);
-}
-
 void ThinLens::validate() const {
   auto check = [](double v, const char* name) {
     if (!std::isfinite(v) || v <= 0.0)

@@ -191,14 +191,6 @@ lens::LensImaging ThinLensCamera::imaging_at(glm::vec3 world) const {
   return at;
 }
 
-double ThinLensCamera::footprint_reach(glm::vec3 world) const {
-  if (!imaging_.lens.aperture.stopped()) return 1.0;
-  const glm::vec3 v = world - position_;
-  const float z = glm::dot(v, forward_);
-  if (!(z > 0.0f)) return 1.0;
-  return imaging_.lens.stop_reach({glm::dot(v, right_) / z, glm::dot(v, up_) / z}, z);
-}
-
 float ThinLensCamera::t_at_depth(const scene::Ray& ray, float z) const {
   float along = glm::dot(ray.direction, forward_);
   if (along <= 0.0f) return 0.0f;

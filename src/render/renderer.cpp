@@ -141,9 +141,8 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
     if (cs.radius.rule == cache::RadiusRule::Adaptive)
       smooth = std::min(static_cast<double>(harmonic),
                         static_cast<double>(c.shader.light_sampler().nearest_light_distance(x)));
-    sample.radius = cache::new_sample_radius(cs.radius, c.camera.imaging_at(x), c.camera.depth(x),
-                                             smooth, c.camera.footprint_reach(x))
-                        .radius;
+    sample.radius =
+        cache::new_sample_radius(cs.radius, c.camera.imaging_at(x), c.camera.depth(x), smooth).radius;
     sample.frame = cs.frame;
     work.buffer.add(sample);
     if (density) *density += 1.0f;
@@ -156,8 +155,8 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
 bool shaded_directly(const Context& c, glm::vec3 x) {
   const CacheSettings& cs = c.settings.cache;
   if (cs.direct_below <= 0.0f) return false;
-  const double r = cache::sample_radius_pixels(c.camera.imaging(), c.camera.depth(x),
-                                               cs.radius.min_factor, c.camera.footprint_reach(x));
+  const double r =
+      cache::sample_radius_pixels(c.camera.imaging(), c.camera.depth(x), cs.radius.min_factor);
   // An anamorphic footprint is an oval: its smaller semi-axis is squeezed down to the floor.
   const double squeeze = c.lookup.footprint_squeeze;
   return c.settings.spp * M_PI * r * std::max(r * squeeze, cs.radius.min_factor) < cs.direct_below;

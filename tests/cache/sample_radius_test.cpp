@@ -53,22 +53,6 @@ TEST(SampleRadius, OutOfFocusCoversTheCircleOfConfusionEq4_2) {
   EXPECT_NEAR(sample_radius_pixels(imaging(), 2.0), 0.5, 1e-12);
 }
 
-// Where stops cut the bokeh to a cat's eye, the circle-of-confusion part shrinks by its reach;
-// the in-focus floor stays, and the reuse rule and the origin follow the same radius.
-TEST(SampleRadius, ACatsEyeNarrowsTheCircleOfConfusionPart) {
-  // D = 4 m: 1.5625 px of blur (above); a reach of 0.6 keeps 0.9375 px, 0.0075 m.
-  EXPECT_NEAR(sample_radius_pixels(imaging(), 4.0, 0.5, 0.6), 0.9375, 1e-9);
-  EXPECT_NEAR(sample_radius(imaging(), 4.0, 0.5, 0.6), 0.0075, 1e-12);
-  // A reach of 0.2 keeps 0.3125 px: below the floor of 0.5.
-  EXPECT_NEAR(sample_radius_pixels(imaging(), 4.0, 0.5, 0.2), 0.5, 1e-12);
-  RadiusSettings paper;
-  EXPECT_NEAR(new_sample_radius(paper, imaging(), 4.0, 0.0, 0.6).radius, 0.0075, 1e-9);
-  EXPECT_NEAR(radius_origin(0.0125f, imaging(), 4.0, 0.5, 0.6).view_radius, 0.0075, 1e-9);
-  // A sample of 0.0125 m seen again where its bokeh is a cat's eye of reach 0.6.
-  const RadiusOrigin round = new_sample_radius(paper, imaging(), 4.0, 0.0);
-  EXPECT_NEAR(reuse_radius(round, round.radius, imaging(), 4.0, 0.5, 0.6), 0.0075, 1e-9);
-}
-
 TEST(SampleRadius, GrowsAwayFromTheFocalPlane) {
   double prev = sample_radius(imaging(), 2.0);
   for (double d = 2.5; d < 50.0; d *= 1.5) {

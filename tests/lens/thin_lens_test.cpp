@@ -142,62 +142,34 @@ TEST(FocusPlaneThrough, PointsWithoutOneUsablePlaneAreOneLineErrors) {
 namespace dofcache::lens {
 namespace {
 
-// The largest circle within the unit disc and `circles`, over a fine grid of centres (no
-// assumption about where it lies).
-double brute_reach(const ThinLens::StopCircle (&circles)[2]) {
-  double best = 0.0;
-  const int n = 801;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const glm::dvec2 p(-1.0 + 2.0 * i / (n - 1), -1.0 + 2.0 * j / (n - 1));
-      double r = 1.0 - glm::length(p);
-      for (const ThinLens::StopCircle& c : circles)
-        if (std::isfinite(c.radius)) r = std::min(r, c.radius - glm::length(p - c.centre));
-      best = std::max(best, r);
-    }
-  return best;
-}
-
-// The cat's eye's reach (the share of the round bokeh's radius a cache footprint may keep): by
-// hand for a vignetting stop, and against a brute-force search for a lens's front and rear rims.
-TEST(ThinLens, StopReachIsTheCatsEyesInradius) {
-  ThinLens plain(0.05, 2.0, 2.0);  // aperture radius 12.5 mm
-  EXPECT_EQ(plain.stop_reach({0.3, -0.2}, 5.0), 1.0);
-  ThinLens stopped = plain;
-  stopped.aperture.stop = {0.0125, 0.05};
-  // At depth 5 the stop's disc has radius R / k, k = (1 - d / D) r = 0.012375: 1.0101; on the
-  // axis it holds the whole aperture.
-  EXPECT_NEAR(stopped.stop_reach({0.0, 0.0}, 5.0), 1.0, 1e-12);
-  // At slopes (0.1, 0) its centre is 0.1 x 0.05 / 0.012375 = 0.40404 to the left: a lens whose
-  // width along x is 1 + 1.0101 - 0.40404, half of it the inradius.
-  EXPECT_NEAR(stopped.stop_reach({0.1, 0.0}, 5.0), 0.5 * (1.0 + 0.0125 / 0.012375 - 0.05 / 0.12375),
-              1e-9);
-  // The same distance in another direction: the same reach.
-  EXPECT_NEAR(stopped.stop_reach({0.06, -0.08}, 5.0), stopped.stop_reach({0.1, 0.0}, 5.0), 1e-12);
-  // Far enough off the axis nothing passes.
-  EXPECT_EQ(stopped.stop_reach({0.6, 0.0}, 5.0), 0.0);
-  // A small stop on the axis: the reach is its own radius.
-  stopped.aperture.stop = {0.005, 0.05};
-  EXPECT_NEAR(stopped.stop_reach({0.0, 0.0}, 5.0), 0.005 / 0.012375, 1e-9);
-  // A point before the stop's plane is not clipped by it.
-  EXPECT_EQ(stopped.stop_reach({0.3, 0.0}, 0.04), 1.0);
-
-  // Front and rear rims (a real lens's equivalent): three discs.
-  ThinLens rims = plain;
-  rims.aperture.rims.front = {0.011, 0.03};
-  rims.aperture.rims.rear = {0.010, 0.02};
-  for (const glm::dvec2 s : {glm::dvec2(0.0, 0.0), glm::dvec2(0.1, 0.05), glm::dvec2(-0.2, 0.1),
-                             glm::dvec2(0.0, 0.3)}) {
-    ThinLens::StopCircle c[2];
-    rims.stop_circles(s, 3.0, c);
-    ASSERT_TRUE(std::isfinite(c[0].radius) && std::isfinite(c[1].radius));
-    EXPECT_NEAR(rims.stop_reach(s, 3.0), brute_reach(c), 0.004) << s.x << ", " << s.y;
-  }
-  // On the axis the discs are concentric: the front rim's, 0.011 / ((1 - 0.03 / 3) 0.0125), is
-  // the smallest (the rear's is 0.010 / ((1 - 0.02 / V_3) 0.0125) = 1.32); off the axis both cut
-  // further.
-  EXPECT_NEAR(rims.stop_reach({0.0, 0.0}, 3.0), 0.011 / 0.012375, 1e-9);
-  EXPECT_LT(rims.stop_reach({0.0, 0.3}, 3.0), 0.5 * rims.stop_reach({0.0, 0.0}, 3.0));
+// The stops' discs a point's lens rays must start in, by hand: a vignetting stop and a real
+// lens's front and rear rims, on and off the axis, and none for a point before the stop.
+TEST(ThinLens, StopCirclesAreWhereTheStopsPassTheBundle) {
+  ThinLens l(0.05, 2.0, 2.0);  // aperture radius 12.5 mm
+  ThinLens::StopCircle c[2];
+  l.stop_circles({0.3, -0.2}, 5.0, c);
+  EXPECT_FALSE(std::isfinite(c[0].radius) || std::isfinite(c[1].radius));
+  l.aperture.stop = {0.0125, 0.05};
+  // At depth 5, k = (1 - d / D) r = 0.012375: radius R / k = 1.0101, centre -s d / k.
+  l.stop_circles({0.1, -0.2}, 5.0, c);
+  EXPECT_NEAR(c[0].radius, 0.0125 / 0.012375, 1e-12);
+  EXPECT_NEAR(c[0].centre.x, -0.1 * 0.05 / 0.012375, 1e-12);
+  EXPECT_NEAR(c[0].centre.y, 0.2 * 0.05 / 0.012375, 1e-12);
+  EXPECT_FALSE(std::isfinite(c[1].radius));
+  l.stop_circles({0.1, 0.0}, 0.04, c);  // before the stop's plane
+  EXPECT_FALSE(std::isfinite(c[0].radius));
+  // Rims: the rear one behind the lens at 20 mm, before the image at V_3 = 0.05 x 3 / 2.95:
+  // k = (1 - 0.02 / V_3) r, centre +s d / k (the other side).
+  l.aperture.stop = {};
+  l.aperture.rims.front = {0.011, 0.03};
+  l.aperture.rims.rear = {0.010, 0.02};
+  l.stop_circles({0.0, 0.3}, 3.0, c);
+  EXPECT_NEAR(c[0].radius, 0.011 / 0.012375, 1e-12);
+  EXPECT_NEAR(c[0].centre.y, -0.3 * 0.03 / 0.012375, 1e-12);
+  const double k = (1.0 - 0.02 / (0.05 * 3.0 / 2.95)) * 0.0125;
+  EXPECT_NEAR(c[1].radius, 0.010 / k, 1e-9);
+  EXPECT_NEAR(c[1].centre.y, 0.3 * 0.02 / k, 1e-9);
+  EXPECT_EQ(c[1].centre.x, 0.0);
 }
 
 }  // namespace

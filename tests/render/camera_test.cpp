@@ -221,27 +221,5 @@ TEST(ThinLensCamera, LensRaysAreLensRayBitForBit) {
   }
 }
 
-// The cache's footprint reach at a world point: the lens's stop_reach at the point's slopes and
-// depth, the same from the camera and from the frame camera a persistent cache keeps; 1 without
-// stops or behind the camera.
-TEST(ThinLensCamera, FootprintReachIsTheStopsReachAtThePoint) {
-  lens::ThinLens l{0.05, 2.0, 2.0};
-  EXPECT_EQ(ThinLensCamera(glm::mat4(1.0f), kYfov, l, 200, 100).footprint_reach({1, 0, -5}), 1.0);
-  l.aperture.stop = {0.0125, 0.05};
-  const ThinLensCamera cam(glm::mat4(1.0f), kYfov, l, 200, 100);
-  // (0.5, 0, -5): slopes (0.1, 0), depth 5: the hand value of ThinLens.StopReachIsTheCatsEyesInradius.
-  const double expected = 0.5 * (1.0 + 0.0125 / 0.012375 - 0.05 / 0.12375);
-  EXPECT_NEAR(cam.footprint_reach({0.5f, 0.0f, -5.0f}), expected, 1e-6);
-  EXPECT_NEAR(cam.frame_camera().footprint_reach({0.5f, 0.0f, -5.0f}), expected, 1e-6);
-  EXPECT_EQ(cam.footprint_reach({0.5f, 0.0f, 5.0f}), 1.0);
-  // Turned and moved, the camera measures slopes in its own frame.
-  const glm::mat4 pose = glm::rotate(glm::translate(glm::mat4(1.0f), glm::vec3(1, 2, 3)),
-                                     0.7f, glm::vec3(0, 1, 0));
-  const ThinLensCamera turned(pose, kYfov, l, 200, 100);
-  const glm::vec3 p = glm::vec3(pose * glm::vec4(0.0f, 0.5f, -5.0f, 1.0f));
-  EXPECT_NEAR(turned.footprint_reach(p), expected, 1e-5);
-  EXPECT_NEAR(turned.frame_camera().footprint_reach(p), expected, 1e-5);
-}
-
 }  // namespace
 }  // namespace dofcache::render

@@ -16,14 +16,10 @@ namespace dofcache::cache {
 //     times the aperture's inner scale: the bokeh's inradius for a shaped aperture (aperture.h).
 // In focus a sample therefore covers min_factor of a pixel footprint (0.5: "only within one
 // pixel"); out of focus it covers its circle of confusion, so blurred regions are cached sparsely.
-// `reach` scales factor2 where stops narrow the point's bokeh to a cat's eye
-// (lens::ThinLens::stop_reach at the point; a camera's footprint_reach), so that a sample is not
-// reused beyond what the narrower blur hides.
-double sample_radius(const lens::LensImaging& imaging, double depth, double min_factor = 0.5,
-                     double reach = 1.0);
-// The same radius in pixel footprints: max(factor2(D) reach, min_factor).
+double sample_radius(const lens::LensImaging& imaging, double depth, double min_factor = 0.5);
+// The same radius in pixel footprints: max(factor2(D), min_factor).
 double sample_radius_pixels(const lens::LensImaging& imaging, double depth,
-                            double min_factor = 0.5, double reach = 1.0);
+                            double min_factor = 0.5);
 
 // How far a new cache sample may be reused.
 //   paper:    sample_radius above: in focus, min_factor pixel footprints, so every in-focus pixel
@@ -63,16 +59,16 @@ struct RadiusOrigin {
   bool widened() const { return radius > view_radius; }
 };
 
-// A new sample at `depth` seen through `imaging`, its bokeh keeping `reach` (sample_radius).
-// `smooth_distance` is used by the adaptive rule only (pass 0 under the paper rule).
+// A new sample at `depth` seen through `imaging`. `smooth_distance` is used by the adaptive rule
+// only (pass 0 under the paper rule).
 RadiusOrigin new_sample_radius(const RadiusSettings& settings, const lens::LensImaging& imaging,
-                               double depth, double smooth_distance, double reach = 1.0);
+                               double depth, double smooth_distance);
 
 // The origin of a sample of radius `radius` made at `depth` through `imaging` under min_factor,
 // as new_sample_radius gives it (view_radius = radius and no footprint where that camera could not
 // see it: depth not beyond the focal length).
 RadiusOrigin radius_origin(float radius, const lens::LensImaging& imaging, double depth,
-                           double min_factor, double reach = 1.0);
+                           double min_factor);
 
 // The reuse rule: the radius a kept sample gets in a frame that sees it at `depth` through
 // `imaging` (`current` if that camera cannot see it: depth not beyond the focal length).
@@ -86,6 +82,6 @@ RadiusOrigin radius_origin(float radius, const lens::LensImaging& imaging, doubl
 // of the scene, scaled down where the new frame's pixel footprint is smaller:
 //   r = max(r, min(origin.radius, origin.radius * footprint_new / origin.footprint)).
 float reuse_radius(const RadiusOrigin& origin, float current, const lens::LensImaging& imaging,
-                   double depth, double min_factor, double reach = 1.0);
+                   double depth, double min_factor);
 
 }  // namespace dofcache::cache

@@ -125,8 +125,6 @@ struct ApertureShape {
   // Whether every lens ray lands where a round aperture's would (blades 0, ratio 1).
   bool round() const { return blades == 0 && anamorphic_ratio == 1.0 && image.empty(); }
   bool vignetting() const { return stop.radius > 0.0; }
-  // Whether stops clip off-axis bundles (a vignetting stop or a real lens's rims): cat's eyes.
-  bool stopped() const { return vignetting() || rims.any(); }
   bool chromatic() const { return axial_ca != 0.0 || lateral_ca != 0.0; }
   bool weighted() const { return profile != ApertureProfile::Uniform && profile_strength > 0.0; }
   bool tilted() const { return tilt_x_deg != 0.0 || tilt_y_deg != 0.0; }

@@ -59,10 +59,6 @@ struct ThinLens {
     double radius = std::numeric_limits<double>::infinity();
   };
   void stop_circles(glm::dvec2 slopes, double depth, StopCircle out[2]) const;
-  // The radius of the largest circle within the unit disc and those stops, over the unit disc's:
-  // how much of the round bokeh's reach the cat's eye keeps in its narrowest direction (1 where
-  // nothing clips; 0 where the stops pass nothing).
-  double stop_reach(glm::dvec2 slopes, double depth) const;
 
   // Throws dofcache::Error naming the first absurd value (non-finite, non-positive, P <= F, an
   // absurd aperture shape).

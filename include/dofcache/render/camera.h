@@ -102,10 +102,6 @@ class ThinLensCamera {
   // crosses the point's pinhole ray (its circle of confusion then follows the tilted plane);
   // else imaging().
   lens::LensImaging imaging_at(glm::vec3 world) const;
-  // How much of its circle of confusion the bokeh of a point keeps in its narrowest direction
-  // where stops cut it to a cat's eye (lens::ThinLens::stop_reach; 1 without stops): what
-  // narrows a cache sample's footprint there (cache/sample_radius.h).
-  double footprint_reach(glm::vec3 world) const;
   const lens::ThinLens& lens() const { return imaging_.lens; }
   const lens::Aperture& aperture() const { return aperture_; }
   const lens::MountedLens& mounted_lens() const { return mounted_; }
@@ -116,7 +112,7 @@ class ThinLensCamera {
   int width() const { return width_; }
   int height() const { return height_; }
   // What a persistent cache's reuse rule needs of this camera.
-  cache::FrameCamera frame_camera() const { return {imaging_, position_, forward_, right_, up_}; }
+  cache::FrameCamera frame_camera() const { return {imaging_, position_, forward_}; }
 
  private:
   glm::vec3 direction_to_film(glm::vec2 film) const;  // unnormalised, depth component 1
