@@ -3,8 +3,10 @@
 
 For each lens of LENSES on scenes/bokeh_lights.gltf (lamps and highlights far from the focus):
 `render --mode preview` with its defaults, which draws a shaped lens with the shaped scatter,
-and the same preview through the plain round lens (what the preview drew before it knew the
-lens), both compared with the converged DRT reference through that lens (REFS/shaped_<lens>.exr,
+the same with the occlusion fix (`--mode preview-occlusion`: the shaped scatter splats the
+surfaces the fix reveals behind blurred foreground rims), and the same preview through the plain
+round lens (what the preview drew before it knew the lens), each compared with the converged DRT
+reference through that lens (REFS/shaped_<lens>.exr,
 uncached, e.g. 512 spp; --make-refs renders them): relMSE and PSNR (dofcache compare). Also the
 post-process's time (the fastest of three runs). Writes bench/results/NAME.json and .csv.
 
@@ -112,12 +114,14 @@ def main():
                 raise SystemExit("no reference %s (--make-refs renders it)" % ref)
             dq.render_reference(a.dofcache, SCENE, ref, a.ref_spp, size + flags)
         row = {"lens": name, "flags": " ".join(flags), "width": a.width}
-        for label, extra in (("shaped", flags), ("round", [])):
+        for label, extra, mode in (("shaped", flags, "preview"),
+                                   ("shaped_fix", flags, "preview-occlusion"),
+                                   ("round", [], "preview")):
             out = os.path.join(a.work, "%s_%s.exr" % (name, label))
             stats = os.path.join(a.work, "%s_%s.json" % (name, label))
             best = None
             for _ in range(3):
-                dq.run([a.dofcache, "render", SCENE, "--mode", "preview", "-q", "-o", out,
+                dq.run([a.dofcache, "render", SCENE, "--mode", mode, "-q", "-o", out,
                         "--stats-json", stats] + size + extra)
                 with open(stats) as f:
                     ms = json.load(f)["preview"]["postprocess_ms"]
@@ -125,11 +129,12 @@ def main():
             row["rel_mse_" + label], row["psnr_" + label] = compare(a.dofcache, out, ref)
             row["postprocess_ms_" + label] = best
         rows.append(row)
-        print("%-11s relMSE %.4f (PSNR %.1f dB), drawn round %.4f (%.1f dB); post-process "
-              "%.0f ms (round %.0f ms)" % (name, row["rel_mse_shaped"], row["psnr_shaped"],
-                                           row["rel_mse_round"], row["psnr_round"],
-                                           row["postprocess_ms_shaped"],
-                                           row["postprocess_ms_round"]), flush=True)
+        print("%-11s relMSE %.4f (PSNR %.1f dB), with the occlusion fix %.4f (%.1f dB), drawn "
+              "round %.4f (%.1f dB); post-process %.0f ms (fix %.0f ms, round %.0f ms)"
+              % (name, row["rel_mse_shaped"], row["psnr_shaped"], row["rel_mse_shaped_fix"],
+                 row["psnr_shaped_fix"], row["rel_mse_round"], row["psnr_round"],
+                 row["postprocess_ms_shaped"], row["postprocess_ms_shaped_fix"],
+                 row["postprocess_ms_round"]), flush=True)
     if a.real_lens:
         rows.append(real_lens_row(a, size))
     path = pb.write_results(a.results, {"settings": {"width": a.width, "ref_spp": a.ref_spp,

@@ -85,8 +85,10 @@ void scatter_preview(const image::Image& color, const PreviewOptions& options,
 // The lens's own bokeh (preview.h): every pixel splats the aperture's shape where
 // render::ThinLensCamera::bokeh puts it, per colour band, cut by the vignetting stop. ws.coc must
 // hold the pinhole CoC (the depth order).
-void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
-                            PreviewWorkspace::Impl& ws, image::Image& out);
+// The shaped scatter (scatter.cpp), with the inputs' revealed layers if `revealed` (the
+// occlusion fix). Returns the revealed fragments it splatted.
+std::size_t shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
+                                   bool revealed, PreviewWorkspace::Impl& ws, image::Image& out);
 
 }  // namespace detail
 }  // namespace dofcache::preview

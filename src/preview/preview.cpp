@@ -160,7 +160,11 @@ image::Image render_preview(const PreviewInputs& inputs, PreviewMethod method,
       out = image::Image(inputs.color.width(), inputs.color.height(), 3);
       t.setup_ms = ms_since(t0);
       auto t1 = clock::now();
-      detail::shaped_scatter_preview(inputs, options, ws, out);
+      // With the occlusion fix, the surfaces it revealed are splatted too.
+      const bool fix = method == PreviewMethod::LayeredOcclusion;
+      t.revealed_fragments =
+          static_cast<long>(detail::shaped_scatter_preview(inputs, options, fix, ws, out));
+      t.revealed_layers = fix ? static_cast<int>(inputs.revealed.size()) : 0;
       t.filter_ms = ms_since(t1);
       t.shaped_bokeh = true;
       return;

@@ -209,8 +209,10 @@ SceneInputs render_preview_inputs(const scene::Scene& scene, const scene::Accel&
     t.denoise_ms = ms_since(t0);
   }
 
-  // A lens that is not plain is drawn by the shaped scatter, which uses no revealed layers.
-  if (method == PreviewMethod::LayeredOcclusion && in.imaging.lens.aperture.plain()) {
+  // A lens that is not plain is drawn by the shaped scatter, which splats the revealed layers'
+  // surfaces too. They are found with the round circle of confusion's reach, which holds every
+  // shape's bokeh (inscribed in it), but not a tilted plane's: a tilted lens gets none.
+  if (method == PreviewMethod::LayeredOcclusion && !in.imaging.lens.aperture.tilted()) {
     // 2. The near-plane id layers and 3. the masks.
     const LayerPlan plan = plan_layers(in.depth, in.imaging, options);
     const int n = plan.size();

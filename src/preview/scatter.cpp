@@ -3,6 +3,7 @@
 // the lens's own bokeh (preview.h).
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "aperture_rows.h"
 #include "dofcache/render/camera.h"
@@ -20,8 +21,8 @@ inline int half_width(float r2, int dy) {
   return static_cast<int>(std::sqrt(std::max(0.0f, r2 - static_cast<float>(dy * dy))));
 }
 
-// The pixels sorted into depth bins of signed CoC: bin b holds sorted[start[b] .. start[b + 1]),
-// in scan order (so by row).
+// The splats sorted into depth bins of signed CoC: bin b holds sorted[start[b] .. start[b + 1]),
+// in scan order (so by row), or in the order `order` lists them (which must be by row).
 struct Bins {
   int count = 0;
   const int* sorted = nullptr;
@@ -29,7 +30,7 @@ struct Bins {
 };
 
 Bins sort_into_bins(const float* C, size_t N, const PreviewOptions& options,
-                    PreviewWorkspace::Impl& ws) {
+                    PreviewWorkspace::Impl& ws, const int* order = nullptr) {
   float cmin = C[0], cmax = C[0];
   for (size_t p = 1; p < N; ++p) {
     cmin = std::min(cmin, C[p]);
@@ -48,19 +49,31 @@ Bins sort_into_bins(const float* C, size_t N, const PreviewOptions& options,
   for (size_t p = 0; p < N; ++p) ++ws.bin_start[bin_index[p] + 1];
   for (int b = 0; b < bins; ++b) ws.bin_start[b + 1] += ws.bin_start[b];
   std::vector<int> cursor(ws.bin_start.begin(), ws.bin_start.end() - 1);
-  for (size_t p = 0; p < N; ++p) bin_of[cursor[bin_index[p]]++] = static_cast<int>(p);
+  for (size_t k = 0; k < N; ++k) {
+    const int p = order ? order[k] : static_cast<int>(k);
+    bin_of[cursor[bin_index[p]]++] = p;
+  }
   return {bins, bin_of.data(), ws.bin_start.data()};
 }
 
 // The splats of every bin, far to near, through per-row difference buffers of `Channels` doubles
 // a pixel. Bands of rows are independent (each owns its rows of the difference buffer and of the
 // composite), so they run in parallel, each going through the bins. reach[b]: the rows from its
-// own a splat of bin b can touch. splat(q, r0, r1, diff, ya, yb) adds pixel q's splat within
+// own a splat of bin b can touch. splat(q, r0, r1, diff, ya, yb) adds source q's splat within
 // rows [r0, r1) (diff: row r0's buffer) and widens [ya, yb) to the rows it touched;
-// composite(y, row) takes row y's differences once the bin is complete.
-template <int Channels, class Splat, class Composite>
+// composite(y, row) takes row y's differences once the bin is complete. row_of(q): the row source
+// q sits on (a bin's sources are in row order); by default the pixel's, q / W.
+struct PixelRow {
+  int W;
+  int operator()(int q) const { return q / W; }
+};
+template <int Channels, class Splat, class Composite, class RowOf = PixelRow>
 void scatter_bins(int W, int H, const Bins& bins, const std::vector<int>& reach,
-                  std::vector<double>& buffer, const Splat& splat, const Composite& composite) {
+                  std::vector<double>& buffer, const Splat& splat, const Composite& composite,
+                  const RowOf& row_of = PixelRow{0}) {
+  const auto before_row = [&](int q, int row) {
+    return (std::is_same_v<RowOf, PixelRow> ? q / W : row_of(q)) < row;
+  };
   const size_t row_len = static_cast<size_t>(W + 1) * Channels;
   ensure_size(buffer, row_len * H);
   const int bands = (H + kBandRows - 1) / kBandRows;
@@ -74,8 +87,8 @@ void scatter_bins(int W, int H, const Bins& bins, const std::vector<int>& reach,
             const int* end = bins.sorted + bins.start[b + 1];
             if (begin == end) continue;
             // Sources whose splats can touch rows [r0, r1).
-            const int* first = std::lower_bound(begin, end, std::max(0, r0 - reach[b]) * W);
-            const int* last = std::lower_bound(begin, end, std::min(H, r1 + reach[b]) * W);
+            const int* first = std::lower_bound(begin, end, std::max(0, r0 - reach[b]), before_row);
+            const int* last = std::lower_bound(begin, end, std::min(H, r1 + reach[b]), before_row);
             if (first == last) continue;
             std::fill(diff, diff + row_len * (r1 - r0), 0.0);
             int ya = r1, yb = r0;  // rows this bin touches in the band
@@ -296,35 +309,86 @@ void for_each_bilinear(const ShapedSplat& s, int W, int H, const F& f) {
 
 namespace {
 // The shaped scatter (preview.h) of one image: every pixel splats the lens's bokeh where the lens
-// puts it. A splat's geometry is the camera's (BokehSpot), found again wherever it is drawn, so
-// only its two weights are kept per pixel and band (8 bytes rather than the 60 of the whole).
+// puts it, and so does every surface the occlusion fix revealed behind it (the inputs' revealed
+// layers: what a lens sees past a blurred foreground's rim, which the pinhole image hides). Splats
+// go into depth bins composited far to near, so a revealed surface shows where the splats in
+// front of it leave coverage, as in the layered method with the fix. A splat's geometry is the
+// camera's (BokehSpot), found again wherever it is drawn, so only its two weights are kept per
+// splat and band (8 bytes rather than the 60 of the whole). Splats 0 .. N-1 are the pixels,
+// N .. on the revealed fragments.
 class ShapedScatter {
  public:
-  ShapedScatter(const PreviewInputs& inputs, const PreviewOptions& options)
+  ShapedScatter(const PreviewInputs& inputs, const PreviewOptions& options, bool revealed)
       : inputs_(inputs), options_(options), W_(inputs.color.width()), H_(inputs.color.height()),
+        N_(inputs.color.pixel_count()),
         camera_(glm::mat4(1.0f), static_cast<float>(inputs.imaging.yfov), inputs.imaging.lens,
                 W_, H_),
         levels_(camera_.aperture()),
         bands_(inputs.imaging.lens.aperture.chromatic() ? 3 : 1),
-        limit_(static_cast<float>(options.max_coc_radius)) {}
+        limit_(static_cast<float>(options.max_coc_radius)) {
+    for (const RevealedLayer& r : revealed ? inputs.revealed : std::vector<RevealedLayer>{})
+      for (int y = 0; y < r.mask.height(); ++y)
+        for (int x = 0; x < r.mask.width(); ++x)
+          if (r.mask.at(x, y, 0) > 0.0f)
+            fragments_.push_back({x, y, r.depth.at(x, y, 0),
+                                  {r.color.at(x, y, 0), r.color.at(x, y, 1), r.color.at(x, y, 2)}});
+    std::stable_sort(fragments_.begin(), fragments_.end(),
+                     [](const Fragment& a, const Fragment& b) { return a.y < b.y; });
+  }
 
   void run(PreviewWorkspace::Impl& ws, image::Image& out) {
     weigh();
-    const Bins bins = sort_into_bins(ws.coc.data(), inputs_.color.pixel_count(), options_, ws);
+    const float* coc = ws.coc.data();
+    std::vector<float> with_fragments;
+    if (!fragments_.empty()) {  // the fragments' CoCs after the pixels', as compute_coc gives them
+      with_fragments.assign(ws.coc.begin(), ws.coc.begin() + static_cast<std::ptrdiff_t>(N_));
+      const CocMap coc_of(inputs_.imaging, options_.max_coc_radius);
+      for (const Fragment& f : fragments_) with_fragments.push_back(coc_of(f.depth));
+      coc = with_fragments.data();
+    }
+    // Every row's pixels, then the fragments revealed behind them: the bins' sources by row.
+    std::vector<int> order;
+    if (!fragments_.empty()) {
+      order.reserve(splats());
+      std::size_t f = 0;
+      for (int y = 0; y < H_; ++y) {
+        for (int x = 0; x < W_; ++x) order.push_back(y * W_ + x);
+        for (; f < fragments_.size() && fragments_[f].y == y; ++f)
+          order.push_back(static_cast<int>(N_ + f));
+      }
+    }
+    const Bins bins =
+        sort_into_bins(coc, splats(), options_, ws, order.empty() ? nullptr : order.data());
     draw(bins, ws);
     resolve(ws, out);
   }
 
+  std::size_t fragments() const { return fragments_.size(); }
+
  private:
   static constexpr int kCh = 6;  // colour and alpha per channel: chromatic bands cover differently
 
-  // Pixel p's splat in `band` (-1 without colour bands), its weights left unset.
+  // A surface the occlusion fix revealed behind pixel (x, y).
+  struct Fragment {
+    int x, y;
+    float depth;
+    float colour[3];
+  };
+  std::size_t splats() const { return N_ + fragments_.size(); }
+  int row_of(std::size_t p) const {
+    return p < N_ ? static_cast<int>(p / W_) : fragments_[p - N_].y;
+  }
+  const float* colour_of(std::size_t p) const {
+    return p < N_ ? inputs_.color.data().data() + 3 * p : fragments_[p - N_].colour;
+  }
+
+  // Splat p's geometry in `band` (-1 without colour bands), its weights left unset.
   ShapedSplat geometry(std::size_t p, int band) const {
-    double z = inputs_.depth.data()[p];
+    double z = p < N_ ? inputs_.depth.data()[p] : fragments_[p - N_].depth;
     if (!(z > 0.0)) z = std::isnan(z) ? 1e30 : 1e-9;  // a miss is far; at the lens, near
     if (std::isinf(z)) z = 1e30;
-    const int x = static_cast<int>(p % W_), y = static_cast<int>(p / W_);
-    const render::BokehSpot spot = camera_.bokeh({x + 0.5f, y + 0.5f}, z, band);
+    const int x = p < N_ ? static_cast<int>(p % W_) : fragments_[p - N_].x;
+    const render::BokehSpot spot = camera_.bokeh({x + 0.5f, row_of(p) + 0.5f}, z, band);
     return {spot.centre.x,
             spot.centre.y,
             std::clamp(spot.scale, -limit_, limit_),
@@ -358,10 +422,9 @@ class ShapedScatter {
   // Every splat's weights: normalised over its part inside the image, as the disk scatter's; a
   // shape too small to cover a pixel centre is drawn as a sharp one.
   void weigh() {
-    weights_.assign(inputs_.color.pixel_count() * bands_, Weights{});
-    parallel_rows(H_, [&](int y0, int y1) {
-      for (std::size_t p = static_cast<std::size_t>(y0) * W_;
-           p < static_cast<std::size_t>(y1) * W_; ++p)
+    weights_.assign(splats() * bands_, Weights{});
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, splats(), 1024), [&](const auto& range) {
+      for (std::size_t p = range.begin(); p < range.end(); ++p)
         for (int b = 0; b < bands_; ++b) {
           const ShapedSplat s = geometry(p, bands_ == 3 ? b : -1);
           Weights& w = weights_[p * bands_ + b];
@@ -395,7 +458,7 @@ class ShapedScatter {
     std::vector<int> reach(bins.count, 0);
     tbb::parallel_for(0, bins.count, [&](int b) {
       for (int k = bins.start[b]; k < bins.start[b + 1]; ++k) {
-        const int q = bins.sorted[k], qy = q / W_;
+        const int q = bins.sorted[k], qy = row_of(static_cast<std::size_t>(q));
         for (int band = 0; band < bands_; ++band) {
           const ShapedSplat s = geometry(static_cast<std::size_t>(q), bands_ == 3 ? band : -1);
           const float off = std::abs(s.cy - (static_cast<float>(qy) + 0.5f));
@@ -409,7 +472,7 @@ class ShapedScatter {
   // Pixel q's splats within rows [r0, r1) (diff: row r0's difference buffer), widening [ya, yb)
   // to the rows they touch.
   void draw_splats(int q, int r0, int r1, double* diff, int& ya, int& yb) const {
-    const float* col = inputs_.color.data().data();
+    const float* col = colour_of(static_cast<std::size_t>(q));
     const std::size_t row_len = static_cast<std::size_t>(W_ + 1) * kCh;
     const ApertureRows& shape = levels_.shape();
     for (int band = 0; band < bands_; ++band) {
@@ -418,7 +481,7 @@ class ShapedScatter {
       double colour[kCh] = {0, 0, 0, 0, 0, 0}, alpha[kCh] = {0, 0, 0, 0, 0, 0};
       for (int c = 0; c < 3; ++c)
         if (bands_ == 1 || c == band) {
-          colour[c] = col[3 * q + c];
+          colour[c] = col[c];
           alpha[3 + c] = 1.0;
         }
       auto add = [&](const double* v, int y, int x0, int x1, double w) {
@@ -486,7 +549,8 @@ class ShapedScatter {
               a[3 + c] = alpha + a[3 + c] * (1.0f - alpha);
             }
           }
-        });
+        },
+        [&](int q) { return row_of(static_cast<std::size_t>(q)); });
   }
 
   // Colour over coverage.
@@ -510,6 +574,8 @@ class ShapedScatter {
   const PreviewInputs& inputs_;
   const PreviewOptions& options_;
   const int W_, H_;
+  const std::size_t N_;
+  std::vector<Fragment> fragments_;
   const render::ThinLensCamera camera_;
   const ApertureLevels levels_;
   const int bands_;
@@ -518,9 +584,11 @@ class ShapedScatter {
 };
 }  // namespace
 
-void shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
-                            PreviewWorkspace::Impl& ws, image::Image& out) {
-  ShapedScatter(inputs, options).run(ws, out);
+std::size_t shaped_scatter_preview(const PreviewInputs& inputs, const PreviewOptions& options,
+                                   bool revealed, PreviewWorkspace::Impl& ws, image::Image& out) {
+  ShapedScatter scatter(inputs, options, revealed);
+  scatter.run(ws, out);
+  return scatter.fragments();
 }
 
 }  // namespace dofcache::preview::detail

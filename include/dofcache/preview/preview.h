@@ -78,6 +78,8 @@ struct PreviewTimings {
   int layers_blurred = 0;  // layers whose matte was not empty
   long traced_pixels = 0;  // occlusion fix: pixels of the edge band whose lens rays were traced
   bool shaped_bokeh = false;  // the lens is not plain: drawn by the shaped scatter (see above)
+  int revealed_layers = 0;      // shaped scatter with the occlusion fix: revealed layers used
+  long revealed_fragments = 0;  // and the surfaces in them it splatted
 };
 
 // Reusable scratch memory: keep one across frames to avoid reallocating buffers.
@@ -106,13 +108,17 @@ class PreviewWorkspace {
 // own coverage. The layered methods' pyramid blurs round discs of one radius per depth, which a
 // tilted plane, a cat's eye or colour fringes break; PreviewTimings::shaped_bokeh says when this
 // path ran. A graded transmission (a profile, an aperture image's grey levels) is drawn as levels
-// (aperture_rows.h); the occlusion fix's revealed layers are not used.
+// (aperture_rows.h). With LayeredOcclusion, the surfaces its revealed layers hold (what the lens
+// sees past a blurred foreground's rim, hidden in the pinhole image) are splatted too, each into
+// its depth's bin, so they show where the splats in front leave coverage: the fix and the shape
+// together.
 //
 // What a front end says when the shaped scatter draws a preview (one line).
 inline constexpr const char* kShapedPreviewNotice =
     "the preview draws this lens's bokeh with its shaped scatter (the aperture's shape, the "
     "vignetting stop or the lens's rims, the transmission, the colour bands and the tilted "
-    "plane, pixel by pixel); the layered methods and their occlusion fix are left out";
+    "plane, pixel by pixel), with the occlusion fix's revealed surfaces where the method has it; "
+    "the layered methods' pyramid is left out";
 
 // What a front end says when the preview draws a real lens (lens/real_lens.h): as its thick-lens
 // equivalent, whose circle of confusion the traced bokeh follows (tests/render/
