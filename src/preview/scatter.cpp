@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include "aperture_rows.h"
+#include "dofcache/core/error.h"
 #include "dofcache/render/camera.h"
 #include "pipeline.h"
 
@@ -326,12 +327,20 @@ class ShapedScatter {
         levels_(camera_.aperture()),
         bands_(inputs.imaging.lens.aperture.chromatic() ? 3 : 1),
         limit_(static_cast<float>(options.max_coc_radius)) {
-    for (const RevealedLayer& r : revealed ? inputs.revealed : std::vector<RevealedLayer>{})
+    auto fits = [&](const image::Image& im, int channels) {
+      return im.width() == W_ && im.height() == H_ && im.channels() == channels;
+    };
+    for (const RevealedLayer& r : revealed ? inputs.revealed : std::vector<RevealedLayer>{}) {
+      if (!fits(r.color, 3) || !fits(r.depth, 1) || !fits(r.mask, 1))
+        throw Error(
+            "preview: a revealed layer's colour (RGB), depth and mask must have the size of the "
+            "pinhole image");
       for (int y = 0; y < r.mask.height(); ++y)
         for (int x = 0; x < r.mask.width(); ++x)
           if (r.mask.at(x, y, 0) > 0.0f)
             fragments_.push_back({x, y, r.depth.at(x, y, 0),
                                   {r.color.at(x, y, 0), r.color.at(x, y, 1), r.color.at(x, y, 2)}});
+    }
     std::stable_sort(fragments_.begin(), fragments_.end(),
                      [](const Fragment& a, const Fragment& b) { return a.y < b.y; });
   }

@@ -203,6 +203,13 @@ TEST(OcclusionFix, RevealedLayersMustMatchThePlan) {
                dofcache::Error);
   // Without the occlusion fix, revealed layers are ignored.
   EXPECT_NO_THROW(render_preview(inputs, PreviewMethod::Layered, PreviewOptions{}));
+  // Through a shaped lens the plan does not matter, but a layer of another size is refused.
+  inputs.imaging.lens.aperture.blades = 6;
+  EXPECT_NO_THROW(render_preview(inputs, PreviewMethod::LayeredOcclusion, PreviewOptions{}));
+  inputs.revealed.back().mask = image::Image(kSize + 1, kSize, 1);
+  EXPECT_THROW(render_preview(inputs, PreviewMethod::LayeredOcclusion, PreviewOptions{}),
+               dofcache::Error);
+  EXPECT_NO_THROW(render_preview(inputs, PreviewMethod::Layered, PreviewOptions{}));
 }
 
 }  // namespace
