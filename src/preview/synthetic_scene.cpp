@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "dofcache/preview/occlusion.h"
 #include "kernels.h"
 
 namespace dofcache::preview {
@@ -50,6 +51,15 @@ std::vector<image::Image> SyntheticScene::id_layers(const LayerPlan& plan) const
   for (int j = 0; j < plan.size(); ++j)
     render(j == 0 ? 0.0 : plan.layers[j].depth, nullptr, nullptr, &layers[j]);
   return layers;
+}
+
+PreviewInputs SyntheticScene::pinhole_with_revealed_layers(const PreviewOptions& options) const {
+  PreviewInputs in = pinhole();
+  const LayerPlan plan = plan_layers(in.depth, in.imaging, options);
+  const std::vector<image::Image> masks =
+      build_occlusion_masks(id_layers(plan), in.depth, plan, in.imaging, options);
+  in.revealed = revealed_layers(plan, masks);
+  return in;
 }
 
 std::vector<RevealedLayer> SyntheticScene::revealed_layers(

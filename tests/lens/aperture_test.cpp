@@ -23,6 +23,15 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 double deg(double d) { return d * kPi / 180.0; }
 
+// `im` written as an EXR in the temporary directory (the caller removes it); its path.
+std::string write_temporary(const image::Image& im, const std::string& tag) {
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("dofcache_aperture_" + tag + "_" + std::to_string(::getpid()) + ".exr"))
+                               .string();
+  image::write_image(path, im);
+  return path;
+}
+
 // Points for a k x k grid of stratified u (cell centres jittered by a fixed pattern).
 template <class F>
 void for_grid(int k, const F& f) {
@@ -100,10 +109,7 @@ TEST(Aperture, ImageSamplesFollowTheTransmissionPixelByPixel) {
       for (int k = 0; k < 3; ++k) im.at(x, y, k) = weights[y][x];
       total += weights[y][x];
     }
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("dofcache_aperture_test_" + std::to_string(::getpid()) + ".exr"))
-                               .string();
-  image::write_image(path, im);
+  const std::string path = write_temporary(im, "test");
   ApertureShape shape;
   shape.image = path;
   const Aperture a(shape), b(shape);
@@ -143,10 +149,7 @@ TEST(Aperture, ImageSamplingIsAMonotoneWarpInProportionToTheTransmission) {
         weight[y * w + x] = v, row_sum[y] += v, total += v;
         for (int k = 0; k < 3; ++k) im.at(x, y, k) = static_cast<float>(v);
       }
-    const std::string path = (std::filesystem::temp_directory_path() /
-                              ("dofcache_aperture_warp_" + std::to_string(::getpid()) + ".exr"))
-                                 .string();
-    image::write_image(path, im);
+    const std::string path = write_temporary(im, "warp");
     ApertureShape shape;
     shape.image = path;
     const Aperture a(shape);

@@ -28,19 +28,10 @@ SyntheticScene constant_scene(int w, int h, const float rgb[3]) {
   return s;
 }
 
-PreviewInputs with_revealed_layers(const SyntheticScene& s, const PreviewOptions& options) {
-  PreviewInputs in = s.pinhole();
-  LayerPlan plan = plan_layers(in.depth, in.imaging, options);
-  std::vector<image::Image> masks =
-      build_occlusion_masks(s.id_layers(plan), in.depth, plan, in.imaging, options);
-  in.revealed = s.revealed_layers(plan, masks);
-  return in;
-}
-
 TEST(Energy, BlurredConstantImageStaysConstant) {
   const float rgb[3] = {0.3f, 0.6f, 0.9f};
   PreviewOptions options;
-  PreviewInputs in = with_revealed_layers(constant_scene(160, 120, rgb), options);
+  PreviewInputs in = constant_scene(160, 120, rgb).pinhole_with_revealed_layers(options);
   ASSERT_FALSE(in.revealed.empty());
   for (bool blend : {true, false}) {
     options.blend_pyramid_levels = blend;
@@ -84,7 +75,7 @@ TEST(Energy, TinyAndOddSizes) {
 TEST(Energy, LayerCroppingAndThreadCountDoNotChangeTheImage) {
   SyntheticScene s = make_demo_scene(200, 150);
   PreviewOptions options;
-  PreviewInputs in = with_revealed_layers(s, options);
+  PreviewInputs in = s.pinhole_with_revealed_layers(options);
   for (PreviewMethod m : {PreviewMethod::Layered, PreviewMethod::LayeredOcclusion}) {
     options.crop_layers = true;
     options.threads = 1;
@@ -102,7 +93,7 @@ TEST(Energy, LayerCroppingAndThreadCountDoNotChangeTheImage) {
 TEST(Energy, TimingsAreReported) {
   SyntheticScene s = make_demo_scene(160, 120);
   PreviewOptions options;
-  PreviewInputs in = with_revealed_layers(s, options);
+  PreviewInputs in = s.pinhole_with_revealed_layers(options);
   PreviewTimings t;
   render_preview(in, PreviewMethod::LayeredOcclusion, options, &t);
   EXPECT_GT(t.layers, 1);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "dofcache/core/error.h"
 #include "dofcache/lens/aperture.h"
@@ -35,17 +36,19 @@ SyntheticScene make_scene(int y_resolution = 480) {
 }
 
 // What the lens sees: the background is in focus, so each pixel sees its own background point
-// through the part of the lens the square does not block: the fraction of the disk of radius
-// kRadius around the pixel that lies outside the square.
-image::Image expected_image() {
+// through the part of the lens the square does not block: the fraction of the aperture around
+// the pixel (the offsets (dx, dy) within kRadius + 1 that `in_aperture` accepts; by default the
+// disk of radius kRadius) that lies outside the square.
+image::Image expected_image(const std::function<bool(int, int)>& in_aperture =
+                                [](int dx, int dy) { return dx * dx + dy * dy <= kRadius * kRadius; }) {
   image::Image out(kSize, kSize, 3);
-  const int r = static_cast<int>(kRadius);
+  const int r = static_cast<int>(kRadius) + 1;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
       int inside = 0, total = 0;
       for (int dy = -r; dy <= r; ++dy)
         for (int dx = -r; dx <= r; ++dx) {
-          if (dx * dx + dy * dy > kRadius * kRadius) continue;
+          if (!in_aperture(dx, dy)) continue;
           ++total;
           inside += in_square(x + dx, y + dy);
         }
@@ -64,58 +67,63 @@ int distance_to_edge(int x, int y) {
   return std::max(dx, dy);
 }
 
+// A preview against what the lens sees, in the ring within 10 px of the square's edge (both
+// sides): the mean squared error, and the greenness g - b just inside the silhouette (zero for
+// any mix of the red square and the grey background; the hidden patch makes it positive).
+struct Ring {
+  double mse = 0, green = 0;
+};
+Ring ring_of(const image::Image& preview, const image::Image& expected) {
+  Ring out;
+  int ring = 0, rim = 0;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      if (distance_to_edge(x, y) > 10) continue;
+      ++ring;
+      for (int c = 0; c < 3; ++c) out.mse += std::pow(preview.at(x, y, c) - expected.at(x, y, c), 2);
+      if (in_square(x, y) && distance_to_edge(x, y) <= 4) {  // just inside the silhouette
+        ++rim;
+        out.green += preview.at(x, y, 1) - preview.at(x, y, 2);
+      }
+    }
+  out.mse /= ring, out.green /= rim;
+  return out;
+}
+
+// The preview with the fix is much closer to what the lens sees in the ring than without it,
+// because the rim shows the hidden green where the preview without it shows interpolated grey;
+// away from the ring the fix changes nothing (it only touches revealed pixels). The ring's errors
+// are recorded as ring_mse_<name>.
+void expect_the_fix_shows_the_patch(const image::Image& without, const image::Image& with,
+                                    const image::Image& expected, const std::string& name_without,
+                                    const std::string& name_with) {
+  const Ring a = ring_of(without, expected), b = ring_of(with, expected);
+  ::testing::Test::RecordProperty("ring_mse_" + name_without, std::to_string(a.mse));
+  ::testing::Test::RecordProperty("ring_mse_" + name_with, std::to_string(b.mse));
+  EXPECT_LT(b.mse, 0.3 * a.mse) << "without the fix " << a.mse << ", with it " << b.mse;
+  EXPECT_GT(b.green, 0.05) << b.green;
+  EXPECT_LT(std::abs(a.green), 0.005) << a.green;
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x)
+      if (distance_to_edge(x, y) > 24) {
+        for (int c = 0; c < 3; ++c) ASSERT_NEAR(with.at(x, y, c), without.at(x, y, c), 1e-4);
+      }
+}
+
 TEST(OcclusionFix, ShowsTheHiddenPatchInTheRing) {
   SyntheticScene scene = make_scene();
-  PreviewInputs inputs = scene.pinhole();
   PreviewOptions options;
-  LayerPlan plan = plan_layers(inputs.depth, inputs.imaging, options);
-  std::vector<image::Image> masks =
-      build_occlusion_masks(scene.id_layers(plan), inputs.depth, plan, inputs.imaging, options);
-  inputs.revealed = scene.revealed_layers(plan, masks);
+  PreviewInputs inputs = scene.pinhole_with_revealed_layers(options);
   ASSERT_FALSE(inputs.revealed.empty());
 
   image::Image kraus = render_preview(inputs, PreviewMethod::Layered, options);
   image::Image fixed = render_preview(inputs, PreviewMethod::LayeredOcclusion, options);
   image::Image expected = expected_image();
 
-  // Squared error over the ring within 10 px of the square's edge (both sides).
-  double err_kraus = 0, err_fixed = 0, green_kraus = 0, green_fixed = 0;
-  int ring = 0, rim = 0;
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      if (distance_to_edge(x, y) > 10) continue;
-      ++ring;
-      for (int c = 0; c < 3; ++c) {
-        err_kraus += std::pow(kraus.at(x, y, c) - expected.at(x, y, c), 2);
-        err_fixed += std::pow(fixed.at(x, y, c) - expected.at(x, y, c), 2);
-      }
-      if (in_square(x, y) && distance_to_edge(x, y) <= 4) {  // just inside the silhouette
-        // Greenness g - b: zero for any mix of the red square and the grey background.
-        ++rim;
-        green_kraus += kraus.at(x, y, 1) - kraus.at(x, y, 2);
-        green_fixed += fixed.at(x, y, 1) - fixed.at(x, y, 2);
-      }
-    }
-  err_kraus /= ring;
-  err_fixed /= ring;
-  green_kraus /= rim;
-  green_fixed /= rim;
-  RecordProperty("ring_mse_kraus", std::to_string(err_kraus));
-  RecordProperty("ring_mse_occlusion_fix", std::to_string(err_fixed));
-  // The fixed preview is closer to what the lens sees (measured: 0.0054 against 0.041; both share
+  // The fixed preview is closer to what the lens sees (measured: 0.0011 against 0.041; both share
   // the error of the pyramid blur and of the trapezoid mattes, which widen the square's rim; the
-  // revealed patch in place of the rising-ramp copy of the square removes most of the fix's) ...
-  EXPECT_LT(err_fixed, 0.3 * err_kraus) << "Kraus " << err_kraus << ", fixed " << err_fixed;
-  // ... because the rim shows the hidden green where the baseline shows interpolated grey.
-  EXPECT_GT(green_fixed, 0.05) << green_fixed;
-  EXPECT_LT(std::abs(green_kraus), 0.005) << green_kraus;
-
-  // Away from the ring both agree with each other (the fix only touches revealed pixels).
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x)
-      if (distance_to_edge(x, y) > 24) {
-        for (int c = 0; c < 3; ++c) ASSERT_NEAR(fixed.at(x, y, c), kraus.at(x, y, c), 1e-4);
-      }
+  // revealed patch in place of the rising-ramp copy of the square removes most of the fix's).
+  expect_the_fix_shows_the_patch(kraus, fixed, expected, "kraus", "occlusion_fix");
 }
 
 // The same scene through six straight blades (a corner along +x: the hexagon is the same turned
@@ -124,12 +132,8 @@ TEST(OcclusionFix, ShowsTheHiddenPatchInTheRing) {
 // the lens sees (the hexagon's share of the square around each pixel) far better than without.
 TEST(OcclusionFix, TheShapedScatterShowsTheHiddenPatchThroughSixBlades) {
   SyntheticScene scene = make_scene(kSize);
-  PreviewInputs inputs = scene.pinhole();
   PreviewOptions options;
-  LayerPlan plan = plan_layers(inputs.depth, inputs.imaging, options);
-  std::vector<image::Image> masks =
-      build_occlusion_masks(scene.id_layers(plan), inputs.depth, plan, inputs.imaging, options);
-  inputs.revealed = scene.revealed_layers(plan, masks);
+  PreviewInputs inputs = scene.pinhole_with_revealed_layers(options);
   ASSERT_FALSE(inputs.revealed.empty());
   inputs.imaging.lens.aperture.blades = 6;
 
@@ -143,51 +147,11 @@ TEST(OcclusionFix, TheShapedScatterShowsTheHiddenPatchThroughSixBlades) {
   // What the lens sees: the share of the hexagon of circumradius kRadius around a pixel that
   // the square covers, over the background that pixel sees (green behind the square).
   const lens::Aperture hexagon(inputs.imaging.lens.aperture);
-  image::Image expected(kSize, kSize, 3);
-  const int r = static_cast<int>(kRadius) + 1;
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      int inside = 0, total = 0;
-      for (int dy = -r; dy <= r; ++dy)
-        for (int dx = -r; dx <= r; ++dx) {
-          if (!hexagon.contains(glm::vec2(dx, dy) / static_cast<float>(kRadius))) continue;
-          ++total;
-          inside += in_square(x + dx, y + dy);
-        }
-      const float cov = static_cast<float>(inside) / total;
-      const float bg[3] = {in_square(x, y) ? 0.0f : 0.5f, in_square(x, y) ? 1.0f : 0.5f,
-                           in_square(x, y) ? 0.0f : 0.5f};
-      const float red[3] = {1, 0, 0};
-      for (int c = 0; c < 3; ++c) expected.at(x, y, c) = cov * red[c] + (1 - cov) * bg[c];
-    }
-  double err_plain = 0, err_fixed = 0, green_plain = 0, green_fixed = 0;
-  int ring = 0, rim = 0;
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      if (distance_to_edge(x, y) > 10) continue;
-      ++ring;
-      for (int c = 0; c < 3; ++c) {
-        err_plain += std::pow(plain.at(x, y, c) - expected.at(x, y, c), 2);
-        err_fixed += std::pow(fixed.at(x, y, c) - expected.at(x, y, c), 2);
-      }
-      if (in_square(x, y) && distance_to_edge(x, y) <= 4) {
-        ++rim;
-        green_plain += plain.at(x, y, 1) - plain.at(x, y, 2);
-        green_fixed += fixed.at(x, y, 1) - fixed.at(x, y, 2);
-      }
-    }
-  err_plain /= ring, err_fixed /= ring, green_plain /= rim, green_fixed /= rim;
-  RecordProperty("ring_mse_shaped", std::to_string(err_plain));
-  RecordProperty("ring_mse_shaped_occlusion_fix", std::to_string(err_fixed));
-  EXPECT_LT(err_fixed, 0.3 * err_plain) << "plain " << err_plain << ", fixed " << err_fixed;
-  EXPECT_GT(green_fixed, 0.05) << green_fixed;
-  EXPECT_LT(std::abs(green_plain), 0.005) << green_plain;
-  // Away from the ring the fix changes nothing.
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x)
-      if (distance_to_edge(x, y) > 24) {
-        for (int c = 0; c < 3; ++c) ASSERT_NEAR(fixed.at(x, y, c), plain.at(x, y, c), 1e-4);
-      }
+  const image::Image expected = expected_image([&](int dx, int dy) {
+    return hexagon.contains(glm::vec2(dx, dy) / static_cast<float>(kRadius));
+  });
+  // Measured: 0.0516 without the fix, 0.00059 with it.
+  expect_the_fix_shows_the_patch(plain, fixed, expected, "shaped", "shaped_occlusion_fix");
 }
 
 TEST(OcclusionFix, RevealedLayersMustMatchThePlan) {

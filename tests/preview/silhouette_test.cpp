@@ -31,14 +31,6 @@ SyntheticScene make_scene(float square, float background, float patch) {
   return s;
 }
 
-PreviewInputs inputs_with_revealed(const SyntheticScene& scene, const PreviewOptions& options) {
-  PreviewInputs in = scene.pinhole();
-  LayerPlan plan = plan_layers(in.depth, in.imaging, options);
-  in.revealed = scene.revealed_layers(
-      plan, build_occlusion_masks(scene.id_layers(plan), in.depth, plan, in.imaging, options));
-  return in;
-}
-
 // Fraction of the disk of radius kRadius around the centre of pixel x (on a row through the middle
 // of the square, far from its corners) that the square covers.
 double disk_coverage(int x) {
@@ -53,7 +45,7 @@ double disk_coverage(int x) {
 // Largest error of the square's coverage along the middle row, within 4 px of its left edge.
 double rim_coverage_error(const PreviewOptions& options, PreviewMethod method) {
   // Square 1, everything else 0: the normalised preview is the square's coverage.
-  PreviewInputs in = inputs_with_revealed(make_scene(1.0f, 0.0f, 0.0f), options);
+  PreviewInputs in = make_scene(1.0f, 0.0f, 0.0f).pinhole_with_revealed_layers(options);
   image::Image out = render_preview(in, method, options);
   double err = 0;
   for (int x = kLo - 4; x < kLo + 4; ++x)
@@ -105,7 +97,7 @@ TEST(Silhouette, OcclusionFixShowsThePatchAtASmallDefocus) {
   PreviewOptions options;  // both methods on Kraus & Strengert's composite, as the paper compares
   options.layer_composite = LayerComposite::Over;
   SyntheticScene scene = make_scene(1.0f, 0.5f, 1.0f);
-  PreviewInputs in = inputs_with_revealed(scene, options);
+  PreviewInputs in = scene.pinhole_with_revealed_layers(options);
   ASSERT_FALSE(in.revealed.empty());
   image::Image kraus = render_preview(in, PreviewMethod::Layered, options);
   image::Image fixed = render_preview(in, PreviewMethod::LayeredOcclusion, options);
@@ -184,7 +176,7 @@ TEST(Silhouette, DirectBlurIsCropAndThreadInvariant) {
   for (LayerComposite composite : {LayerComposite::Over, LayerComposite::Slabs}) {
     PreviewOptions options;
     options.layer_composite = composite;
-    PreviewInputs in = inputs_with_revealed(make_scene(1.0f, 0.5f, 1.0f), options);
+    PreviewInputs in = make_scene(1.0f, 0.5f, 1.0f).pinhole_with_revealed_layers(options);
     for (PreviewMethod m : {PreviewMethod::Layered, PreviewMethod::LayeredOcclusion}) {
       image::Image ref = render_preview(in, m, options);
       PreviewOptions uncropped = options, one = options;
@@ -196,7 +188,7 @@ TEST(Silhouette, DirectBlurIsCropAndThreadInvariant) {
       render_preview(in, m, options, reused);
       EXPECT_EQ(render_preview(in, m, options, reused).data(), ref.data());
     }
-    PreviewInputs flat = inputs_with_revealed(make_scene(0.25f, 0.25f, 0.0f), options);
+    PreviewInputs flat = make_scene(0.25f, 0.25f, 0.0f).pinhole_with_revealed_layers(options);
     for (float& v : flat.color.data()) v = 0.25f;
     for (RevealedLayer& r : flat.revealed)
       for (float& v : r.color.data()) v = 0.25f;

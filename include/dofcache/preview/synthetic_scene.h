@@ -48,6 +48,8 @@ struct SyntheticScene {
   // A_j for every layer with a non-empty mask.
   std::vector<RevealedLayer> revealed_layers(const LayerPlan& plan,
                                              const std::vector<image::Image>& masks) const;
+  // The pinhole inputs with the revealed layers the occlusion fix renders for `options`' plan.
+  PreviewInputs pinhole_with_revealed_layers(const PreviewOptions& options) const;
 };
 
 // The synthetic scenes' camera: a 50 mm f/1.4 lens focused at 3 m, vertical field of view 0.6 rad,
