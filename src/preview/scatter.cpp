@@ -3,7 +3,6 @@
 // the lens's own bokeh (preview.h).
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 
 #include "aperture_rows.h"
 #include "dofcache/core/error.h"
@@ -63,18 +62,16 @@ Bins sort_into_bins(const float* C, size_t N, const PreviewOptions& options,
 // own a splat of bin b can touch. splat(q, r0, r1, diff, ya, yb) adds source q's splat within
 // rows [r0, r1) (diff: row r0's buffer) and widens [ya, yb) to the rows it touched;
 // composite(y, row) takes row y's differences once the bin is complete. row_of(q): the row source
-// q sits on (a bin's sources are in row order); by default the pixel's, q / W.
+// q sits on (a bin's sources are in row order): PixelRow where the sources are the pixels.
 struct PixelRow {
   int W;
   int operator()(int q) const { return q / W; }
 };
-template <int Channels, class Splat, class Composite, class RowOf = PixelRow>
+template <int Channels, class Splat, class Composite, class RowOf>
 void scatter_bins(int W, int H, const Bins& bins, const std::vector<int>& reach,
                   std::vector<double>& buffer, const Splat& splat, const Composite& composite,
-                  const RowOf& row_of = PixelRow{0}) {
-  const auto before_row = [&](int q, int row) {
-    return (std::is_same_v<RowOf, PixelRow> ? q / W : row_of(q)) < row;
-  };
+                  const RowOf& row_of) {
+  const auto before_row = [&](int q, int row) { return row_of(q) < row; };
   const size_t row_len = static_cast<size_t>(W + 1) * Channels;
   ensure_size(buffer, row_len * H);
   const int bands = (H + kBandRows - 1) / kBandRows;
@@ -197,7 +194,8 @@ void scatter_preview(const image::Image& color, const PreviewOptions& options,
                    static_cast<float>(sum[2] * scale), alpha};
           accrow[x] = src + accrow[x] * (1.0f - alpha);
         }
-      });
+      },
+      PixelRow{W});
 
   float* o = out.data().data();
   parallel_rows(H, [&](int y0, int y1) {
@@ -330,7 +328,8 @@ class ShapedScatter {
     auto fits = [&](const image::Image& im, int channels) {
       return im.width() == W_ && im.height() == H_ && im.channels() == channels;
     };
-    for (const RevealedLayer& r : revealed ? inputs.revealed : std::vector<RevealedLayer>{}) {
+    for (const RevealedLayer& r : inputs.revealed) {
+      if (!revealed) break;
       if (!fits(r.color, 3) || !fits(r.depth, 1) || !fits(r.mask, 1))
         throw Error(
             "preview: a revealed layer's colour (RGB), depth and mask must have the size of the "
