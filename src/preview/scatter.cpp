@@ -325,38 +325,19 @@ class ShapedScatter {
         levels_(camera_.aperture()),
         bands_(inputs.imaging.lens.aperture.chromatic() ? 3 : 1),
         limit_(static_cast<float>(options.max_coc_radius)) {
-    auto fits = [&](const image::Image& im, int channels) {
-      return im.width() == W_ && im.height() == H_ && im.channels() == channels;
-    };
-    for (const RevealedLayer& r : inputs.revealed) {
-      if (!revealed) break;
-      if (!fits(r.color, 3) || !fits(r.depth, 1) || !fits(r.mask, 1))
-        throw Error(
-            "preview: a revealed layer's colour (RGB), depth and mask must have the size of the "
-            "pinhole image");
-      for (int y = 0; y < r.mask.height(); ++y)
-        for (int x = 0; x < r.mask.width(); ++x)
-          if (r.mask.at(x, y, 0) > 0.0f)
-            fragments_.push_back({x, y, r.depth.at(x, y, 0),
-                                  {r.color.at(x, y, 0), r.color.at(x, y, 1), r.color.at(x, y, 2)}});
-    }
-    std::stable_sort(fragments_.begin(), fragments_.end(),
-                     [](const Fragment& a, const Fragment& b) { return a.y < b.y; });
+    if (revealed) add_fragments(inputs.revealed);
   }
 
   void run(PreviewWorkspace::Impl& ws, image::Image& out) {
     weigh();
     const float* coc = ws.coc.data();
-    std::vector<float> with_fragments;
-    if (!fragments_.empty()) {  // the fragments' CoCs after the pixels', as compute_coc gives them
+    std::vector<float> with_fragments;  // the pixels' CoCs, then the fragments', as compute_coc's
+    std::vector<int> order;  // every row's pixels, then the fragments behind them: sources by row
+    if (!fragments_.empty()) {
       with_fragments.assign(ws.coc.begin(), ws.coc.begin() + static_cast<std::ptrdiff_t>(N_));
       const CocMap coc_of(inputs_.imaging, options_.max_coc_radius);
       for (const Fragment& f : fragments_) with_fragments.push_back(coc_of(f.depth));
       coc = with_fragments.data();
-    }
-    // Every row's pixels, then the fragments revealed behind them: the bins' sources by row.
-    std::vector<int> order;
-    if (!fragments_.empty()) {
       order.reserve(splats());
       std::size_t f = 0;
       for (int y = 0; y < H_; ++y) {
@@ -382,6 +363,25 @@ class ShapedScatter {
     float depth;
     float colour[3];
   };
+  // The revealed layers' surfaces, by row.
+  void add_fragments(const std::vector<RevealedLayer>& layers) {
+    auto fits = [&](const image::Image& im, int channels) {
+      return im.width() == W_ && im.height() == H_ && im.channels() == channels;
+    };
+    for (const RevealedLayer& r : layers) {
+      if (!fits(r.color, 3) || !fits(r.depth, 1) || !fits(r.mask, 1))
+        throw Error(
+            "preview: a revealed layer's colour (RGB), depth and mask must have the size of the "
+            "pinhole image");
+      for (int y = 0; y < r.mask.height(); ++y)
+        for (int x = 0; x < r.mask.width(); ++x)
+          if (r.mask.at(x, y, 0) > 0.0f)
+            fragments_.push_back({x, y, r.depth.at(x, y, 0),
+                                  {r.color.at(x, y, 0), r.color.at(x, y, 1), r.color.at(x, y, 2)}});
+    }
+    std::stable_sort(fragments_.begin(), fragments_.end(),
+                     [](const Fragment& a, const Fragment& b) { return a.y < b.y; });
+  }
   std::size_t splats() const { return N_ + fragments_.size(); }
   int row_of(std::size_t p) const {
     return p < N_ ? static_cast<int>(p / W_) : fragments_[p - N_].y;
@@ -477,7 +477,7 @@ class ShapedScatter {
     return reach;
   }
 
-  // Pixel q's splats within rows [r0, r1) (diff: row r0's difference buffer), widening [ya, yb)
+  // Source q's splats within rows [r0, r1) (diff: row r0's difference buffer), widening [ya, yb)
   // to the rows they touch.
   void draw_splats(int q, int r0, int r1, double* diff, int& ya, int& yb) const {
     const float* col = colour_of(static_cast<std::size_t>(q));
@@ -535,10 +535,9 @@ class ShapedScatter {
 
   // The bins far to near, each composited over what lies behind, per channel.
   void draw(const Bins& bins, PreviewWorkspace::Impl& ws) const {
-    const std::size_t N = inputs_.color.pixel_count();
     std::vector<float>& acc = ws.shaped_acc;
-    ensure_size(acc, N * kCh);
-    std::fill(acc.begin(), acc.begin() + N * kCh, 0.0f);
+    ensure_size(acc, N_ * kCh);
+    std::fill(acc.begin(), acc.begin() + N_ * kCh, 0.0f);
     scatter_bins<kCh>(
         W_, H_, bins, reaches(bins), ws.diff,
         [&](int q, int r0, int r1, double* diff, int& ya, int& yb) {

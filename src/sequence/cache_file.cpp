@@ -414,7 +414,7 @@ void check_cache_identity(const CacheFile& file, const CacheIdentity& expected,
 
 void check_cache_lens(const CacheFile& file, const lens::LensIdentity& expected,
                       const std::string& path, bool any_lens) {
-  if (any_lens || file.lens.design == 0 || file.lens == expected) return;
+  if (any_lens || file.lens.design == 0 || file.lens.design == expected.design) return;
   throw Error(path + ": the cache was made through another lens (" + file.lens.description +
               "; this render's: " + expected.description +
               "); cached values do not depend on the lens, so --cache-any-lens reuses it");

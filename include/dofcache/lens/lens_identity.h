@@ -18,10 +18,7 @@ namespace dofcache::lens {
 
 struct LensIdentity {
   std::uint64_t design = 0;  // content hash of the design; never 0 for a described lens
-  std::string description;   // every parameter, one line
-
-  bool operator==(const LensIdentity& o) const { return design == o.design; }
-  bool operator!=(const LensIdentity& o) const { return !(*this == o); }
+  std::string description;   // every parameter, one line (settings too: not compared)
 };
 
 // The identity of `lens` (with a real lens: `real`, and `lens` its thin-lens equivalent). An
