@@ -389,16 +389,23 @@ glm::vec2 Aperture::sample(glm::vec2 u, float* rho) const {
     if (rho) *rho = std::sqrt(d.x * d.x + d.y * d.y);
     return d * squeeze_;
   }
-  // The triangle holding u.x's share of the area: the fan's areas differ little, so it lies near
-  // u.x's own index.
+  // The concentric mapping's polar form picks the direction (as a share of the area, the fan's
+  // turn) and the distance: the square's strata stay compact on the polygon, as on the disc.
+  // (u.x as the share and sqrt(u.y) as the distance is uniform too, but stretches strata into
+  // thin wedges: 3-5 % more relMSE on the colour bars through six blades at 4-8 lens samples.)
+  const DiskPolar d = concentric_polar(u);
+  // The triangle holding the turn's share of the area: the fan's areas differ little, so it lies
+  // near the turn's own index.
   const int m = static_cast<int>(area_cdf_.size()) - 1;
-  int i = std::min(static_cast<int>(u.x * static_cast<float>(m)), m - 1);
-  while (i > 0 && area_cdf_[i] > u.x) --i;
-  while (i < m - 1 && area_cdf_[i + 1] <= u.x) ++i;
+  int i = std::min(static_cast<int>(d.turn * static_cast<float>(m)), m - 1);
+  while (i > 0 && area_cdf_[i] > d.turn) --i;
+  while (i < m - 1 && area_cdf_[i + 1] <= d.turn) ++i;
   const float share = area_cdf_[i + 1] - area_cdf_[i];
-  const float along = share > 0.0f ? std::clamp((u.x - area_cdf_[i]) / share, 0.0f, 1.0f) : 0.0f;
-  // Uniform in the triangle (centre, rim point i, rim point i + 1).
-  const float r = std::sqrt(u.y);
+  const float along =
+      share > 0.0f ? std::clamp((d.turn - area_cdf_[i]) / share, 0.0f, 1.0f) : 0.0f;
+  // Uniform in the triangle (centre, rim point i, rim point i + 1): the disc's distance is
+  // distributed as sqrt of a uniform number.
+  const float r = d.radius;
   if (rho) *rho = r;
   return r * ((1.0f - along) * rim_points_[i] + along * rim_points_[i + 1]);
 }

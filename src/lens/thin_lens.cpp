@@ -130,6 +130,22 @@ glm::vec2 concentric_disk(glm::vec2 u) {
   return r * glm::vec2(std::cos(theta), std::sin(theta));
 }
 
+DiskPolar concentric_polar(glm::vec2 u) {
+  const glm::vec2 o = 2.0f * u - 1.0f;
+  if (o.x == 0.0f && o.y == 0.0f) return {0.0f, 0.0f};
+  // concentric_disk's angle over 2 pi; a negative r there is the opposite direction, half a turn.
+  float radius, turn;
+  if (std::abs(o.x) > std::abs(o.y)) {
+    radius = std::abs(o.x);
+    turn = 0.125f * (o.y / o.x) + (o.x < 0.0f ? 0.5f : 0.0f);
+  } else {
+    radius = std::abs(o.y);
+    turn = 0.25f - 0.125f * (o.x / o.y) + (o.y < 0.0f ? 0.5f : 0.0f);
+  }
+  if (turn < 0.0f) turn += 1.0f;
+  return {radius, std::min(turn, 0x1.fffffep-1f)};
+}
+
 }  // namespace dofcache::lens
 
 namespace dofcache::lens {

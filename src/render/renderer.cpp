@@ -169,8 +169,8 @@ glm::vec3 guide_albedo(const RenderSettings& settings, const scene::MaterialPoin
 }
 
 // Radiance along one camera ray; `features`, if set, receives its first hit.
-glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_t key, Rng& rng,
-                           TileWork& work, float* density, SampleFeatures* features) {
+glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_t key, float lobe_u,
+                           Rng& rng, TileWork& work, float* density, SampleFeatures* features) {
   ++work.rays.rays;
   scene::Hit hit = c.accel.intersect(ray);
   if (!hit.valid()) {
@@ -197,7 +197,7 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
       e = cached_diffuse(c, p, key, rng, work, density);
     }
   }
-  return c.shader.shade(p, e, rng, work.rays);
+  return c.shader.shade(p, e, lobe_u, rng, work.rays);
 }
 
 // Where the samples of one pixel fall on the film and on the lens: the pixel's two Sobol
@@ -329,6 +329,10 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
   const RenderSettings& st = c.settings;
   const std::uint64_t pixel = pixel_key(st.seed, x, y, Dimension::Light);
   const PixelSamples samples(st, x, y);
+  // Whether a sample evaluates a rough lobe (Shader::shade): a stratified sequence over the
+  // pixel's samples, so the lobe is evaluated on close to n p of n samples.
+  const auto lobe_scramble = static_cast<std::uint32_t>(
+      mix64(pixel_key(st.pattern_seed.value_or(st.seed), x, y, Dimension::Lobe)));
   const bool chromatic = banded(st);
   const std::uint64_t bands = band_key(st, x, y);
   glm::dvec3 acc(0.0);
@@ -355,7 +359,8 @@ glm::dvec3 pixel_sum(const Context& c, int x, int y, std::uint32_t s0, std::uint
       glm::vec3 l(0.0f);
       if (lens.weight > 0.0f)
         l = lens.weight *
-            trace_camera_ray(c, ray, key, rng, work, density, feature_sums ? &f : nullptr);
+            trace_camera_ray(c, ray, key, stratified_1d(s, lobe_scramble), rng, work, density,
+                             feature_sums ? &f : nullptr);
       if (band >= 0) l = in_band(l, band);
       if (!(std::isfinite(l.x) && std::isfinite(l.y) && std::isfinite(l.z))) l = glm::vec3(0.0f);
       acc += glm::dvec3(l);

@@ -488,7 +488,7 @@ glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint6
   return sum / static_cast<float>(rounds);
 }
 
-glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng,
+glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, float lobe_u, Rng& rng,
                         RayCounters& counters) const {
   glm::vec3 l = emitted(p);
   const bool diffuse = has_diffuse(p);
@@ -501,7 +501,7 @@ glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, Rng& rng
   if (lobe.keep <= 0.0f) return l;
   const float p_lobe = diffuse ? rough_lobe_probability(lobe, luminance(rho)) : 1.0f;
   if (p_lobe < 1.0f) {
-    if (rng.uniform() >= p_lobe) return l;
+    if (lobe_u >= p_lobe) return l;
     return l + specular_at_camera_hit(p, lobe, depth, rng, counters) / p_lobe;
   }
   return l + specular_at_camera_hit(p, lobe, depth, rng, counters);

@@ -90,6 +90,36 @@ TEST(ConcentricDisk, MapsSquareIntoDiskPreservingArea) {
   EXPECT_NEAR(inside / double(n * n), 0.25, 0.01);
 }
 
+TEST(ConcentricDisk, PolarFormIsTheSameMapping) {
+  // By hand: the square's edge midpoints and a corner go to the rim at 0, 1/4, 1/2, 3/4 and
+  // 1/8 of a turn; the centre to the centre.
+  const struct {
+    glm::vec2 u;
+    float radius, turn;
+  } cases[] = {{{1.0f, 0.5f}, 1.0f, 0.0f},   {{0.5f, 1.0f}, 1.0f, 0.25f},
+               {{0.0f, 0.5f}, 1.0f, 0.5f},   {{0.5f, 0.0f}, 1.0f, 0.75f},
+               {{1.0f, 1.0f}, 1.0f, 0.125f}, {{0.5f, 0.5f}, 0.0f, 0.0f},
+               {{0.75f, 0.625f}, 0.5f, 0.0625f}};
+  for (const auto& c : cases) {
+    const DiskPolar d = concentric_polar(c.u);
+    EXPECT_FLOAT_EQ(d.radius, c.radius) << c.u.x << ", " << c.u.y;
+    EXPECT_FLOAT_EQ(d.turn, c.turn) << c.u.x << ", " << c.u.y;
+  }
+  // Everywhere else: the point concentric_disk gives, with the turn in [0, 1).
+  const int n = 97;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const glm::vec2 u((i + 0.37f) / n, (j + 0.71f) / n);
+      const DiskPolar d = concentric_polar(u);
+      ASSERT_GE(d.turn, 0.0f);
+      ASSERT_LT(d.turn, 1.0f);
+      const float a = 2.0f * 3.14159265f * d.turn;
+      const glm::vec2 expected = concentric_disk(u);
+      EXPECT_NEAR(d.radius * std::cos(a), expected.x, 2e-6f);
+      EXPECT_NEAR(d.radius * std::sin(a), expected.y, 2e-6f);
+    }
+}
+
 }  // namespace
 }  // namespace dofcache::lens
 

@@ -156,7 +156,8 @@ TEST(PathTracer, RoughLobeOnAFractionOfTheRaysIsUnbiased) {
     double sum = 0, sum2 = 0;
     for (int k = 0; k < n; ++k) {
       Rng rng(31, static_cast<std::uint64_t>(k));
-      const double v = shader.shade(p, glm::vec3(0.0f), rng, counters).x;  // the lobe alone
+      const double v =
+          shader.shade(p, glm::vec3(0.0f), rng.uniform(), rng, counters).x;  // the lobe alone
       sum += v, sum2 += v * v;
     }
     Result r;
@@ -172,6 +173,65 @@ TEST(PathTracer, RoughLobeOnAFractionOfTheRaysIsUnbiased) {
                                                    << fraction.mean;
   EXPECT_LT(se / every.mean, 0.02);  // fine enough to resolve a bias of a few percent
   EXPECT_LT(static_cast<double>(fraction.rays), 0.3 * static_cast<double>(every.rays));
+}
+
+// A rough dielectric floor seen head-on under a panel out of view: its lobe's share is 0.077, so
+// at rate 0.5 each lens sample evaluates it with probability 1/16 (the floor), weighted by 16.
+// The renderer decides by each pixel's stratified pattern, so 16 samples evaluate it exactly
+// once in every pixel; independent coins would leave (15/16)^16 = 36 % of the pixels without it.
+// The image's mean stays that of evaluating the lobe on every sample.
+TEST(PathTracer, RoughLobeDecisionsAreStratifiedPerPixelAndUnbiased) {
+  scene::Scene s;
+  s.materials = {testing::diffuse_material(glm::vec3(0.5f)),
+                 testing::emissive_material(glm::vec3(5.0f))};
+  testing::add_quad_z(s, -2, 2, -2, 2, -1.0f, 0, 0);
+  testing::add_quad(s,
+                    {glm::vec3(0.3f, -0.3f, -0.6f), glm::vec3(0.3f, 0.3f, -0.6f),
+                     glm::vec3(0.9f, 0.3f, -0.6f), glm::vec3(0.9f, -0.3f, -0.6f)},
+                    {0.0f, 0.0f, -1.0f}, 1, 1);
+  testing::build_emitters(s);
+  const scene::Accel accel(s);
+  const scene::Camera camera = testing::origin_camera(0.3f);
+  RenderSettings settings;
+  settings.width = 24;
+  settings.height = 16;
+  settings.spp = 16;
+  settings.mode = Mode::Pinhole;
+  settings.threads = 2;
+  settings.progress = Progress::Display::Never;
+  settings.shading.light_samples = 256;  // the diffuse term all but exact: the lobe is the noise
+  settings.shading.gather_rays = 0;
+  settings.shading.bounces = 0;
+  auto luminance_of = [&](float rate, int specular_depth, std::uint64_t seed) {
+    RenderSettings r = settings;
+    r.shading.rough_lobe_rate = rate;
+    r.shading.specular_depth = specular_depth;
+    r.seed = seed;
+    const image::Image im = render(s, accel, camera, r).color;
+    std::vector<double> v;
+    for (int y = 0; y < im.height(); ++y)
+      for (int x = 0; x < im.width(); ++x) v.push_back(im.at(x, y, 1));  // grey: one channel
+    return v;
+  };
+  // One seed: the diffuse term, estimated before the lobe, is the same in all three, so the
+  // differences are the lobe's estimates alone.
+  const std::vector<double> fraction = luminance_of(0.5f, 3, 1), every = luminance_of(0.0f, 3, 1),
+                            diffuse = luminance_of(0.0f, 0, 1);
+  const double n = static_cast<double>(fraction.size());
+  double lobe_mean = 0, diff = 0, diff2 = 0;
+  for (std::size_t i = 0; i < fraction.size(); ++i) {
+    lobe_mean += (every[i] - diffuse[i]) / n;
+    const double d = fraction[i] - every[i];
+    diff += d / n, diff2 += d * d / n;
+  }
+  ASSERT_GT(lobe_mean, 0.0);
+  int without_lobe = 0;  // pixels whose lobe estimate is under a tenth of the every-sample one
+  for (std::size_t i = 0; i < fraction.size(); ++i)
+    without_lobe += fraction[i] - diffuse[i] < 0.1 * (every[i] - diffuse[i]);
+  EXPECT_EQ(without_lobe, 0) << "of " << n << " pixels";
+  const double standard_error = std::sqrt(std::max(0.0, diff2 - diff * diff) / n);
+  EXPECT_NEAR(diff, 0.0, 4.0 * standard_error + 1e-6) << "lobe mean " << lobe_mean;
+  EXPECT_LT(standard_error, 0.05 * lobe_mean);  // fine enough to see a bias of a fifth of it
 }
 
 // The shipped hanging-light room, rendered small: against a converged reference, no pixel may be

@@ -1,6 +1,9 @@
 // The Sobol sampler: the table-driven fast path against the definitions it replaces.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <vector>
+
 #include "dofcache/render/sampler.h"
 
 namespace dofcache::render {
@@ -51,6 +54,33 @@ TEST(Sampler, EveryPowerOfTwoPrefixIsStratified) {
     for (int c : row) EXPECT_EQ(c, 1);
 }
 
+
+// The pixel's stratified 1-D pattern (rough-lobe decisions): the first 2^m points of any
+// scramble put one point in each interval [k / 2^m, (k + 1) / 2^m), so the number below any p
+// among them is within 1 of 2^m p; different scrambles give different points.
+TEST(Sampler, Stratified1dPutsOnePointInEachIntervalOfEveryPowerOfTwoPrefix) {
+  int first_points_differ = 0;
+  for (std::uint32_t scramble : {0u, 1u, 0x9e3779b9u, 0xdeadbeefu, ~0u}) {
+    for (int m = 0; m <= 10; ++m) {
+      const std::uint32_t n = 1u << m;
+      std::vector<int> cells(n, 0);
+      for (std::uint32_t s = 0; s < n; ++s) {
+        const float u = stratified_1d(s, scramble);
+        ASSERT_GE(u, 0.0f);
+        ASSERT_LT(u, 1.0f);
+        ++cells[static_cast<std::size_t>(u * n)];
+      }
+      for (std::uint32_t c = 0; c < n; ++c) ASSERT_EQ(cells[c], 1) << "m " << m << " cell " << c;
+      for (float p : {1.0f / 16.0f, 0.3f, 0.77f}) {
+        int below = 0;
+        for (std::uint32_t s = 0; s < n; ++s) below += stratified_1d(s, scramble) < p;
+        EXPECT_LE(std::abs(below - static_cast<double>(n) * p), 1.0) << "m " << m << " p " << p;
+      }
+    }
+    first_points_differ += stratified_1d(0, scramble) != stratified_1d(0, 0x12345u);
+  }
+  EXPECT_GE(first_points_differ, 4);
+}
 
 // Chromatic aberration's bands: every three consecutive samples carry one of each, and
 // band_samples counts what sample_band hands out, for every count.

@@ -208,12 +208,13 @@ class Aperture {
 
   // A point of the aperture for u in [0, 1)^2, uniform over its area: the round aperture's
   // concentric mapping (concentric_disk) exactly; a polygon by the fan of triangles from the
-  // centre to its rim: u.x picks a triangle in proportion to its area and the point along its
-  // outer edge, sqrt(u.y) the distance from the centre (no trigonometry). Straight blades are
+  // centre to its rim, entered through the concentric mapping's polar form (concentric_polar):
+  // its turn picks a triangle in proportion to its area and the point along its outer edge, its
+  // distance from the centre the distance (no trigonometry). Straight blades are
   // their N triangles exactly; a rounded blade's rim is 2 x kRimSegments chords, which lie within
   // 2e-4 of its radius (a hundredth of a pixel for a bokeh 50 pixels across).
   // With `rho`, also the point's normalised radius (its distance over the rim's in its
-  // direction): the fan's sqrt(u.y), the disc's distance from the centre.
+  // direction): the disc's distance from the centre, in the fan as on the disc.
   glm::vec2 sample(glm::vec2 u, float* rho = nullptr) const;
   // The rim's distance from the centre in the direction `angle` (radians, from +x
   // counter-clockwise).

@@ -104,5 +104,11 @@ TiltedFocus focus_plane_through(const glm::dvec3 (&points)[3], double focal_leng
 // Shirley-Chiu concentric mapping of the unit square to the unit disk: area preserving and low
 // distortion, so stratified square samples stay stratified on the lens.
 glm::vec2 concentric_disk(glm::vec2 u);
+// The same mapping in polar form: the point's distance from the centre (in [0, 1]) and its angle
+// as a fraction of a turn from +x (in [0, 1)). No trigonometry.
+struct DiskPolar {
+  float radius, turn;
+};
+DiskPolar concentric_polar(glm::vec2 u);
 
 }  // namespace dofcache::lens

@@ -90,8 +90,18 @@ class Sobol2D {
 // Point `index` of the pattern identified by `key` (Sobol2D(key)(index)).
 inline glm::vec2 sobol_2d(std::uint32_t index, std::uint64_t key) { return Sobol2D(key)(index); }
 
-// What a 2-D pattern is used for; part of its key so that the patterns are independent.
-enum class Dimension : std::uint64_t { Film = 1, Lens = 2, Gather = 3, Light = 4, Band = 5 };
+// Point `index` of a scrambled van der Corput sequence (a 1-D (0,1)-sequence): the first 2^m
+// points of any key hold one point in each interval [k / 2^m, (k + 1) / 2^m). reverse_bits(index)
+// is the sequence; owen_scramble of it, with the bit reversals that cancel removed, scrambles it.
+inline float stratified_1d(std::uint32_t index, std::uint32_t scramble) {
+  return static_cast<float>(reverse_bits(laine_karras_permutation(index, scramble)) >> 8) *
+         0x1p-24f;
+}
+
+// What a pattern is used for; part of its key so that the patterns are independent.
+enum class Dimension : std::uint64_t {
+  Film = 1, Lens = 2, Gather = 3, Light = 4, Band = 5, Lobe = 6
+};
 
 inline std::uint64_t pixel_key(std::uint64_t seed, int x, int y, Dimension d) {
   return hash_combine(hash_combine(seed, (static_cast<std::uint64_t>(y) << 32) | std::uint32_t(x)),

@@ -53,7 +53,7 @@ struct ShadingSettings {
   int specular_depth = 3;  // maximum chain of glossy/mirror reflections (0: no specular lobe)
   // At a camera hit, a rough dielectric lobe is evaluated with probability rate x its share of
   // the outgoing radiance (clamped to [1/16, 1]); 0 evaluates it on every ray.
-  float rough_lobe_rate = 0.5f;
+  float rough_lobe_rate = 4.0f;
   MaterialOverride material_override = MaterialOverride::None;
   // Light from infinitely far away (null: none); shared, immutable.
   std::shared_ptr<const Environment> environment;
@@ -101,8 +101,10 @@ class Shader {
                                          float relative_error, int max_rounds) const;
 
   // Outgoing radiance towards p.wo at a camera hit given its diffuse illumination (computed or
-  // cached).
-  glm::vec3 shade(const ShadingPoint& p, glm::vec3 diffuse_illumination, Rng& rng,
+  // cached). `lobe_u`, uniform in [0, 1), decides whether a rough lobe is evaluated on this ray
+  // (rough_lobe_probability); the renderer draws it from a pixel's stratified 1-D pattern, so
+  // that a pixel's n samples evaluate the lobe close to n p times rather than a binomial number.
+  glm::vec3 shade(const ShadingPoint& p, glm::vec3 diffuse_illumination, float lobe_u, Rng& rng,
                   RayCounters& counters) const;
 
   // The diffuse-lobe multiplier (1 - F(n.v)) c_diff that turns E/pi into outgoing radiance.
