@@ -719,7 +719,7 @@ class SceneBench:
             config_label(config), spp, e, r["seconds"], r["process_seconds"]))
         return dict(r, spp=spp, rel_mse=e, image=out)
 
-    def dof_ladder(self, config, start, ref, min_target, cap_seconds, tag):
+    def dof_ladder(self, config, start, ref, min_target, cap_seconds, tag, max_target=None):
         pts, spp = [], max(1, start)
         while True:
             p = self.dof_point(config, spp, ref, "%s_%d" % (tag, spp))
@@ -731,6 +731,12 @@ class SceneBench:
             if spp * 2 > self.plan["spp_cap"]:
                 break
             spp *= 2
+        # Already below the largest target at its first point: go down (halving, to 1 spp) until
+        # a point lies above it, so the time there is interpolated, not extrapolated.
+        spp = pts[0]["spp"]
+        while max_target is not None and pts[0]["rel_mse"] <= max_target and spp > 1:
+            spp //= 2
+            pts.insert(0, self.dof_point(config, spp, ref, "%s_%d" % (tag, spp)))
         return pts
 
     # -- the search: each budget rendered twice (two seeds) at a few spp. No reference exists yet:
@@ -838,22 +844,22 @@ class SceneBench:
         ladders = {}
         ladders["default"] = {"config": {}, "label": "default",
                               "points": self.dof_ladder({}, start_spp(default_probe), dof_ref,
-                                                        min_target, cap, "default")}
+                                                        min_target, cap, "default", max_target)}
         for i, p in enumerate(tops):
             ladders["uncached_%d" % i] = {
                 "config": p["config"], "label": p["label"],
                 "points": self.dof_ladder(p["config"], start_spp(p), dof_ref, min_target, cap,
-                                          "search%d" % i)}
+                                          "search%d" % i, max_target)}
         cached_cfg = {"cache": "vdb"}
         ladders["cached"] = {"config": cached_cfg, "label": config_label(cached_cfg),
                              "points": self.dof_ladder(cached_cfg, plan["cached_start"], dof_ref,
-                                                       min_target, cap, "cached")}
+                                                       min_target, cap, "cached", max_target)}
         # The cache without adaptive lens sampling: what each of the two contributes.
         uniform_cfg = {"cache": "vdb", "adaptive": "off"}
         ladders["cached_uniform"] = {
             "config": uniform_cfg, "label": config_label(uniform_cfg),
             "points": self.dof_ladder(uniform_cfg, plan["cached_start"], dof_ref, min_target, cap,
-                                      "cached_uniform")}
+                                      "cached_uniform", max_target)}
         # The reference's budget may have needed more samples than the search predicted (fireflies
         # make the error fall slower than 1/N): top it up to 16x its ladder's largest point (within
         # --max-reference-minutes) and measure every dofcache render again.

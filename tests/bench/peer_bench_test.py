@@ -138,5 +138,40 @@ class CyclesAtItsBest(unittest.TestCase):
                          ["--adaptive-threshold", "0.01", "--light-threshold", "0.01"])
 
 
+
+class DofcacheLadder(unittest.TestCase):
+    """SceneBench.dof_ladder with renders replaced by an error of 0.08 / spp, 0.1 s per sample."""
+
+    def ladder(self, start, min_target, max_target):
+        bench = peer_bench.SceneBench.__new__(peer_bench.SceneBench)
+        bench.plan = {"spp_cap": 65536}
+        rendered = []
+
+        def point(config, spp, ref, stem):
+            rendered.append(spp)
+            return {"spp": spp, "seconds": 0.1 * spp, "process_seconds": 0.1 * spp,
+                    "rel_mse": 0.08 / spp}
+        bench.dof_point = point
+        pts = bench.dof_ladder({}, start, None, min_target, 1e9, "t", max_target)
+        return [p["spp"] for p in pts], rendered
+
+    def test_it_goes_up_until_below_the_smallest_target(self):
+        # 0.08 / spp <= 0.002 / 1.1 from spp 44 on: 4, 8, 16, 32, 64.
+        self.assertEqual(self.ladder(4, 0.002, 0.01)[0], [4, 8, 16, 32, 64])
+
+    def test_a_start_below_the_largest_target_goes_down_until_above_it(self):
+        # 0.08 / 4 = 0.02 is below 0.05: 2 gives 0.04, still below; 1 gives 0.08, above.
+        spp, rendered = self.ladder(4, 0.002, 0.05)
+        self.assertEqual(spp, [1, 2, 4, 8, 16, 32, 64])
+        self.assertEqual(sorted(rendered), spp)  # each point rendered once
+        # Target 0.05 now lies between 1 and 2 spp: interpolated, not extrapolated.
+        pts = [{"spp": s, "seconds": 0.1 * s, "rel_mse": 0.08 / s} for s in spp]
+        t, extrapolated = peer_bench.time_to_error(pts, 0.05)
+        self.assertFalse(extrapolated)
+        self.assertAlmostEqual(t, 0.1 * 0.08 / 0.05, places=9)
+
+    def test_it_stops_going_down_at_one_sample(self):
+        self.assertEqual(self.ladder(2, 0.0001, 0.5)[0][0], 1)
+
 if __name__ == "__main__":
     unittest.main()
