@@ -10,6 +10,7 @@
 
 #include "dofcache/core/error.h"
 #include "dofcache/lens/thin_lens.h"
+#include "dofcache/render/ggx.h"
 #include "dofcache/render/sampler.h"
 #include "dofcache/render/triangle_sampling.h"
 
@@ -50,17 +51,6 @@ glm::vec3 specular_f0(const scene::MaterialPoint& m) {
 
 float ggx_alpha(float roughness) { return std::max(roughness * roughness, 1e-4f); }
 
-float ggx_d(float n_h, float alpha) {
-  float a2 = alpha * alpha;
-  float d = n_h * n_h * (a2 - 1.0f) + 1.0f;
-  return a2 / (kPi * d * d);
-}
-
-float smith_g1(float n_x, float alpha) {
-  float a2 = alpha * alpha;
-  return 2.0f * n_x / (n_x + std::sqrt(a2 + (1.0f - a2) * n_x * n_x));
-}
-
 using scene::luminance;
 
 // KHR_lights_punctual attenuation: inverse square, windowed by `range`, spot cone falloff.
@@ -92,10 +82,6 @@ float power_heuristic(float a, float b) {
 }
 
 // Density of the GGX lobe's sampled reflection direction: D(h) (n.h) / (4 v.h).
-float ggx_pdf(float n_h, float v_h, float alpha) {
-  return v_h > 0.0f ? ggx_d(n_h, alpha) * n_h / (4.0f * v_h) : 0.0f;
-}
-
 float max_component(glm::vec3 v) { return std::max(v.x, std::max(v.y, v.z)); }
 
 // A 64-bit pattern key drawn from a path's random stream, for vertices past the camera hit.
@@ -117,7 +103,7 @@ struct GgxLobe {
     if (n_l <= 0.0f) return glm::vec3(0.0f);
     const glm::vec3 h = glm::normalize(wi + wo);
     const float n_h = std::max(glm::dot(n, h), 1e-6f), v_h = std::max(glm::dot(wo, h), 1e-6f);
-    *pdf = ggx_pdf(n_h, v_h, alpha);
+    *pdf = ggx_vndf_pdf(n_h, n_v, alpha);
     return fresnel_schlick(f0, v_h) *
            (ggx_d(n_h, alpha) * smith_g1(n_v, alpha) * smith_g1(n_l, alpha) / (4.0f * n_v));
   }
@@ -578,34 +564,31 @@ glm::vec3 Shader::specular_light(const ShadingPoint& p, const GgxLobe& lobe,
 glm::vec3 Shader::specular_ray(const ShadingPoint& p, const GgxLobe& lobe, PathDepth depth,
                                Rng& rng, RayCounters& counters) const {
   if (lobe.keep < 1.0f && rng.uniform() >= lobe.keep) return glm::vec3(0.0f);
-  // GGX half-vector sampling.
+  // The visible normals (render/ggx.h): f cos / pdf is F G1(n.l), at most 1. Sampling the
+  // half-vector by D (n.h) gave F G1(n.v) G1(n.l) (v.h) / ((n.v)(n.h)), above 5 at grazing views
+  // of a rough floor: fireflies where such a ray met a small bright lamp.
   const float u1 = rng.uniform(), u2 = rng.uniform();
   const float alpha = lobe.alpha, n_v = lobe.n_v;
-  const float tan2 = alpha * alpha * u1 / std::max(1.0f - u1, 1e-7f);
-  const float cos_h = 1.0f / std::sqrt(1.0f + tan2);
-  const float sin_h = std::sqrt(std::max(0.0f, 1.0f - cos_h * cos_h));
-  const float phi = 2.0f * kPi * u2;
-  const glm::vec3 h =
-      Frame(p.n).to_world({sin_h * std::cos(phi), sin_h * std::sin(phi), cos_h});
+  const Frame frame(p.n);
+  const glm::vec3 h_local = sample_ggx_visible_normal(
+      glm::vec3(glm::dot(p.wo, frame.t), glm::dot(p.wo, frame.b), n_v), alpha, {u1, u2});
+  const glm::vec3 h = frame.to_world(h_local);
   const float v_h = glm::dot(p.wo, h);
   if (v_h <= 0.0f) return glm::vec3(0.0f);
   const glm::vec3 wi = 2.0f * v_h * h - p.wo;
   const float n_l = glm::dot(p.n, wi);
   if (n_l <= 0.0f || glm::dot(p.ng, wi) <= 0.0f) return glm::vec3(0.0f);
-  // f cos / pdf with pdf = D (n.h) / (4 v.h): F G (v.h) / ((n.v)(n.h)), over the ray's probability.
-  const glm::vec3 weight =
-      fresnel_schlick(lobe.f0, v_h) *
-      (smith_g1(n_v, alpha) * smith_g1(n_l, alpha) * v_h / (n_v * cos_h * lobe.keep));
+  // f cos / pdf = F G1(n.l), over the ray's probability.
+  const glm::vec3 weight = fresnel_schlick(lobe.f0, v_h) * (smith_g1(n_l, alpha) / lobe.keep);
+  const float pdf = lobe.keep * ggx_vndf_pdf(h_local.z, n_v, alpha);
   const scene::Ray ray = spawn(p, wi);
   ++counters.rays;
   const scene::Hit hit = accel_.intersect(ray);
   // One light sample is taken beside the lobe's ray (reflected(), specular_at_camera_hit()).
   if (!hit.valid())
-    return environment_ ? weight * escaped(wi, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f)
-                        : glm::vec3(0.0f);
+    return environment_ ? weight * escaped(wi, pdf, 1.0f) : glm::vec3(0.0f);
   const PathDepth next{depth.taken + 1, depth.left - 1, depth.glossy + 1};
-  return weight * continuation(p, ray, hit, lobe.keep * ggx_pdf(cos_h, v_h, alpha), 1.0f, next,
-                               max_component(weight), rng, counters);
+  return weight * continuation(p, ray, hit, pdf, 1.0f, next, max_component(weight), rng, counters);
 }
 
 }  // namespace dofcache::render
