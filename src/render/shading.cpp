@@ -81,7 +81,6 @@ float power_heuristic(float a, float b) {
   return 1.0f / (1.0f + ratio * ratio);
 }
 
-// Density of the GGX lobe's sampled reflection direction: D(h) (n.h) / (4 v.h).
 float max_component(glm::vec3 v) { return std::max(v.x, std::max(v.y, v.z)); }
 
 // A 64-bit pattern key drawn from a path's random stream, for vertices past the camera hit.
