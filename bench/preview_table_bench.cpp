@@ -529,12 +529,7 @@ int run(const Options& o) {
     // two uncontended cores, so this row tells how much the machine was contended.
     {
       preview::SyntheticScene demo = preview::make_demo_scene(r.width, r.height);
-      preview::PreviewInputs din = demo.pinhole();
-      preview::LayerPlan plan = preview::plan_layers(din.depth, din.imaging, options);
-      din.revealed =
-          demo.revealed_layers(plan, preview::build_occlusion_masks(demo.id_layers(plan), din.depth,
-                                                                    plan, din.imaging, options));
-      post_process_rows("synthetic demo scene", din);
+      post_process_rows("synthetic demo scene", demo.pinhole_with_revealed_layers(options));
     }
     fs::remove(file);
     std::printf("\nsaved inputs at %s: %.2f MB (%d revealed layers, %llu revealed px)\n",

@@ -201,12 +201,7 @@ class LayeredComposite {
       if (j < 0)
         throw Error("preview: a revealed layer's near depth (" + std::to_string(r.near_depth) +
                     " m) matches no layer of the plan; plan the layers with the same options");
-      if (r.color.width() != W || r.color.height() != H || r.color.channels() != 3 ||
-          r.depth.width() != W || r.depth.height() != H || r.depth.channels() != 1 ||
-          r.mask.width() != W || r.mask.height() != H || r.mask.channels() != 1)
-        throw Error(
-            "preview: a revealed layer's colour (RGB), depth and mask must have the size "
-            "of the pinhole image");
+      check_revealed_layer_size(r, W, H);
       if (j == 0) continue;  // mask_0 is empty by definition
       by_layer[j] = &r;
     }
@@ -896,6 +891,16 @@ class LayeredComposite {
 };
 
 }  // namespace
+
+void check_revealed_layer_size(const RevealedLayer& r, int W, int H) {
+  auto fits = [&](const image::Image& im, int channels) {
+    return im.width() == W && im.height() == H && im.channels() == channels;
+  };
+  if (!fits(r.color, 3) || !fits(r.depth, 1) || !fits(r.mask, 1))
+    throw Error(
+        "preview: a revealed layer's colour (RGB), depth and mask must have the size of the "
+        "pinhole image");
+}
 
 void layered_preview(const PreviewInputs& in, const PreviewOptions& options, const LayerPlan& plan,
                      bool occlusion, PreviewWorkspace::Impl& ws, image::Image& out,

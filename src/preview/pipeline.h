@@ -68,6 +68,10 @@ struct PreviewWorkspace::Impl {
 
 namespace detail {
 
+// Throws dofcache::Error (one line) unless the revealed layer's colour (RGB), depth and mask have
+// the pinhole image's size, W x H: both pipelines that draw revealed layers check it.
+void check_revealed_layer_size(const RevealedLayer& r, int W, int H);
+
 // The layered pipeline (Kraus & Strengert; with the paper's occlusion fix if `occlusion`).
 // ws.coc must hold the pinhole CoC. Writes RGB into `out` (already sized).
 void layered_preview(const PreviewInputs& inputs, const PreviewOptions& options,

@@ -5,7 +5,6 @@
 #include <cmath>
 
 #include "aperture_rows.h"
-#include "dofcache/core/error.h"
 #include "dofcache/render/camera.h"
 #include "pipeline.h"
 
@@ -365,14 +364,8 @@ class ShapedScatter {
   };
   // The revealed layers' surfaces, by row.
   void add_fragments(const std::vector<RevealedLayer>& layers) {
-    auto fits = [&](const image::Image& im, int channels) {
-      return im.width() == W_ && im.height() == H_ && im.channels() == channels;
-    };
     for (const RevealedLayer& r : layers) {
-      if (!fits(r.color, 3) || !fits(r.depth, 1) || !fits(r.mask, 1))
-        throw Error(
-            "preview: a revealed layer's colour (RGB), depth and mask must have the size of the "
-            "pinhole image");
+      check_revealed_layer_size(r, W_, H_);
       for (int y = 0; y < r.mask.height(); ++y)
         for (int x = 0; x < r.mask.width(); ++x)
           if (r.mask.at(x, y, 0) > 0.0f)

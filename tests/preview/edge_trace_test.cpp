@@ -58,12 +58,7 @@ Scene make_scene() {
   sc.rects.push_back(flat_rect(kLo, kLo, kHi, kHi, 3.0, 2, 0.0f, 1.0f, 0.0f));
   sc.rects.push_back(flat_rect(kSize / 2, 0, kSize, kSize, 3.01, 1, 0.1f, 0.2f, 0.9f));
   sc.rects.push_back(flat_rect(0, 0, kSize, kSize, 3.02, 0, 0.5f, 0.5f, 0.5f));
-  s.inputs = sc.pinhole();
-  PreviewOptions options;
-  LayerPlan plan = plan_layers(s.inputs.depth, s.inputs.imaging, options);
-  std::vector<image::Image> masks =
-      build_occlusion_masks(sc.id_layers(plan), s.inputs.depth, plan, s.inputs.imaging, options);
-  s.inputs.revealed = sc.revealed_layers(plan, masks);
+  s.inputs = sc.pinhole_with_revealed_layers(PreviewOptions{});
   return s;
 }
 

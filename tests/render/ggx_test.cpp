@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -57,14 +58,16 @@ TEST(Ggx, VisibleNormalSamplesFollowTheirDensityAndWeighToTheAlbedo) {
       const glm::vec3 v(std::sqrt(1.0f - n_v * n_v), 0.0f, n_v);
       const int rows = 6, cols = 8;
       std::vector<double> expected(rows * cols, 0.0), counted(rows * cols, 0.0);
-      double albedo = 0.0, upper = 0.0;
-      hemisphere(600, [&](glm::vec3 wi, double dw) {
-        const double p = pdf(v, wi, alpha) * dw;
+      auto cell = [&](glm::vec3 wi) {
         const int r = std::min(rows - 1, static_cast<int>(wi.z * rows));
         double phi = std::atan2(wi.y, wi.x);
         if (phi < 0) phi += 2 * kPi;
-        const int c = std::min(cols - 1, static_cast<int>(phi / (2 * kPi) * cols));
-        expected[r * cols + c] += p;
+        return r * cols + std::min(cols - 1, static_cast<int>(phi / (2 * kPi) * cols));
+      };
+      double albedo = 0.0, upper = 0.0;
+      hemisphere(600, [&](glm::vec3 wi, double dw) {
+        const double p = pdf(v, wi, alpha) * dw;
+        expected[cell(wi)] += p;
         upper += p;
         albedo += p * smith_g1(wi.z, alpha);  // f cos = pdf G1(n.l)
       });
@@ -81,11 +84,7 @@ TEST(Ggx, VisibleNormalSamplesFollowTheirDensityAndWeighToTheAlbedo) {
           continue;
         }
         weight_sum += smith_g1(wi.z, alpha);
-        const int r = std::min(rows - 1, static_cast<int>(wi.z * rows));
-        double phi = std::atan2(wi.y, wi.x);
-        if (phi < 0) phi += 2 * kPi;
-        const int c = std::min(cols - 1, static_cast<int>(phi / (2 * kPi) * cols));
-        counted[r * cols + c] += 1.0 / n;
+        counted[cell(wi)] += 1.0 / n;
       }
       SCOPED_TRACE(::testing::Message() << "alpha " << alpha << ", n.v " << n_v);
       for (int i = 0; i < rows * cols; ++i)
