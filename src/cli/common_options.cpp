@@ -253,7 +253,7 @@ void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::stri
   cmd->add_option("--cache-sample-quality", cache.sample_quality,
                   "A cache sample uses this many times the light and gather samples of a "
                   "per-ray shade (it is reused by many lens rays); 0: chosen from --spp, "
-                  "round(spp / 32) for the default --gather-rays, at least 1 (docs/cache.md)")
+                  "round(spp / 16) for the default --gather-rays, at least 1 (docs/cache.md)")
       ->capture_default_str()->check(CLI::Range(0, 256));
   cmd->add_option("--cache-direct-below", cache.direct_below,
                   "Hits a new cache sample would serve to fewer lens rays than this (spp times "

@@ -540,7 +540,7 @@ int recommended_sample_quality(int spp, int gather_rays) {
   const long scaled = std::max(static_cast<long>(std::max(spp, 0)) * default_gather /
                                    std::max(gather_rays, 1),
                                1L);
-  return static_cast<int>(std::clamp((scaled + 16) / 32, 1L, 256L));
+  return static_cast<int>(std::clamp((scaled + 8) / 16, 1L, 256L));
 }
 
 int effective_sample_quality(const RenderSettings& settings) {

@@ -124,7 +124,7 @@ TEST_F(Cli, DenoisedRenderKeepsTheRawBeautyInExr) {
   EXPECT_EQ(slurp(dir_ / "auto.png"), slurp(dir_ / "on.png"));  // auto: a PNG is denoised
 }
 
-// render picks the cache sample quality from --spp unless told: round(spp / 32), at least 1.
+// render picks the cache sample quality from --spp unless told: round(spp / 16), at least 1.
 TEST_F(Cli, CacheSampleQualityFollowsSppUnlessGiven) {
   auto quality = [&](const std::string& extra) {
     testing::CliResult r = run("render --out " + (dir_ / "c.png").string() +
@@ -136,9 +136,9 @@ TEST_F(Cli, CacheSampleQualityFollowsSppUnlessGiven) {
     return at == std::string::npos ? -1 : std::atoi(j.c_str() + at + 18);
   };
   EXPECT_EQ(quality(" --spp 16"), 1);
-  EXPECT_EQ(quality(" --spp 96"), 3);
+  EXPECT_EQ(quality(" --spp 96"), 6);
   // A quarter of the default gather rays: four times the quality (a sample's gather rays stay).
-  EXPECT_EQ(quality(" --spp 96 --gather-rays 8"), 12);
+  EXPECT_EQ(quality(" --spp 96 --gather-rays 8"), 24);
   EXPECT_EQ(quality(" --spp 96 --cache-sample-quality 5"), 5);
 }
 

@@ -49,8 +49,8 @@ TEST_F(RequestCli, PrintRequestShowsWhatAutoChoseAndRendersNothing) {
   EXPECT_EQ(drt.at("kind"), "image");
   EXPECT_EQ(drt.at("cache").at("backend"), "vdb");  // auto: drt integrates the lens
   EXPECT_EQ(drt.at("adaptive").at("mode"), "on");   // auto: on for drt
-  // round(64 / 32) with 4 gather rays: that of 64 * 32 / 4 = 512 lens samples, 16.
-  EXPECT_EQ(drt.at("cache").at("sample_quality"), 16);
+  // round(spp / 16) with 4 gather rays: that of 64 * 32 / 4 = 512 lens samples, 32.
+  EXPECT_EQ(drt.at("cache").at("sample_quality"), 32);
   EXPECT_EQ(drt.at("image").at("height"), 24);  // the Cornell box camera's 4:3
   EXPECT_EQ(drt.at("threads"), 2);
   EXPECT_TRUE(drt.at("lens").at("focus_distance").is_number());  // autofocus, now fixed

@@ -168,25 +168,27 @@ TEST(CachedRender, LargerMinFactorStoresFewerSamples) {
   EXPECT_LT(large->size(), small->size());
 }
 
-TEST(CachedRender, RecommendedSampleQualityIsSppOver32) {
-  // round(spp / 32), at least 1, at most 256 (the settings' valid range).
+TEST(CachedRender, RecommendedSampleQualityIsSppOver16) {
+  // round(spp / 16), at least 1, at most 256 (the settings' valid range).
   EXPECT_EQ(recommended_sample_quality(1), 1);
-  EXPECT_EQ(recommended_sample_quality(16), 1);   // 0.5 rounds down to 0, clamped to 1
-  EXPECT_EQ(recommended_sample_quality(48), 2);   // 1.5 rounds up
-  EXPECT_EQ(recommended_sample_quality(64), 2);
-  EXPECT_EQ(recommended_sample_quality(256), 8);
-  EXPECT_EQ(recommended_sample_quality(1000), 31);  // 31.25
+  EXPECT_EQ(recommended_sample_quality(4), 1);    // 0.25 rounds down to 0, clamped to 1
+  EXPECT_EQ(recommended_sample_quality(16), 1);
+  EXPECT_EQ(recommended_sample_quality(24), 2);   // 1.5 rounds up
+  EXPECT_EQ(recommended_sample_quality(40), 3);   // 2.5 rounds up
+  EXPECT_EQ(recommended_sample_quality(64), 4);
+  EXPECT_EQ(recommended_sample_quality(256), 16);
+  EXPECT_EQ(recommended_sample_quality(1000), 63);  // 62.5
   // Other gather-ray counts g: that of spp * 32 / g lens samples.
-  EXPECT_EQ(recommended_sample_quality(64, 8), 8);     // as 256 spp
+  EXPECT_EQ(recommended_sample_quality(64, 8), 16);    // as 256 spp
   EXPECT_EQ(recommended_sample_quality(64, 128), 1);   // as 16 spp
-  EXPECT_EQ(recommended_sample_quality(256, 64), 4);   // as 128 spp
+  EXPECT_EQ(recommended_sample_quality(256, 64), 8);   // as 128 spp
   EXPECT_EQ(recommended_sample_quality(1 << 20, 1), 256);  // clamped
   RenderSettings s;
   s.spp = 256;
   s.cache.sample_quality = kAutoSampleQuality;
-  EXPECT_EQ(effective_sample_quality(s), 8);
+  EXPECT_EQ(effective_sample_quality(s), 16);
   s.shading.gather_rays = 64;
-  EXPECT_EQ(effective_sample_quality(s), 4);
+  EXPECT_EQ(effective_sample_quality(s), 8);
   s.cache.sample_quality = 3;
   EXPECT_EQ(effective_sample_quality(s), 3);
   EXPECT_EQ(recommended_sample_quality(1 << 20), 256);

@@ -153,12 +153,12 @@ TEST_F(Resolve, AutoRulesAsDocumented) {
   EXPECT_TRUE(drt.settings.adaptive.enabled);
   EXPECT_EQ(drt.settings.spp, 16);
   EXPECT_EQ(drt.settings.height, 48);  // the built-in camera is 4:3
-  EXPECT_EQ(drt.settings.cache.sample_quality, 1);  // round(16 / 32) = 1 at least
+  EXPECT_EQ(drt.settings.cache.sample_quality, 1);  // round(16 / 16)
   EXPECT_EQ(drt.settings.threads, available_cores());
   EXPECT_FALSE(drt.choices.empty());
 
   r.spp = 256;
-  EXPECT_EQ(resolved(r).settings.cache.sample_quality, 8);  // round(256 / 32)
+  EXPECT_EQ(resolved(r).settings.cache.sample_quality, 16);  // round(256 / 16)
   r.spp.reset();
 
   r.mode = parse_mode("accumulation");
@@ -212,8 +212,8 @@ TEST_F(Resolve, AutoRulesAsDocumented) {
   RenderRequest v = default_request(Kind::View);
   v.spp = 4;
   ResolvedRequest view = resolved(v);
-  // The viewer's passes share one cache: the quality of 64 lens samples, round(64 / 32).
-  EXPECT_EQ(view.settings.cache.sample_quality, 2);
+  // The viewer's passes share one cache: the quality of 64 lens samples, round(64 / 16).
+  EXPECT_EQ(view.settings.cache.sample_quality, 4);
   EXPECT_EQ(view.settings.threads, std::max(1, available_cores() - 1));
 }
 

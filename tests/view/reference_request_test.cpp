@@ -44,7 +44,7 @@ TEST_F(ViewReference, FirstPassEqualsRenderOfTheSameRequest) {
   ASSERT_TRUE(ref && ref->reference_spp == 4);
   session.stop();
 
-  // `render --spp 4 --seed <pass seed> --cache-sample-quality 16` of the same options.
+  // `render --spp 4 --seed <pass seed> --cache-sample-quality 32` of the same options.
   request::RenderRequest r = v.request;
   r.kind = request::Kind::Image;
   r.core_policy = CorePolicy::AllCores;
@@ -52,8 +52,8 @@ TEST_F(ViewReference, FirstPassEqualsRenderOfTheSameRequest) {
   r.seed = view::reference_pass_seed(11, 1);
   r.lens = lens;
   // The viewer's policy: the quality of 64 lens samples, with 4 gather rays that of
-  // 64 * 32 / 4 = 512 lens samples at the default 32: round(512 / 32) = 16.
-  r.cache_settings.sample_quality = 16;
+  // 64 * 32 / 4 = 512 lens samples at the default 32: round(512 / 16) = 32.
+  r.cache_settings.sample_quality = 32;
   r.out = (dir_ / "render.exr").string();
   const scene::Scene scene = render::load_scene("");
   const scene::Accel accel(scene);

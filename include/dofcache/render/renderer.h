@@ -84,17 +84,18 @@ constexpr int kAutoSampleQuality = 0;
 constexpr float kSingleImageDirectBelow = 50.0f;
 
 // The cache sample quality that balances a cached render's two error sources at `spp` lens
-// samples per pixel: round(spp / 32) for the default 32 gather rays, clamped to [1, 256]; for
+// samples per pixel: round(spp / 16) for the default 32 gather rays, clamped to [1, 256]; for
 // other gather-ray counts g, that of spp * 32 / g lens samples, so that a cache sample's gather
 // rays (quality times g), whose count sets its frozen noise, stay where they would be.
 // Why: a pixel averages about k = 8 cache samples (measured: 3.3 samples per pixel footprint under
 // the paper radius, each lookup weighting those within half a pixel), so their frozen noise has
-// variance V/(q k), V that of one per-ray shade; the lens rays' own noise falls as 1/spp and, on
-// the shipped scenes, is about 8 times the per-ray shading noise of uncached DRT. With
-// q = spp / 32 the frozen noise stays at about half the lens noise, while the cost of the samples
-// (q shades each, about 3.3 q per pixel) stays a fixed fraction of the lens rays' cost. Measured
-// on the Cornell box (bench/cache_render_bench): q = 2 at 64 spp and q = 4-8 at 256 spp give the
-// best equal-quality speed-up; the fixed q = 8 at 64 spp spent about 90% of the render on samples.
+// variance V/(q k), V that of one per-ray shade, while the lens rays' own noise falls as 1/spp.
+// A q proportional to spp keeps the two in a fixed ratio and the samples' cost (q shades each,
+// about 3.3 q per pixel) a fixed fraction of the lens rays'. The factor is measured: spp / 32 was
+// the best when the rough specular lobe added most of a lens ray's noise; with that noise
+// stratified away (Shader::shade's per-pixel lobe decisions), spp / 16 gives 5-30% lower
+// error x time at 32-128 spp on four of the five peer scenes and 12-17% higher on the
+// hanging-light room, whose error is the lamp gap's bias, not noise (docs/cache.md).
 int recommended_sample_quality(int spp, int gather_rays = ShadingSettings{}.gather_rays);
 
 // The shading of a cache sample: `per_ray` with its light samples and gather rays multiplied by
