@@ -93,7 +93,7 @@ constexpr float kSingleImageDirectBelow = 50.0f;
 // A q proportional to spp keeps the two in a fixed ratio and the samples' cost (q shades each,
 // about 3.3 q per pixel) a fixed fraction of the lens rays'. The factor is measured: spp / 32 was
 // the best when the rough specular lobe added most of a lens ray's noise; with that noise
-// stratified away (Shader::shade's per-pixel lobe decisions), spp / 16 gives 5-30% lower
+// stratified away (Shader::shade's per-pixel lobe decisions), spp / 16 gives 0-30% lower
 // error x time at 32-128 spp on four of the five peer scenes and 12-17% higher on the
 // hanging-light room, whose error is the lamp gap's bias, not noise (docs/cache.md).
 int recommended_sample_quality(int spp, int gather_rays = ShadingSettings{}.gather_rays);
