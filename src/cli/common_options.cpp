@@ -260,6 +260,12 @@ void add_cache_options(CLI::App* cmd, request::RenderRequest& r, const std::stri
                   "its area in pixels: in focus at few samples) are shaded per ray instead; "
                   "0: cache every hit (docs/cache.md)")
       ->capture_default_str()->check(CLI::Range(0.0, 1e6));
+  cmd->add_option("--cache-direct-cost-ratio", cache.direct_cost_ratio,
+                  "Over the first 2 lens samples a render measures what an in-focus cache "
+                  "lookup will cost (one tile row in 16 caches, the others shade per ray); above "
+                  "this times a per-ray shade's rays it shades in-focus hits per ray from then "
+                  "on; 0: cache them (docs/cache.md)")
+      ->capture_default_str()->check(CLI::Range(0.0, 1e6));
   cmd->add_option("--cache-direct-gather-rays", cache.direct_gather_rays,
                   "Gather rays of a hit shaded per ray in a cached render")
       ->capture_default_str()->check(CLI::Range(0, 4096));

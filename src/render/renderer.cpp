@@ -18,6 +18,7 @@
 #include "dofcache/core/stopwatch.h"
 #include "dofcache/core/threads.h"
 #include "dofcache/render/adaptive_sampling.h"
+#include "dofcache/render/focus_cost.h"
 #include "dofcache/render/sampler.h"
 
 namespace dofcache::render {
@@ -42,7 +43,17 @@ bool masked_out(const RenderSettings& s, int x, int y) {
   return s.mask && s.mask->at(x, y, 0) <= 0.5f;
 }
 
-// Everything a render needs that is fixed for its duration.
+// How a cached render shades in-focus hits (CacheSettings::direct_cost_ratio): measured first,
+// where a tile samples the cost (TileWork::samples_focus) through the cache and elsewhere per ray;
+// then all through the cache or all per ray.
+enum class FocusState { Measuring, Cached, PerRay };
+
+// While measuring, the tiles of one tile row in kFocusSampleRows, counted from the middle row, go
+// through the cache (the others measure the per-ray shades' cost): on the atrium the in-focus
+// samples of 2 lens samples cost as much as a whole 16-spp per-ray render.
+constexpr int kFocusSampleRows = 16;
+
+// Everything a render needs that is fixed for its duration (but for the in-focus choice).
 struct Context {
   const scene::Scene& scene;
   const scene::Accel& accel;
@@ -58,6 +69,8 @@ struct Context {
   PixelMoments* moments = nullptr;
   // RenderSettings::lens_features: per pixel, kFeatureSums sums (null: none kept).
   double* feature_sums = nullptr;
+  // CacheSettings::direct_cost_ratio: how in-focus hits are shaded (FocusState).
+  FocusState focus = FocusState::Cached;
 };
 
 // The sums kept per pixel for RenderSettings::lens_features: albedo (3), normal (3), depth over
@@ -85,6 +98,9 @@ struct TileWork {
   cache::TileSampleBuffer buffer;  // samples created by this tile in this pass
   std::vector<cache::TraceLookup> traced;
   std::uint64_t lookups = 0, hits = 0, tile_hits = 0, direct = 0;
+  std::uint64_t sample_rays = 0;  // rays spent computing new samples
+  FocusCost focus;                // what the in-focus hits' new samples cost
+  bool samples_focus = false;     // while FocusState::Measuring, cache in-focus hits here
   double lookup_seconds = 0.0;
 };
 
@@ -108,7 +124,7 @@ scene::Ray clipped(const ThinLensCamera& camera, const RenderSettings& settings,
 
 // Algorithm 1 of the paper: E/pi at a primary hit from the cache, or computed and stored.
 glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t key, Rng& rng,
-                         TileWork& work, float* density) {
+                         TileWork& work, float* density, bool in_focus) {
   const CacheSettings& cs = c.settings.cache;
   const glm::vec3 x = p.surface.position;
   ++work.lookups;
@@ -125,10 +141,15 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
     work.hits += hit;
   }
   if (timed) work.lookup_seconds += kTimedLookupEvery * seconds_since(t0);
+  work.focus.lookups += in_focus;
   if (hit) return r.value;
   float harmonic = 0.0f;
+  const std::uint64_t rays_before = work.rays.rays;
   glm::vec3 e = c.sample_shader.refined_diffuse_illumination(
       p, key, rng, work.rays, &harmonic, cs.sample_error, cs.max_sample_rounds);
+  const std::uint64_t rays = work.rays.rays - rays_before;
+  work.sample_rays += rays;
+  if (in_focus) ++work.focus.samples, work.focus.rays += rays;
   if (cs.insert) {
     cache::CacheSample sample;
     sample.position = x;
@@ -150,16 +171,30 @@ glm::vec3 cached_diffuse(const Context& c, const ShadingPoint& p, std::uint64_t 
   return e;
 }
 
-// Whether a cached render shades the hit at x per ray (CacheSettings::direct_below): a sample
-// made there would be reached by about spp * pi r^2 lens rays, r its radius in pixel footprints.
-bool shaded_directly(const Context& c, glm::vec3 x) {
+// How a cached render shades a hit.
+// The in-focus kinds are counted while FocusState::Measuring.
+enum class HitShading { Cached, CachedInFocus, PerRay, PerRayInFocus };
+
+// CacheSettings::direct_below: a sample made at x would be reached by about spp * pi r r' lens
+// rays, r its radius in pixel footprints and r' its squeezed one; below the threshold the hit is
+// shaded per ray. In focus (kFocusArea), CacheSettings::direct_cost_ratio decides (FocusState).
+HitShading hit_shading(const Context& c, const TileWork& work, glm::vec3 x) {
   const CacheSettings& cs = c.settings.cache;
-  if (cs.direct_below <= 0.0f) return false;
+  if (cs.direct_below <= 0.0f && cs.direct_cost_ratio <= 0.0f) return HitShading::Cached;
   const double r =
       cache::sample_radius_pixels(c.camera.imaging(), c.camera.depth(x), cs.radius.min_factor);
   // An anamorphic footprint is an oval: its smaller semi-axis is squeezed down to the floor.
   const double squeeze = c.lookup.footprint_squeeze;
-  return c.settings.spp * M_PI * r * std::max(r * squeeze, cs.radius.min_factor) < cs.direct_below;
+  const double area = r * std::max(r * squeeze, cs.radius.min_factor);
+  if (c.settings.spp * M_PI * area < cs.direct_below) return HitShading::PerRay;
+  if (area > kFocusArea) return HitShading::Cached;
+  switch (c.focus) {
+    case FocusState::Measuring:
+      return work.samples_focus ? HitShading::CachedInFocus : HitShading::PerRayInFocus;
+    case FocusState::PerRay: return HitShading::PerRay;
+    case FocusState::Cached: break;
+  }
+  return HitShading::Cached;
 }
 
 // The albedo the denoiser demodulates by: what the diffuse lobe reflects.
@@ -190,11 +225,17 @@ glm::vec3 trace_camera_ray(const Context& c, const scene::Ray& ray, std::uint64_
   if (Shader::has_diffuse(p)) {
     if (!c.settings.cache.cache) {
       e = c.shader.diffuse_illumination(p, key, rng, work.rays);
-    } else if (shaded_directly(c, p.surface.position)) {
-      ++work.direct;
-      e = c.direct_shader.diffuse_illumination(p, key, rng, work.rays);
     } else {
-      e = cached_diffuse(c, p, key, rng, work, density);
+      const HitShading how = hit_shading(c, work, p.surface.position);
+      if (how == HitShading::PerRay || how == HitShading::PerRayInFocus) {
+        ++work.direct;
+        const std::uint64_t before = work.rays.rays;
+        e = c.direct_shader.diffuse_illumination(p, key, rng, work.rays);
+        if (how == HitShading::PerRayInFocus)
+          ++work.focus.direct_shades, work.focus.direct_rays += work.rays.rays - before;
+      } else {
+        e = cached_diffuse(c, p, key, rng, work, density, how == HitShading::CachedInFocus);
+      }
     }
   }
   return c.shader.shade(p, e, lobe_u, rng, work.rays);
@@ -602,6 +643,8 @@ void RenderSettings::validate() const {
     }
     if (!(cache.direct_below >= 0.0f && cache.direct_below <= 1e6f))
       throw Error("cache: lens rays below which hits are shaded per ray must be in [0, 1e6]");
+    if (!(cache.direct_cost_ratio >= 0.0f && cache.direct_cost_ratio <= 1e6f))
+      throw Error("cache: the in-focus cost ratio must be in [0, 1e6]");
     try {
       direct_shading(*this).validate();
     } catch (const Error& e) {
@@ -697,8 +740,16 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
   std::vector<double> feature_sums(features ? rendered.size() * kFeatureSums : 0, 0.0);
   c.feature_sums = features ? feature_sums.data() : nullptr;
   std::vector<TileWork> work(tiles.size());
+  if (settings.cache.cache && settings.cache.insert && settings.cache.direct_cost_ratio > 0.0f &&
+      spp > kFocusCostSamples && !settings.visibility_only) {
+    c.focus = FocusState::Measuring;
+    const int middle = (h + kTileSize - 1) / kTileSize / 2;
+    for (size_t i = 0; i < tiles.size(); ++i)
+      work[i].samples_focus = (tiles[i].y0 / kTileSize) % kFocusSampleRows == middle % kFocusSampleRows;
+  }
   RenderStats& st = out.stats;
   std::uint64_t rays = 0, shading_points = 0, camera_rays = 0;
+  FocusCost focus;
   auto collect = [&](TileWork& tw) {  // after each parallel loop, in tile order
     rays += tw.rays.rays;
     shading_points += tw.rays.shading_points;
@@ -706,9 +757,12 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
     st.cache_hits += tw.hits;
     st.cache_tile_hits += tw.tile_hits;
     st.cache_direct += tw.direct;
+    st.cache_sample_rays += tw.sample_rays;
+    focus += tw.focus;
     st.cache_lookup_seconds += tw.lookup_seconds;
     tw.rays = RayCounters{};
-    tw.lookups = tw.hits = tw.tile_hits = tw.direct = 0;
+    tw.focus = FocusCost{};
+    tw.lookups = tw.hits = tw.tile_hits = tw.direct = tw.sample_rays = 0;
     tw.lookup_seconds = 0.0;
   };
   const std::uint64_t total_work = shaded ? rendered_count * spp : rendered_count;
@@ -755,6 +809,12 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
     if (settings.cache.trace) {
       settings.cache.trace->add_lookups(traced);
       settings.cache.trace->add_inserts(batch);
+    }
+    // CacheSettings::direct_cost_ratio: measured over the first lens samples, chosen once.
+    if (c.focus == FocusState::Measuring && s1 >= kFocusCostSamples) {
+      st.focus_cost_ratio = focus_cost_ratio(focus, s1, spp);
+      st.focus_per_ray = st.focus_cost_ratio > settings.cache.direct_cost_ratio;
+      c.focus = st.focus_per_ray ? FocusState::PerRay : FocusState::Cached;
     }
   };
 

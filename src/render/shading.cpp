@@ -314,30 +314,44 @@ glm::vec3 Shader::punctual_diffuse(const ShadingPoint& p, RayCounters& counters)
 
 glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int gather_rays,
                                    PathDepth depth, std::uint64_t key, Rng& rng,
-                                   RayCounters& counters, float* harmonic_distance,
-                                   std::uint32_t round, GatherMoments* moments) const {
-  const glm::vec3 x = p.surface.position;
+                                   RayCounters& counters, float* harmonic_distance) const {
   glm::vec3 sum = punctual_diffuse(p, counters);
   // Each strategy's density is weighed with its sample count (Veach's n_i p_i).
   const float n_light = has_sampled_lights() ? static_cast<float>(light_samples) : 0.0f;
   const float n_gather = static_cast<float>(gather_rays);
-  if (n_light > 0.0f) {
-    const Sobol2D pattern(hash_combine(key, 11));
-    glm::vec3 acc(0.0f);
-    for (int k = 0; k < light_samples; ++k) {
-      LightSample ls;
-      const auto index =
-          static_cast<std::uint32_t>(k) + round * static_cast<std::uint32_t>(light_samples);
-      if (!sample_light(p, rng.uniform(), pattern(index), &ls)) continue;
-      if (glm::dot(p.n, ls.wi) <= 0.0f || glm::dot(p.ng, ls.wi) <= 0.0f) continue;
-      if (!visible(x, p.ng, ls.wi, ls.distance, counters)) continue;
-      acc += diffuse_light(p, ls, n_light, n_gather);
-    }
-    sum += acc / n_light;
-  }
-  const std::uint32_t first_gather = round * static_cast<std::uint32_t>(gather_rays);
+  if (n_light > 0.0f)
+    sum += light_estimate(p, light_samples, n_light, n_gather, key, rng, counters, 0, nullptr);
   return sum + gather(p, gather_rays, n_light, depth, hash_combine(key, 12), rng, counters,
-                      harmonic_distance, first_gather, moments);
+                      harmonic_distance, 0, nullptr);
+}
+
+glm::vec3 Shader::light_estimate(const ShadingPoint& p, int light_samples, float n_light,
+                                 float n_gather, std::uint64_t key, Rng& rng,
+                                 RayCounters& counters, std::uint32_t round,
+                                 GatherMoments* moments) const {
+  const glm::vec3 x = p.surface.position;
+  const Sobol2D pattern(hash_combine(key, 11));
+  glm::vec3 acc(0.0f);
+  for (int k = 0; k < light_samples; ++k) {
+    LightSample ls;
+    const auto index =
+        static_cast<std::uint32_t>(k) + round * static_cast<std::uint32_t>(light_samples);
+    if (moments) ++moments->count;  // a sample that brings no light counts as 0
+    if (!sample_light(p, rng.uniform(), pattern(index), &ls)) continue;
+    if (glm::dot(p.n, ls.wi) <= 0.0f || glm::dot(p.ng, ls.wi) <= 0.0f) continue;
+    if (!visible(x, p.ng, ls.wi, ls.distance, counters)) continue;
+    const glm::vec3 c = diffuse_light(p, ls, n_light, n_gather);
+    acc += c;
+    if (moments) moments->add(luminance(c));
+  }
+  return acc / n_light;
+}
+
+double Shader::GatherMoments::variance_of_mean() const {
+  if (count < 2) return 0.0;
+  const double n = static_cast<double>(count);
+  const double mean = sum / n;
+  return std::max(0.0, sum2 / n - mean * mean) / n;
 }
 
 glm::vec3 Shader::diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,
@@ -374,11 +388,7 @@ glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDep
       if (environment_) {
         const glm::vec3 c = escaped(dir, n_gather * local.z * kInvPi, n_light);
         acc += c;
-        if (moments) {
-          const double y = luminance(c);
-          moments->sum += y;
-          moments->sum2 += y * y;
-        }
+        if (moments) moments->add(luminance(c));
       }
       continue;
     }
@@ -386,11 +396,7 @@ glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDep
     const glm::vec3 c = continuation(p, ray, hit, n_gather * local.z * kInvPi, n_light, next,
                                      survival, rng, counters);
     acc += c;
-    if (moments) {
-      const double y = luminance(c);
-      moments->sum += y;
-      moments->sum2 += y * y;
-    }
+    if (moments) moments->add(luminance(c));
   }
   if (harmonic_distance && inverse_sum > 0.0f)
     *harmonic_distance = n_gather / inverse_sum;
@@ -445,32 +451,71 @@ glm::vec3 Shader::reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
 
 glm::vec3 Shader::diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
                                        RayCounters& counters, float* harmonic_distance) const {
-  return refined_diffuse_illumination(p, key, rng, counters, harmonic_distance, 1.0f, 1);
+  ++counters.shading_points;
+  return diffuse_estimate(p, settings_.light_samples, settings_.gather_rays,
+                          PathDepth{0, settings_.bounces, 0}, key, rng, counters,
+                          harmonic_distance);
 }
 
 glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint64_t key,
                                                Rng& rng, RayCounters& counters,
                                                float* harmonic_distance, float relative_error,
                                                int max_rounds) const {
+  if (max_rounds <= 1) return diffuse_illumination(p, key, rng, counters, harmonic_distance);
   ++counters.shading_points;
   const PathDepth depth{0, settings_.bounces, 0};
-  GatherMoments moments;
-  glm::vec3 sum(0.0f);
-  auto run_round = [&](std::uint32_t round) {
-    sum += diffuse_estimate(p, settings_.light_samples, settings_.gather_rays, depth, key, rng,
-                            counters, round == 0 ? harmonic_distance : nullptr, round, &moments);
+  const int light_samples = settings_.light_samples, gather_rays = settings_.gather_rays;
+  // The MIS weights keep the per-round counts: each estimator's rounds average unbiasedly.
+  const float n_light = has_sampled_lights() ? static_cast<float>(light_samples) : 0.0f;
+  const float n_gather = static_cast<float>(gather_rays);
+  const glm::vec3 punctual = punctual_diffuse(p, counters);
+  GatherMoments light_moments, gather_moments;
+  glm::vec3 light(0.0f), indirect(0.0f);
+  std::uint64_t light_cost = 0, gather_cost = 0;  // rays each estimator has cast
+  int light_rounds = 0, gather_rounds = 0;
+  auto light_round = [&] {
+    const std::uint64_t before = counters.rays;
+    light += light_estimate(p, light_samples, n_light, n_gather, key, rng, counters,
+                            static_cast<std::uint32_t>(light_rounds++), &light_moments);
+    light_cost += counters.rays - before;
   };
-  run_round(0);
-  int rounds = 1;
-  while (rounds < max_rounds && moments.count > 1) {
-    const double n = static_cast<double>(moments.count);
-    const double mean = moments.sum / n;
-    const double standard_error = std::sqrt(std::max(0.0, moments.sum2 / n - mean * mean) / n);
-    if (!(standard_error > relative_error * luminance(sum / static_cast<float>(rounds)))) break;
-    for (int r = rounds; r < 2 * rounds; ++r) run_round(static_cast<std::uint32_t>(r));
-    rounds *= 2;
+  auto gather_round = [&] {
+    const std::uint64_t before = counters.rays;
+    const auto round = static_cast<std::uint32_t>(gather_rounds++);
+    indirect += gather(p, gather_rays, n_light, depth, hash_combine(key, 12), rng, counters,
+                       round == 0 ? harmonic_distance : nullptr,
+                       round * static_cast<std::uint32_t>(gather_rays), &gather_moments);
+    gather_cost += counters.rays - before;
+  };
+  // Each estimator starts with two samples at least, so that its spread is known.
+  if (n_light > 0.0f)
+    for (int r = 0; r < (light_samples == 1 ? 2 : 1); ++r) light_round();
+  for (int r = 0; r < (gather_rays == 1 ? 2 : 1); ++r) gather_round();
+  auto estimate = [&] {
+    glm::vec3 e = punctual;
+    if (light_rounds > 0) e += light / static_cast<float>(light_rounds);
+    return e + indirect / static_cast<float>(gather_rounds);
+  };
+  for (;;) {
+    const double vl = light_rounds > 0 ? light_moments.variance_of_mean() : 0.0;
+    const double vg = gather_moments.variance_of_mean();
+    const double target = relative_error * luminance(estimate());
+    if (!(vl + vg > target * target)) break;
+    const bool more_light = light_rounds > 0 && light_rounds < max_rounds && vl > 0.0;
+    const bool more_gather = gather_rounds < max_rounds && vg > 0.0;
+    if (!more_light && !more_gather) break;
+    // Doubling an estimator's rounds halves its variance for as many rays again: take the one
+    // that removes the most variance per ray.
+    const bool pick_light =
+        more_light && (!more_gather || vl * static_cast<double>(std::max<std::uint64_t>(gather_cost, 1)) >
+                                           vg * static_cast<double>(std::max<std::uint64_t>(light_cost, 1)));
+    if (pick_light) {
+      for (int r = light_rounds, end = 2 * light_rounds; r < end; ++r) light_round();
+    } else {
+      for (int r = gather_rounds, end = 2 * gather_rounds; r < end; ++r) gather_round();
+    }
   }
-  return sum / static_cast<float>(rounds);
+  return estimate();
 }
 
 glm::vec3 Shader::shade(const ShadingPoint& p, glm::vec3 diffuse_illum, float lobe_u, Rng& rng,

@@ -247,6 +247,8 @@ ImageResult render_image(const ResolvedRequest& r, const scene::Scene& scene,
         {{"lookups", st.cache_lookups}, {"hits", st.cache_hits},
          {"tile_hits", st.cache_tile_hits}, {"hit_rate", st.cache_hit_rate()},
          {"direct", st.cache_direct}, {"inserted", st.cache_inserted},
+         {"sample_rays", st.cache_sample_rays},
+         {"focus_cost_ratio", st.focus_cost_ratio}, {"focus_per_ray", st.focus_per_ray},
          {"samples", st.cache_samples}, {"memory_bytes", st.cache_memory_bytes},
          {"lookup_seconds", st.cache_lookup_seconds},
          {"insert_seconds", st.cache_insert_seconds}, {"passes", st.passes}});

@@ -93,12 +93,14 @@ RenderRequest default_request(Kind kind) {
   c.sample_quality = render::kAutoSampleQuality;
   c.radius.min_factor = cache::kSingleImageMinFactor;
   c.direct_below = render::kSingleImageDirectBelow;
+  c.direct_cost_ratio = render::kSingleImageDirectCostRatio;
   if (kind == Kind::Image) r.out = "dofcache.png";
   if (kind == Kind::View) {
     r.core_policy = CorePolicy::LeaveOneCore;
     // The viewer's passes share one cache: a sample serves every later pass, so every hit is
     // cached, as in camera paths.
     c.direct_below = 0.0f;
+    c.direct_cost_ratio = 0.0f;
   }
   return r;
 }
@@ -123,6 +125,7 @@ json cache_json(const std::string& backend, const render::CacheSettings& c) {
           {"sample_error", c.sample_error},
           {"max_sample_rounds", c.max_sample_rounds},
           {"direct_below", c.direct_below},
+          {"direct_cost_ratio", c.direct_cost_ratio},
           {"direct_light_samples", c.direct_light_samples},
           {"direct_gather_rays", c.direct_gather_rays},
           {"max_normal_angle_deg", c.lookup.max_normal_angle_deg},
@@ -440,6 +443,7 @@ RenderRequest request_from_json(const json& j) {
     c.get("sample_error", cs.sample_error, 1e-3, 10);
     c.get("max_sample_rounds", cs.max_sample_rounds, 1, 64);
     c.get("direct_below", cs.direct_below, 0, 1e6);
+    c.get("direct_cost_ratio", cs.direct_cost_ratio, 0, 1e6);
     c.get("direct_light_samples", cs.direct_light_samples, 0, 4096);
     c.get("direct_gather_rays", cs.direct_gather_rays, 0, 4096);
     c.get("max_normal_angle_deg", cs.lookup.max_normal_angle_deg, 0.1, 90);

@@ -175,6 +175,7 @@ TEST_F(Cli, FewSamplesShadeInFocusHitsPerRay) {
   };
   const std::string by_default = stats("");
   EXPECT_NE(by_default.find("\"direct_below\": 50.0"), std::string::npos) << by_default;
+  EXPECT_NE(by_default.find("\"direct_cost_ratio\": 2.0"), std::string::npos) << by_default;
   EXPECT_EQ(by_default.find("\"direct\": 0,"), std::string::npos) << by_default;
   const std::string off = stats(" --cache-direct-below 0");
   EXPECT_NE(off.find("\"direct\": 0,"), std::string::npos) << off;

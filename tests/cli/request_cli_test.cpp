@@ -109,7 +109,8 @@ TEST_F(RequestCli, RenderEqualsAOneFrameSequenceOfTheSameRequest) {
   const std::string scene = kScenes + "cornell_box_dolly.gltf";
   const std::string seed = std::to_string(dofcache::sequence::frame_seed(5, 0));
   const std::string shared =
-      " --spp 4 --cache vdb --cache-sample-quality 1 --min-factor 0.5 --cache-direct-below 0" +
+      " --spp 4 --cache vdb --cache-sample-quality 1 --min-factor 0.5 --cache-direct-below 0"
+      " --cache-direct-cost-ratio 0" +
       kQuick;
   ASSERT_EQ(run("sequence -q " + scene + " --frames 0 --seed 5 -o " + path("seq/####.exr")
                 + shared)

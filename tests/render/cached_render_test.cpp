@@ -246,6 +246,48 @@ TEST(CachedRender, HitsBelowTheDirectThresholdAreShadedPerRay) {
   EXPECT_THROW(st.validate(), Error);
 }
 
+// CacheSettings::direct_cost_ratio: in-focus hits are cached in one tile row in sixteen over the
+// first two lens samples and shaded per ray elsewhere; the measured cost ratio then decides for
+// the rest. The measurement is the same whichever way the choice goes, the choice follows the
+// threshold, the image is the same for any thread count, and either way it matches a converged
+// render.
+TEST(CachedRender, InFocusHitsFollowTheMeasuredCostRatio) {
+  scene::Scene s = diffuse_scene();
+  scene::Accel accel(s);
+  auto run = [&](float ratio, int threads) {
+    auto vdb = cache::make_radiance_cache("vdb");
+    RenderSettings st = settings(threads, 16, vdb.get());
+    st.cache.radius.min_factor = 1.0;
+    st.cache.direct_cost_ratio = ratio;
+    return render(s, accel, s.cameras[0], st);
+  };
+  const RenderOutput per_ray = run(1e-3f, 2);
+  const RenderOutput cached = run(1e5f, 2);
+  EXPECT_GT(per_ray.stats.focus_cost_ratio, 0.0);
+  EXPECT_EQ(per_ray.stats.focus_cost_ratio, cached.stats.focus_cost_ratio);
+  EXPECT_TRUE(per_ray.stats.focus_per_ray);
+  EXPECT_FALSE(cached.stats.focus_per_ray);
+  // Per ray: every in-focus hit after the first two samples (the box face at the focus fills
+  // much of the frame); cached: only those of the tile rows that measured the per-ray cost.
+  EXPECT_GT(per_ray.stats.cache_direct, 4 * cached.stats.cache_direct);
+  EXPECT_GT(cached.stats.cache_direct, 0u);
+  EXPECT_LT(per_ray.stats.cache_inserted, cached.stats.cache_inserted);
+  EXPECT_EQ(run(1e-3f, 1).color.data(), per_ray.color.data());
+
+  const RenderOutput converged = render(s, accel, s.cameras[0], settings(2, 256, nullptr));
+  EXPECT_LT(image::compare(per_ray.color, converged.color).rel_mse, 0.02);
+  EXPECT_LT(image::compare(cached.color, converged.color).rel_mse, 0.02);
+
+  // Off (0), nothing is measured; absurd values are refused.
+  const RenderOutput off = run(0.0f, 2);
+  EXPECT_EQ(off.stats.focus_cost_ratio, 0.0);
+  EXPECT_EQ(off.stats.cache_direct, 0u);
+  auto vdb = cache::make_radiance_cache("vdb");
+  RenderSettings st = settings(2, 16, vdb.get());
+  st.cache.direct_cost_ratio = -1.0f;
+  EXPECT_THROW(st.validate(), Error);
+}
+
 TEST(CachedRender, PinholeWithCacheIsRefused) {
   scene::Scene s = diffuse_scene();
   scene::Accel accel(s);

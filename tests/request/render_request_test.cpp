@@ -49,13 +49,16 @@ TEST(RequestDefaults, EachKindHasItsOwnDocumentedDefaults) {
   EXPECT_EQ(image.cache_settings.sample_quality, 0);
   EXPECT_EQ(image.cache_settings.radius.min_factor, 1.0);
   EXPECT_EQ(image.cache_settings.direct_below, 50.0f);
+  EXPECT_EQ(image.cache_settings.direct_cost_ratio, 2.0f);
   const RenderRequest seq = default_request(Kind::Sequence);
   EXPECT_EQ(seq.width, 320);
   EXPECT_EQ(seq.out, "frames/####.png");
   EXPECT_EQ(seq.cache_settings.sample_quality, 4);
   EXPECT_EQ(seq.cache_settings.radius.min_factor, 0.5);
   EXPECT_EQ(seq.cache_settings.direct_below, 0.0f);
+  EXPECT_EQ(seq.cache_settings.direct_cost_ratio, 0.0f);
   EXPECT_EQ(default_request(Kind::View).core_policy, CorePolicy::LeaveOneCore);
+  EXPECT_EQ(default_request(Kind::View).cache_settings.direct_cost_ratio, 0.0f);
 }
 
 TEST(RequestJson, RoundTripsEveryField) {
@@ -78,6 +81,7 @@ TEST(RequestJson, RoundTripsEveryField) {
   r.cache = "octree";
   r.cache_settings.radius.rule = cache::RadiusRule::Adaptive;
   r.cache_settings.direct_below = 7.5f;
+  r.cache_settings.direct_cost_ratio = 1.25f;
   r.adaptive = Choice::On;
   r.adaptive_settings.max_factor = 3.0f;
   r.composite = preview::LayerComposite::Slabs;

@@ -68,6 +68,12 @@ struct CacheSettings {
   // 0: every hit goes through the cache (the paper; camera paths, whose samples serve many
   // frames). `render` uses kSingleImageDirectBelow.
   float direct_below = 0.0f;
+  // In-focus hits (a sample's footprint at most kFocusArea pixel footprints) above direct_below
+  // are cached over the first kFocusCostSamples lens samples, and then shaded per ray if their
+  // samples' projected rays per lookup exceed `direct_cost_ratio` times a per-ray shade's
+  // (focus_cost.h): the choice is measured per render. 0: never (camera paths, the viewer).
+  // `render` uses kSingleImageDirectCostRatio.
+  float direct_cost_ratio = 0.0f;
   int direct_light_samples = 2, direct_gather_rays = 2;
   std::uint32_t frame = 0;                // stamped on new samples (camera paths)
   bool insert = true;                     // false: use the cache read only
@@ -83,6 +89,17 @@ constexpr int kAutoSampleQuality = 0;
 // at the error of 4 cached lens samples, 1.11-1.15x at that of 8.
 constexpr float kSingleImageDirectBelow = 50.0f;
 
+// CacheSettings::direct_cost_ratio for single images: the five small peer scenes measure
+// 0.65-1.92 at 16-128 spp (shading their in-focus hits per ray would cost up to 10% more
+// error x time, 17-29% on the hanging-light room), the atrium 2.47 at 16 spp (per ray: 3.3x
+// faster at a lower error). Cost alone misses the atrium at 64 spp (1.58), whose samples lose on
+// quality, not rays (docs/cache.md).
+constexpr float kSingleImageDirectCostRatio = 2.0f;
+
+// The footprint, in pixel footprints squared (the sample radius times its squeezed radius), up to
+// which a hit counts as in focus for CacheSettings::direct_cost_ratio: a radius of about 1.2
+// pixels, a sample's floor (kSingleImageMinFactor, 1) and a little blur.
+constexpr double kFocusArea = 1.5;
 // The cache sample quality that balances a cached render's two error sources at `spp` lens
 // samples per pixel: round(spp / 16) for the default 32 gather rays, clamped to [1, 256]; for
 // other gather-ray counts g, that of spp * 32 / g lens samples, so that a cache sample's gather
@@ -163,6 +180,11 @@ struct RenderStats {
   std::uint64_t cache_tile_hits = 0;    // served by samples the same tile made in this pass
   std::uint64_t cache_direct = 0;       // shaded per ray instead (CacheSettings::direct_below)
   std::uint64_t cache_inserted = 0;     // new samples
+  std::uint64_t cache_sample_rays = 0;  // rays spent computing them (refinement rounds included)
+  // CacheSettings::direct_cost_ratio: the measured ratio (0: not measured) and whether in-focus
+  // hits were then shaded per ray.
+  double focus_cost_ratio = 0.0;
+  bool focus_per_ray = false;
   std::uint64_t cache_samples = 0;      // samples in the cache at the end
   std::uint64_t cache_memory_bytes = 0;
   double cache_lookup_seconds = 0.0;

@@ -90,12 +90,15 @@ class Shader {
   glm::vec3 diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
                                  RayCounters& counters, float* harmonic_distance = nullptr) const;
 
-  // E/pi for a cache sample, which many lens rays reuse: diffuse_illumination in rounds, each an
-  // independent estimate from further points of the same stratified sequences, doubled while the
-  // standard error of the gather rays' mean exceeds `relative_error` times the estimate, up to
-  // `max_rounds` rounds. A sample whose few gather rays met a small bright patch (the ceiling
-  // just above a lamp) would otherwise carry that outlier over its whole circle of confusion.
-  // (Stopping on the data biases the mean slightly; the cache is an interpolation anyway.)
+  // E/pi for a cache sample, which many lens rays reuse: diffuse_illumination's two estimators
+  // (light samples and gather rays, each MIS-weighted for the per-round counts) in rounds, each
+  // an independent estimate from further points of the same stratified sequences. While the
+  // standard error of the sum exceeds `relative_error` times the estimate, the rounds of the
+  // estimator that removes the most variance per ray are doubled, each up to `max_rounds`.
+  // A sample whose few gather rays met a small bright patch (the ceiling just above a lamp), or
+  // whose few light samples fell on a skylight's mullions or a leaf's shadow, would otherwise
+  // carry that outlier over its whole circle of confusion. (Stopping on the data biases the mean
+  // slightly; the cache is an interpolation anyway.)
   glm::vec3 refined_diffuse_illumination(const ShadingPoint& p, std::uint64_t key, Rng& rng,
                                          RayCounters& counters, float* harmonic_distance,
                                          float relative_error, int max_rounds) const;
@@ -135,18 +138,24 @@ class Shader {
     int glossy = 0;
   };
 
-  // Running sums of the gather rays' luminance, for the standard error of their mean.
+  // Running sums of the luminance of an estimator's samples (light samples or gather rays), for
+  // the standard error of their mean.
   struct GatherMoments {
     double sum = 0.0, sum2 = 0.0;
     int count = 0;
+    void add(double y) { sum += y, sum2 += y * y; }
+    double variance_of_mean() const;  // 0 below two samples
   };
   // E/pi at p from `light_samples` light samples and `gather_rays` cosine-weighted rays, combined
-  // by multiple importance sampling; `key` seeds their stratified patterns, of which round r
-  // takes the r-th run of points.
+  // by multiple importance sampling; `key` seeds their stratified patterns.
   glm::vec3 diffuse_estimate(const ShadingPoint& p, int light_samples, int gather_rays,
                              PathDepth depth, std::uint64_t key, Rng& rng, RayCounters& counters,
-                             float* harmonic_distance, std::uint32_t round,
-                             GatherMoments* moments) const;
+                             float* harmonic_distance) const;
+  // The light samples' share of E/pi: `light_samples` of them (round r takes the r-th run of
+  // points), MIS-weighted as n_light against n_gather rays.
+  glm::vec3 light_estimate(const ShadingPoint& p, int light_samples, float n_light,
+                           float n_gather, std::uint64_t key, Rng& rng, RayCounters& counters,
+                           std::uint32_t round, GatherMoments* moments) const;
   // A visible light sample's MIS-weighted share of E/pi (n_light of them against n_gather rays).
   glm::vec3 diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,
                           float n_gather) const;
