@@ -14,10 +14,13 @@ double focus_cost_ratio(const FocusCost& m, std::uint32_t measured_spp, std::uin
   if (m.lookups == 0 || m.samples == 0 || m.direct_shades == 0 || m.direct_rays == 0 ||
       measured_spp == 0)
     return 0.0;
-  const double direct_rays = static_cast<double>(m.direct_rays) / static_cast<double>(m.direct_shades);
+  const double direct_rays =
+      static_cast<double>(m.direct_rays) / static_cast<double>(m.direct_shades);
   // Lookups grow as the lens samples; the samples' rays as the samples do.
-  const double lookups = static_cast<double>(m.lookups) * std::max(spp, measured_spp) / measured_spp;
-  return static_cast<double>(m.rays) * focus_sample_growth(measured_spp, spp) / lookups / direct_rays;
+  const double lookups =
+      static_cast<double>(m.lookups) * std::max(spp, measured_spp) / measured_spp;
+  const double rays = static_cast<double>(m.rays) * focus_sample_growth(measured_spp, spp);
+  return rays / lookups / direct_rays;
 }
 
 }  // namespace dofcache::render

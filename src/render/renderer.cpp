@@ -745,7 +745,8 @@ RenderOutput render(const scene::Scene& scene, const scene::Accel& accel,
     c.focus = FocusState::Measuring;
     const int middle = (h + kTileSize - 1) / kTileSize / 2;
     for (size_t i = 0; i < tiles.size(); ++i)
-      work[i].samples_focus = (tiles[i].y0 / kTileSize) % kFocusSampleRows == middle % kFocusSampleRows;
+      work[i].samples_focus =
+          (tiles[i].y0 / kTileSize) % kFocusSampleRows == middle % kFocusSampleRows;
   }
   RenderStats& st = out.stats;
   std::uint64_t rays = 0, shading_points = 0, camera_rays = 0;

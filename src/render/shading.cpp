@@ -506,9 +506,10 @@ glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint6
     if (!more_light && !more_gather) break;
     // Doubling an estimator's rounds halves its variance for as many rays again: take the one
     // that removes the most variance per ray.
+    const double light_rays = static_cast<double>(std::max<std::uint64_t>(light_cost, 1));
+    const double gather_rays_cast = static_cast<double>(std::max<std::uint64_t>(gather_cost, 1));
     const bool pick_light =
-        more_light && (!more_gather || vl * static_cast<double>(std::max<std::uint64_t>(gather_cost, 1)) >
-                                           vg * static_cast<double>(std::max<std::uint64_t>(light_cost, 1)));
+        more_light && (!more_gather || vl / light_rays > vg / gather_rays_cast);
     if (pick_light) {
       for (int r = light_rounds, end = 2 * light_rounds; r < end; ++r) light_round();
     } else {

@@ -114,7 +114,8 @@ TEST(PathTracer, LightSamplesNextToALightAreBounded) {
 TEST(PathTracer, RefinedEstimatesStayOnTheClosedFormWithLessSpread) {
   Fixture f;
   const float kError = 0.2f;  // CacheSettings::sample_error
-  for (auto settings : {direct_only(4, 32), direct_only(4, 0), direct_only(0, 32), direct_only(2, 8)}) {
+  for (auto settings :
+       {direct_only(4, 32), direct_only(4, 0), direct_only(0, 32), direct_only(2, 8)}) {
     Shader shader(f.scene, f.accel, settings);
     const ShadingPoint p = f.point(shader);
     const int n = 3000;
