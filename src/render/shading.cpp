@@ -328,7 +328,7 @@ glm::vec3 Shader::diffuse_estimate(const ShadingPoint& p, int light_samples, int
 glm::vec3 Shader::light_estimate(const ShadingPoint& p, int light_samples, float n_light,
                                  float n_gather, std::uint64_t key, Rng& rng,
                                  RayCounters& counters, std::uint32_t round,
-                                 GatherMoments* moments) const {
+                                 SampleMoments* moments) const {
   const glm::vec3 x = p.surface.position;
   const Sobol2D pattern(hash_combine(key, 11));
   glm::vec3 acc(0.0f);
@@ -347,7 +347,7 @@ glm::vec3 Shader::light_estimate(const ShadingPoint& p, int light_samples, float
   return acc / n_light;
 }
 
-double Shader::GatherMoments::variance_of_mean() const {
+double Shader::SampleMoments::variance_of_mean() const {
   if (count < 2) return 0.0;
   const double n = static_cast<double>(count);
   const double mean = sum / n;
@@ -365,7 +365,7 @@ glm::vec3 Shader::diffuse_light(const ShadingPoint& p, const LightSample& ls, fl
 glm::vec3 Shader::gather(const ShadingPoint& p, int rays, float n_light, PathDepth depth,
                          std::uint64_t key, Rng& rng, RayCounters& counters,
                          float* harmonic_distance, std::uint32_t first_index,
-                         GatherMoments* moments) const {
+                         SampleMoments* moments) const {
   if (harmonic_distance) *harmonic_distance = std::numeric_limits<float>::infinity();
   if (rays <= 0) return glm::vec3(0.0f);
   // Cosine-weighted rays, whose pdf cos/pi cancels the integrand's cos/pi.
@@ -469,7 +469,7 @@ glm::vec3 Shader::refined_diffuse_illumination(const ShadingPoint& p, std::uint6
   const float n_light = has_sampled_lights() ? static_cast<float>(light_samples) : 0.0f;
   const float n_gather = static_cast<float>(gather_rays);
   const glm::vec3 punctual = punctual_diffuse(p, counters);
-  GatherMoments light_moments, gather_moments;
+  SampleMoments light_moments, gather_moments;
   glm::vec3 light(0.0f), indirect(0.0f);
   std::uint64_t light_cost = 0, gather_cost = 0;  // rays each estimator has cast
   int light_rounds = 0, gather_rounds = 0;

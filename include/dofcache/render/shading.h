@@ -140,7 +140,7 @@ class Shader {
 
   // Running sums of the luminance of an estimator's samples (light samples or gather rays), for
   // the standard error of their mean.
-  struct GatherMoments {
+  struct SampleMoments {
     double sum = 0.0, sum2 = 0.0;
     int count = 0;
     void add(double y) { sum += y, sum2 += y * y; }
@@ -155,14 +155,14 @@ class Shader {
   // points), MIS-weighted as n_light against n_gather rays.
   glm::vec3 light_estimate(const ShadingPoint& p, int light_samples, float n_light,
                            float n_gather, std::uint64_t key, Rng& rng, RayCounters& counters,
-                           std::uint32_t round, GatherMoments* moments) const;
+                           std::uint32_t round, SampleMoments* moments) const;
   // A visible light sample's MIS-weighted share of E/pi (n_light of them against n_gather rays).
   glm::vec3 diffuse_light(const ShadingPoint& p, const LightSample& ls, float n_light,
                           float n_gather) const;
   // The cosine-weighted rays' share of E/pi, against n_light light samples.
   glm::vec3 gather(const ShadingPoint& p, int rays, float n_light, PathDepth depth,
                    std::uint64_t key, Rng& rng, RayCounters& counters, float* harmonic_distance,
-                   std::uint32_t first_index, GatherMoments* moments) const;
+                   std::uint32_t first_index, SampleMoments* moments) const;
   // Radiance leaving a path vertex q towards q.wo, emission excluded (the caller weights it).
   glm::vec3 reflected(const ShadingPoint& q, PathDepth depth, Rng& rng,
                       RayCounters& counters) const;
